@@ -1,0 +1,75 @@
+// strata build IN -o OUT.hlod: read a scan, build its HLOD model, write it.
+#include "editor/commands.h"
+#include "editor/progress_bar.h"
+#include "preprocess/hlod_builder.h"
+#include "preprocess/mesh_io.h"
+
+#include <chrono>
+#include <cstdio>
+#include <memory>
+
+namespace strata::cli {
+namespace {
+
+struct BuildOptions {
+    std::string input, output, levels = "auto";
+    BuildSettings settings;
+    bool quiet = false;
+};
+
+int run_build(const BuildOptions& o) {
+    BuildSettings settings = o.settings;
+    if (o.levels != "auto") {
+        try {
+            size_t used = 0;
+            settings.levels = std::stoi(o.levels, &used);
+            if (used != o.levels.size()) throw std::invalid_argument(o.levels);
+        } catch (const std::exception&) {
+            std::fprintf(stderr, "strata build: --levels takes 'auto' or a number, not '%s'\n", o.levels.c_str());
+            return kUsage;
+        }
+    }
+    const std::atomic<bool>* cancel = install_interrupt_flag();
+    ProgressBar bar(!o.quiet);
+    Progress progress = bar.progress(cancel);
+    auto start = std::chrono::steady_clock::now();
+    try {
+        Mesh mesh = read_mesh(o.input, progress);
+        const size_t triangles = mesh.triangle_count();
+        BuildReport report = build_hlod(std::move(mesh), o.output, settings,
+                                        std::filesystem::path(o.input).filename().string(), progress);
+        bar.finish();
+        double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        for (const std::string& note : report.notes) std::fprintf(stderr, "strata build: note: %s\n", note.c_str());
+        if (!o.quiet)
+            std::printf("%s: %zu triangles, %u levels, σ0 %.3g, ε_q %.3g, %.1f MB, %.2f s (%.2f M triangles/s)\n",
+                        o.output.c_str(), triangles, report.max_level + 1, report.sigma0, report.error_q,
+                        report.output_bytes / 1e6, seconds, triangles / seconds / 1e6);
+        return kOk;
+    } catch (const Cancelled&) {
+        bar.finish();
+        std::fprintf(stderr, "strata build: interrupted; %s was not written\n", o.output.c_str());
+        return kInterrupted;
+    }
+}
+
+}  // namespace
+
+Command add_build(CLI::App& app) {
+    auto o = std::make_shared<BuildOptions>();
+    CLI::App* sub = app.add_subcommand("build", "Build a multiresolution model (.hlod) from a scan (PLY, OBJ, OFF, STL).");
+    sub->add_option("input", o->input, "The scan")->required();
+    sub->add_option("-o,--output", o->output, "The .hlod file to write")->required();
+    sub->add_option("--levels", o->levels, "L, the finest level: 'auto' (a leaf holds a few thousand triangles) or a number")
+        ->capture_default_str();
+    sub->add_option("--block", o->settings.block, "Cubes per block side (a multiple of 4)")->capture_default_str();
+    sub->add_option("--ratio", o->settings.ratio, "Triangles kept from one level to the next")->capture_default_str();
+    sub->add_option("--sigma0", o->settings.sigma0, "Least σ0 (vertex travel bound, in cube sizes); raised if the input's edges need more")
+        ->capture_default_str();
+    sub->add_option("--error", o->settings.error, "Stop simplifying a level at this error, relative to the cube size (ε_q)");
+    sub->add_option("--threads", o->settings.threads, "Worker threads (0: every core)")->capture_default_str();
+    sub->add_flag("-q,--quiet", o->quiet, "No progress bar and no summary");
+    return {sub, [o] { return run_build(*o); }};
+}
+
+}  // namespace strata::cli

@@ -1,0 +1,50 @@
+// strata info FILE.hlod: what a model holds, from its header and node table (no payload is decoded).
+#include "editor/commands.h"
+#include "preprocess/hlod_format.h"
+
+#include <cstdio>
+#include <memory>
+
+namespace strata::cli {
+namespace {
+
+int run_info(const std::string& path) {
+    HlodFile file(path);
+    const HlodHeader& h = file.header();
+    std::printf("file        %s (%.2f MB)\n", path.c_str(), file.file_size() / 1e6);
+    std::printf("source      %s: %llu vertices, %llu triangles\n", h.source.c_str(),
+                (unsigned long long)h.input_vertices, (unsigned long long)h.input_triangles);
+    std::printf("attributes  normals%s%s%s%s\n", h.has_colors() ? ", colours" : "", h.has_uvs() ? ", UVs" : "",
+                h.texture.empty() ? "" : ", texture ", h.texture.c_str());
+    std::printf("bounds      origin (%g, %g, %g), root cube %g\n", h.origin[0], h.origin[1], h.origin[2], h.root_size);
+    std::printf("levels      %u (0 … %u), block %u³, σ0 %.4g, ε_q %.4g\n", h.max_level + 1, h.max_level, h.block_size,
+                h.sigma0, h.error_q);
+    std::printf("settings    ratio %.3g, error limit %s\n", h.ratio,
+                h.error_limit > 0 ? std::to_string(h.error_limit).c_str() : "none");
+    std::printf("\n%5s %8s %12s %12s %12s %10s %12s\n", "level", "cubes", "vertices", "triangles", "bytes", "cube size",
+                "max error");
+    uint64_t total_v = 0, total_t = 0, total_b = 0;
+    for (uint32_t l = 0; l <= h.max_level; ++l) {
+        uint64_t cubes = 0, v = 0, t = 0, b = 0;
+        float error = 0;
+        for (const HlodNode& n : file.nodes())
+            if (n.level == l) cubes++, v += n.vertex_count, t += n.triangle_count, b += n.size, error = std::max(error, n.error);
+        total_v += v, total_t += t, total_b += b;
+        std::printf("%5u %8llu %12llu %12llu %12llu %10.4g %12.4g\n", l, (unsigned long long)cubes,
+                    (unsigned long long)v, (unsigned long long)t, (unsigned long long)b, h.cube_size(l), error);
+    }
+    std::printf("%5s %8llu %12llu %12llu %12llu\n", "all", (unsigned long long)file.nodes().size(),
+                (unsigned long long)total_v, (unsigned long long)total_t, (unsigned long long)total_b);
+    return kOk;
+}
+
+}  // namespace
+
+Command add_info(CLI::App& app) {
+    auto path = std::make_shared<std::string>();
+    CLI::App* sub = app.add_subcommand("info", "Describe a .hlod model: levels, cubes, vertices and triangles per level, bytes, bounds, settings.");
+    sub->add_option("file", *path, "The .hlod file")->required();
+    return {sub, [path] { return run_info(*path); }};
+}
+
+}  // namespace strata::cli

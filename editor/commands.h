@@ -1,0 +1,24 @@
+// The `strata` subcommands. Each registers its options on the CLI11 app and runs when chosen;
+// run functions return the process exit status.
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+namespace strata::cli {
+
+// Exit statuses, Unix style.
+inline constexpr int kOk = 0;
+inline constexpr int kFailed = 1;       // bad input, I/O failure, invariant violated
+inline constexpr int kUsage = 2;        // wrong arguments
+inline constexpr int kInterrupted = 130;
+
+struct Command {
+    CLI::App* app;
+    std::function<int()> run;
+};
+
+Command add_build(CLI::App& app);
+Command add_info(CLI::App& app);
+Command add_verify(CLI::App& app);
+
+}  // namespace strata::cli

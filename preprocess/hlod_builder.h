@@ -1,0 +1,44 @@
+// The HLOD builder (DESIGN.md §2, thesis 000 chapter 3): partitions a mesh into the level-L octree,
+// simplifies block by block down to level 0 keeping every vertex's parent, and writes the .hlod.
+#pragma once
+
+#include "preprocess/mesh.h"
+#include "preprocess/progress.h"
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace strata {
+
+struct BuildSettings {
+    int levels = -1;          // L; −1 picks it so a leaf holds about leaf_triangles
+    int block = 4;            // n: cubes per block side, a multiple of 4
+    float ratio = 0.25f;      // triangles kept per level
+    float sigma0 = 0.25f;     // the least σ0; raised to what the data's edges need
+    float error = -1;         // ε_q: stop a level's collapses at ε_q·s_l; −1 for no limit
+    int threads = 0;          // 0: every core
+    int leaf_triangles = 4096;
+};
+
+struct LevelStats {
+    uint32_t level = 0;
+    uint64_t cubes = 0, vertices = 0, triangles = 0, bytes = 0;
+};
+
+struct BuildReport {
+    uint32_t max_level = 0;
+    float sigma0 = 0;
+    float error_q = 0;
+    std::vector<LevelStats> levels;  // finest first
+    std::vector<std::string> notes;  // choices the builder made that the user should know of
+    uint64_t output_bytes = 0;
+};
+
+// Consumes the mesh (its arrays become level L). Throws InputError for input it cannot build
+// (empty, flat to a point, settings out of range), Cancelled when progress.cancel is raised, and
+// std::runtime_error for output failures; in every case no output file is left behind.
+BuildReport build_hlod(Mesh&& mesh, const std::filesystem::path& output, const BuildSettings& settings,
+                       const std::string& source_name, const Progress& progress = {});
+
+}  // namespace strata

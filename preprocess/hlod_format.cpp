@@ -1,0 +1,444 @@
+#include "preprocess/hlod_format.h"
+
+#include <meshoptimizer.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <stdexcept>
+
+namespace strata {
+namespace {
+
+constexpr size_t kHeaderBytes = 128;
+constexpr size_t kNodeBytes = 48;
+constexpr size_t kMaxNameBytes = 4096;
+
+// ---- little-endian byte packing -------------------------------------------------------------
+
+class ByteWriter {
+public:
+    template <class T>
+    void put(T value) {
+        static_assert(std::is_trivially_copyable_v<T>);
+        size_t at = bytes.size();
+        bytes.resize(at + sizeof(T));
+        std::memcpy(bytes.data() + at, &value, sizeof(T));  // x86-64 and aarch64 are little-endian
+    }
+    void put_bytes(const void* data, size_t size) {
+        const auto* p = static_cast<const uint8_t*>(data);
+        bytes.insert(bytes.end(), p, p + size);
+    }
+    void put_string(const std::string& s) {
+        put(uint32_t(s.size()));
+        put_bytes(s.data(), s.size());
+    }
+    std::vector<uint8_t> bytes;
+};
+
+class ByteReader {
+public:
+    ByteReader(std::span<const uint8_t> bytes, std::string what) : bytes_(bytes), what_(std::move(what)) {}
+    template <class T>
+    T get() {
+        need(sizeof(T));
+        T value;
+        std::memcpy(&value, bytes_.data() + at_, sizeof(T));
+        at_ += sizeof(T);
+        return value;
+    }
+    std::span<const uint8_t> get_bytes(size_t size) {
+        need(size);
+        auto span = bytes_.subspan(at_, size);
+        at_ += size;
+        return span;
+    }
+    std::string get_string() {
+        uint32_t size = get<uint32_t>();
+        if (size > kMaxNameBytes) throw std::runtime_error(what_ + ": name of " + std::to_string(size) + " bytes");
+        auto span = get_bytes(size);
+        return std::string(span.begin(), span.end());
+    }
+    size_t position() const { return at_; }
+
+private:
+    void need(size_t size) const {
+        if (size > bytes_.size() - at_) throw std::runtime_error(what_ + " ends early");
+    }
+    std::span<const uint8_t> bytes_;
+    std::string what_;
+    size_t at_ = 0;
+};
+
+// ---- CRC-32C (Castagnoli): hardware instruction where there is one, table otherwise ------------
+
+uint32_t crc32c_table(uint32_t crc, const uint8_t* p, size_t n) {
+    static const auto table = [] {
+        std::array<uint32_t, 256> t{};
+        for (uint32_t i = 0; i < 256; ++i) {
+            uint32_t c = i;
+            for (int k = 0; k < 8; ++k) c = (c >> 1) ^ (0x82F63B78u & (0u - (c & 1u)));
+            t[i] = c;
+        }
+        return t;
+    }();
+    for (size_t i = 0; i < n; ++i) crc = table[(crc ^ p[i]) & 0xFF] ^ (crc >> 8);
+    return crc;
+}
+
+#if defined(__x86_64__)
+__attribute__((target("sse4.2"))) uint32_t crc32c_hardware(uint32_t crc, const uint8_t* p, size_t n) {
+    uint64_t c = crc;
+    for (; n >= 8; n -= 8, p += 8) {
+        uint64_t word;
+        std::memcpy(&word, p, 8);
+        c = __builtin_ia32_crc32di(c, word);
+    }
+    uint32_t c32 = uint32_t(c);
+    for (; n > 0; --n, ++p) c32 = __builtin_ia32_crc32qi(c32, *p);
+    return c32;
+}
+#endif
+
+// ---- streams -------------------------------------------------------------------------------
+
+// Interleaves a vertex attribute with its parent's copy, so each vertex is one record for the codec.
+template <class T>
+std::vector<uint8_t> interleave(const std::vector<T>& own, const std::vector<T>& parent, size_t per_vertex,
+                                size_t vertices) {
+    std::vector<uint8_t> out(vertices * 2 * per_vertex * sizeof(T));
+    const size_t half = per_vertex * sizeof(T);
+    for (size_t v = 0; v < vertices; ++v) {
+        std::memcpy(&out[v * 2 * half], &own[v * per_vertex], half);
+        std::memcpy(&out[v * 2 * half + half], &parent[v * per_vertex], half);
+    }
+    return out;
+}
+
+template <class T>
+void deinterleave(const std::vector<uint8_t>& in, std::vector<T>& own, std::vector<T>& parent, size_t per_vertex,
+                  size_t vertices) {
+    own.resize(vertices * per_vertex);
+    parent.resize(vertices * per_vertex);
+    const size_t half = per_vertex * sizeof(T);
+    for (size_t v = 0; v < vertices; ++v) {
+        std::memcpy(&own[v * per_vertex], &in[v * 2 * half], half);
+        std::memcpy(&parent[v * per_vertex], &in[v * 2 * half + half], half);
+    }
+}
+
+std::vector<uint8_t> encode_vertices(const std::vector<uint8_t>& records, size_t count, size_t record_size) {
+    if (count == 0) return {};
+    std::vector<uint8_t> out(meshopt_encodeVertexBufferBound(count, record_size));
+    out.resize(meshopt_encodeVertexBuffer(out.data(), out.size(), records.data(), count, record_size));
+    return out;
+}
+
+std::vector<uint8_t> decode_vertices(std::span<const uint8_t> encoded, size_t count, size_t record_size,
+                                     const std::string& what) {
+    std::vector<uint8_t> out(count * record_size);
+    if (count == 0) return out;
+    if (meshopt_decodeVertexBuffer(out.data(), count, record_size, encoded.data(), encoded.size()) != 0)
+        throw std::runtime_error(what + ": vertex stream does not decode");
+    return out;
+}
+
+void write_header(ByteWriter& w, const HlodHeader& h) {
+    w.put_bytes(kHlodMagic, sizeof(kHlodMagic));
+    w.put(h.version);
+    w.put(h.flags);
+    for (double o : h.origin) w.put(o);
+    w.put(h.root_size);
+    w.put(h.max_level);
+    w.put(h.block_size);
+    w.put(h.sigma0);
+    w.put(h.error_q);
+    w.put(h.ratio);
+    w.put(h.error_limit);
+    w.put(h.input_vertices);
+    w.put(h.input_triangles);
+    w.put(h.node_count);
+    w.put(h.node_table_offset);
+    w.put(crc32c(w.bytes.data(), w.bytes.size()));
+    w.bytes.resize(kHeaderBytes, 0);
+}
+
+void write_node(ByteWriter& w, const HlodNode& n) {
+    w.put(n.level), w.put(n.i), w.put(n.j), w.put(n.k);
+    w.put(n.error);
+    w.put(n.vertex_count), w.put(n.triangle_count);
+    w.put(n.checksum);
+    w.put(n.offset), w.put(n.size);
+}
+
+HlodNode read_node(ByteReader& r) {
+    HlodNode n;
+    n.level = r.get<uint32_t>(), n.i = r.get<uint32_t>(), n.j = r.get<uint32_t>(), n.k = r.get<uint32_t>();
+    n.error = r.get<float>();
+    n.vertex_count = r.get<uint32_t>(), n.triangle_count = r.get<uint32_t>();
+    n.checksum = r.get<uint32_t>();
+    n.offset = r.get<uint64_t>(), n.size = r.get<uint64_t>();
+    return n;
+}
+
+std::string io_error(const std::filesystem::path& path, const std::string& what) {
+    return path.string() + ": " + what + (errno ? std::string(" (") + std::strerror(errno) + ")" : "");
+}
+
+}  // namespace
+
+uint32_t crc32c(const void* data, size_t size) {
+    const auto* p = static_cast<const uint8_t*>(data);
+#if defined(__x86_64__)
+    static const bool hardware = __builtin_cpu_supports("sse4.2");
+    if (hardware) return ~crc32c_hardware(~0u, p, size);
+#endif
+    return ~crc32c_table(~0u, p, size);
+}
+
+std::string describe_cube(const HlodNode& node) {
+    return "cube (level " + std::to_string(node.level) + ", " + std::to_string(node.i) + " " +
+           std::to_string(node.j) + " " + std::to_string(node.k) + ")";
+}
+
+std::array<int16_t, 2> encode_normal(float x, float y, float z) {
+    float l1 = std::fabs(x) + std::fabs(y) + std::fabs(z);
+    if (!(l1 > 0)) return {0, 0};
+    x /= l1, y /= l1, z /= l1;
+    if (z < 0) {
+        float ox = (1 - std::fabs(y)) * (x >= 0 ? 1.0f : -1.0f);
+        float oy = (1 - std::fabs(x)) * (y >= 0 ? 1.0f : -1.0f);
+        x = ox, y = oy;
+    }
+    auto snorm = [](float v) { return int16_t(std::lround(std::clamp(v, -1.0f, 1.0f) * 32767.0f)); };
+    return {snorm(x), snorm(y)};
+}
+
+std::array<float, 3> decode_normal(int16_t u, int16_t v) {
+    float x = std::max(u / 32767.0f, -1.0f), y = std::max(v / 32767.0f, -1.0f);
+    float z = 1 - std::fabs(x) - std::fabs(y);
+    if (z < 0) {
+        float ox = (1 - std::fabs(y)) * (x >= 0 ? 1.0f : -1.0f);
+        float oy = (1 - std::fabs(x)) * (y >= 0 ? 1.0f : -1.0f);
+        x = ox, y = oy;
+    }
+    float len = std::sqrt(x * x + y * y + z * z);
+    return {x / len, y / len, z / len};
+}
+
+// Payload: counts, child triangle counts, five stream sizes, then the streams (positions with their
+// parents, normals with theirs, colours, UVs, indices), each in meshoptimizer's codecs.
+std::vector<uint8_t> encode_cube(const CubeData& cube, uint32_t flags) {
+    const size_t n = cube.vertex_count();
+    std::vector<uint8_t> streams[5];
+    streams[0] = encode_vertices(interleave(cube.positions, cube.parent_positions, 3, n), n, 12);
+    streams[1] = encode_vertices(interleave(cube.normals, cube.parent_normals, 2, n), n, 8);
+    if (flags & kHasColors) streams[2] = encode_vertices(interleave(cube.colors, cube.parent_colors, 4, n), n, 8);
+    if (flags & kHasUvs) streams[3] = encode_vertices(interleave(cube.uvs, cube.parent_uvs, 2, n), n, 16);
+    if (!cube.indices.empty()) {
+        streams[4].resize(meshopt_encodeIndexBufferBound(cube.indices.size(), n));
+        streams[4].resize(meshopt_encodeIndexBuffer(streams[4].data(), streams[4].size(), cube.indices.data(),
+                                                    cube.indices.size()));
+    }
+    ByteWriter w;
+    w.put(uint32_t(n));
+    w.put(cube.triangle_count());
+    for (uint32_t c : cube.child_triangle_counts) w.put(c);
+    for (const auto& s : streams) w.put(uint32_t(s.size()));
+    for (const auto& s : streams) w.put_bytes(s.data(), s.size());
+    return std::move(w.bytes);
+}
+
+CubeData decode_cube(std::span<const uint8_t> bytes, const HlodNode& node, uint32_t flags) {
+    const std::string what = describe_cube(node);
+    ByteReader r(bytes, what + " payload");
+    CubeData cube;
+    uint32_t n = r.get<uint32_t>(), triangles = r.get<uint32_t>();
+    if (n != node.vertex_count || triangles != node.triangle_count)
+        throw std::runtime_error(what + ": payload counts disagree with the node table");
+    uint64_t grouped = 0;
+    for (uint32_t& c : cube.child_triangle_counts) grouped += c = r.get<uint32_t>();
+    if (grouped != triangles) throw std::runtime_error(what + ": child triangle counts do not add up");
+    uint32_t sizes[5];
+    for (uint32_t& s : sizes) s = r.get<uint32_t>();
+    // Bound counts by what the codecs could possibly have produced before allocating for them.
+    if (uint64_t(n) > uint64_t(bytes.size()) * 64 || uint64_t(triangles) > uint64_t(bytes.size()) * 64)
+        throw std::runtime_error(what + ": counts larger than the payload could hold");
+    auto records = decode_vertices(r.get_bytes(sizes[0]), n, 12, what);
+    deinterleave(records, cube.positions, cube.parent_positions, 3, n);
+    records = decode_vertices(r.get_bytes(sizes[1]), n, 8, what);
+    deinterleave(records, cube.normals, cube.parent_normals, 2, n);
+    if (flags & kHasColors) {
+        records = decode_vertices(r.get_bytes(sizes[2]), n, 8, what);
+        deinterleave(records, cube.colors, cube.parent_colors, 4, n);
+    }
+    if (flags & kHasUvs) {
+        records = decode_vertices(r.get_bytes(sizes[3]), n, 16, what);
+        deinterleave(records, cube.uvs, cube.parent_uvs, 2, n);
+    }
+    cube.indices.resize(size_t(triangles) * 3);
+    auto index_stream = r.get_bytes(sizes[4]);
+    if (triangles && meshopt_decodeIndexBuffer(cube.indices.data(), cube.indices.size(), 4, index_stream.data(),
+                                               index_stream.size()) != 0)
+        throw std::runtime_error(what + ": index stream does not decode");
+    for (uint32_t index : cube.indices)
+        if (index >= n) throw std::runtime_error(what + ": index " + std::to_string(index) + " past its " +
+                                                 std::to_string(n) + " vertices");
+    return cube;
+}
+
+// ---- writer --------------------------------------------------------------------------------
+
+HlodWriter::HlodWriter(std::filesystem::path path) : path_(std::move(path)) {
+    temp_path_ = path_;
+    temp_path_ += ".tmp-" + std::to_string(::getpid());
+    errno = 0;
+    file_ = std::fopen(temp_path_.c_str(), "wb");
+    if (!file_) throw std::runtime_error(io_error(path_, "cannot create the output file"));
+    std::vector<uint8_t> placeholder(kHeaderBytes, 0);
+    write(placeholder.data(), placeholder.size());
+}
+
+HlodWriter::~HlodWriter() {
+    if (file_) {
+        std::fclose(file_);
+        std::error_code ignored;
+        std::filesystem::remove(temp_path_, ignored);
+    }
+}
+
+void HlodWriter::write(const void* data, size_t size) {
+    errno = 0;
+    if (size && std::fwrite(data, 1, size, file_) != size) throw std::runtime_error(io_error(path_, "write failed"));
+    offset_ += size;
+}
+
+void HlodWriter::add_cube(HlodNode node, std::span<const uint8_t> payload) {
+    node.offset = offset_;
+    node.size = payload.size();
+    node.checksum = crc32c(payload.data(), payload.size());
+    write(payload.data(), payload.size());
+    nodes_.push_back(node);
+}
+
+void HlodWriter::finish(HlodHeader header) {
+    header.node_count = nodes_.size();
+    header.node_table_offset = offset_;
+    ByteWriter table;
+    table.put_string(header.source);
+    table.put_string(header.texture);
+    for (const HlodNode& n : nodes_) write_node(table, n);
+    table.put(crc32c(table.bytes.data(), table.bytes.size()));
+    write(table.bytes.data(), table.bytes.size());
+
+    ByteWriter head;
+    write_header(head, header);
+    errno = 0;
+    if (std::fseek(file_, 0, SEEK_SET) != 0) throw std::runtime_error(io_error(path_, "seek failed"));
+    write(head.bytes.data(), head.bytes.size());
+    if (std::fflush(file_) != 0 || ::fsync(::fileno(file_)) != 0)
+        throw std::runtime_error(io_error(path_, "write failed"));
+    int closed = std::fclose(file_);
+    file_ = nullptr;
+    std::error_code ec;
+    if (closed == 0) std::filesystem::rename(temp_path_, path_, ec);
+    if (closed != 0 || ec) {
+        std::filesystem::remove(temp_path_, ec);
+        throw std::runtime_error(io_error(path_, "cannot finish the output file"));
+    }
+}
+
+// ---- reader --------------------------------------------------------------------------------
+
+HlodFile::HlodFile(const std::filesystem::path& path) : path_(path) {
+    errno = 0;
+    file_ = std::fopen(path.c_str(), "rb");
+    if (!file_) throw std::runtime_error(io_error(path, "cannot open"));
+    std::error_code ec;
+    file_size_ = std::filesystem::file_size(path, ec);
+    if (ec) throw std::runtime_error(path.string() + ": cannot read its size");
+    const std::string name = path.string();
+
+    std::vector<uint8_t> head(kHeaderBytes);
+    if (file_size_ < kHeaderBytes || std::fread(head.data(), 1, head.size(), file_) != head.size())
+        throw std::runtime_error(name + ": too short to be a .hlod file");
+    if (std::memcmp(head.data(), kHlodMagic, sizeof(kHlodMagic)) != 0)
+        throw std::runtime_error(name + ": not a .hlod file (bad magic)");
+    ByteReader r(head, name + ": header");
+    r.get_bytes(sizeof(kHlodMagic));
+    HlodHeader& h = header_;
+    h.version = r.get<uint32_t>();
+    if (h.version != kHlodVersion)
+        throw std::runtime_error(name + ": .hlod version " + std::to_string(h.version) + ", this build reads " +
+                                 std::to_string(kHlodVersion));
+    h.flags = r.get<uint32_t>();
+    for (double& o : h.origin) o = r.get<double>();
+    h.root_size = r.get<double>();
+    h.max_level = r.get<uint32_t>();
+    h.block_size = r.get<uint32_t>();
+    h.sigma0 = r.get<float>();
+    h.error_q = r.get<float>();
+    h.ratio = r.get<float>();
+    h.error_limit = r.get<float>();
+    h.input_vertices = r.get<uint64_t>();
+    h.input_triangles = r.get<uint64_t>();
+    h.node_count = r.get<uint64_t>();
+    h.node_table_offset = r.get<uint64_t>();
+    size_t checked = r.position();
+    if (r.get<uint32_t>() != crc32c(head.data(), checked))
+        throw std::runtime_error(name + ": header checksum mismatch (the file is corrupt)");
+    if (h.max_level > 15 || !(h.root_size > 0) || !(h.sigma0 > 0 && h.sigma0 < 0.5f))
+        throw std::runtime_error(name + ": header values out of range");
+
+    uint64_t table_bytes = file_size_ - std::min(file_size_, h.node_table_offset);
+    if (h.node_table_offset < kHeaderBytes || h.node_table_offset > file_size_ ||
+        h.node_count > table_bytes / kNodeBytes)
+        throw std::runtime_error(name + ": node table out of range (the file is truncated or corrupt)");
+    std::vector<uint8_t> table(table_bytes);
+    std::fseek(file_, long(h.node_table_offset), SEEK_SET);
+    if (std::fread(table.data(), 1, table.size(), file_) != table.size())
+        throw std::runtime_error(name + ": cannot read the node table");
+    ByteReader t(table, name + ": node table");
+    h.source = t.get_string();
+    h.texture = t.get_string();
+    nodes_.reserve(h.node_count);
+    for (uint64_t i = 0; i < h.node_count; ++i) nodes_.push_back(read_node(t));
+    size_t table_checked = t.position();
+    if (t.get<uint32_t>() != crc32c(table.data(), table_checked))
+        throw std::runtime_error(name + ": node table checksum mismatch (the file is corrupt)");
+    for (const HlodNode& n : nodes_) {
+        uint64_t cells = uint64_t(1) << n.level;
+        if (n.level > h.max_level || n.i >= cells || n.j >= cells || n.k >= cells)
+            throw std::runtime_error(name + ": " + describe_cube(n) + " outside the octree");
+        if (n.offset < kHeaderBytes || n.offset > h.node_table_offset || n.size > h.node_table_offset - n.offset)
+            throw std::runtime_error(name + ": " + describe_cube(n) + " payload out of range");
+    }
+}
+
+HlodFile::~HlodFile() {
+    if (file_) std::fclose(file_);
+}
+
+std::vector<uint8_t> HlodFile::read_payload(const HlodNode& node) const {
+    std::vector<uint8_t> bytes(node.size);
+    if (std::fseek(file_, long(node.offset), SEEK_SET) != 0 ||
+        std::fread(bytes.data(), 1, bytes.size(), file_) != bytes.size())
+        throw std::runtime_error(path_.string() + ": cannot read " + describe_cube(node));
+    if (crc32c(bytes.data(), bytes.size()) != node.checksum)
+        throw std::runtime_error(path_.string() + ": " + describe_cube(node) +
+                                 " checksum mismatch (the file is corrupt)");
+    return bytes;
+}
+
+CubeData HlodFile::read_cube(const HlodNode& node) const {
+    try {
+        return decode_cube(read_payload(node), node, header_.flags);
+    } catch (const std::runtime_error& e) {
+        std::string message = e.what();
+        if (message.rfind(path_.string(), 0) == 0) throw;
+        throw std::runtime_error(path_.string() + ": " + message);
+    }
+}
+
+}  // namespace strata

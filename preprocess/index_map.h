@@ -1,0 +1,77 @@
+// An open-addressing hash map from 32-bit ids to 32-bit ids, for the hot loops that renumber vertices
+// (global → block-local, global → cube-local). Flat arrays, linear probing, no erase; reset() reuses
+// the storage, so a worker keeps one map for all its blocks.
+#pragma once
+
+#include <cstdint>
+#include <algorithm>
+#include <vector>
+
+namespace strata {
+
+class IndexMap {
+public:
+    static constexpr uint32_t kMissing = ~0u;
+
+    explicit IndexMap(size_t expected) { reset(expected); }
+
+    // Empties the map and sizes it for `expected` entries (load factor at most 1/2).
+    void reset(size_t expected) {
+        size_t capacity = 16;
+        while (capacity < 2 * expected) capacity *= 2;
+        if (capacity != keys_.size()) {
+            keys_.assign(capacity, kMissing);
+            values_.resize(capacity);
+        } else {
+            std::fill(keys_.begin(), keys_.end(), kMissing);
+        }
+        mask_ = capacity - 1;
+    }
+
+    // The value stored for key, or kMissing.
+    uint32_t find(uint32_t key) const {
+        for (size_t slot = hash(key) & mask_;; slot = (slot + 1) & mask_) {
+            if (keys_[slot] == key) return values_[slot];
+            if (keys_[slot] == kMissing) return kMissing;
+        }
+    }
+
+    // The value stored for key; if there is none, stores `value` and returns it.
+    uint32_t find_or_insert(uint32_t key, uint32_t value) {
+        for (size_t slot = hash(key) & mask_;; slot = (slot + 1) & mask_) {
+            if (keys_[slot] == key) return values_[slot];
+            if (keys_[slot] == kMissing) {
+                keys_[slot] = key;
+                values_[slot] = value;
+                return value;
+            }
+        }
+    }
+
+    // Set-of-items mode: the item equal to `item` (by `same(stored)`) under the caller's hash, or
+    // `item` itself once inserted. Items are ids; equality is whatever they stand for.
+    template <class Same>
+    uint32_t find_or_insert(uint64_t item_hash, uint32_t item, Same&& same) {
+        for (size_t slot = mix(item_hash) & mask_;; slot = (slot + 1) & mask_) {
+            if (keys_[slot] == kMissing) {
+                keys_[slot] = item;
+                return item;
+            }
+            if (same(keys_[slot])) return keys_[slot];
+        }
+    }
+
+private:
+    static uint64_t mix(uint64_t h) {
+        h ^= h >> 33;
+        h *= 0xff51afd7ed558ccdull;
+        h ^= h >> 33;
+        return h;
+    }
+    static uint64_t hash(uint32_t key) { return mix(key); }
+
+    std::vector<uint32_t> keys_, values_;
+    size_t mask_ = 0;
+};
+
+}  // namespace strata

@@ -1,0 +1,43 @@
+#!/usr/bin/env bash
+# Installs the Debian packages Strata needs and fetches the bundled sample scan.
+# Idempotent: quiet when everything is already there. Works as root or through sudo.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+packages=(
+  cmake ninja-build g++ pkg-config
+  libmeshoptimizer-dev libcli11-dev
+  libgtest-dev libgmock-dev
+)
+
+as_root() {
+  if [ "$(id -u)" -eq 0 ]; then "$@"; elif command -v sudo >/dev/null; then sudo "$@";
+  else echo "setup: need root (or sudo) to run: $*" >&2; exit 1; fi
+}
+
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "setup: installing ${missing[*]}"
+  export DEBIAN_FRONTEND=noninteractive
+  as_root apt-get update -qq
+  as_root apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+fi
+
+# The sample: the Stanford bunny as shipped in CGAL's demo data (Debian's libcgal-demo). Only the .deb is
+# downloaded and one file taken out of it, so CGAL and Boost are not installed. Not committed: it is
+# Stanford's scan, fetched here under its own terms.
+sample=data/bunny.off
+if [ ! -s "$sample" ]; then
+  echo "setup: fetching the sample scan (Stanford bunny, from Debian's libcgal-demo)"
+  tmp=$(mktemp -d)
+  trap 'rm -rf "$tmp"' EXIT
+  (cd "$tmp" && apt-get download libcgal-demo >/dev/null 2>&1) || {
+    as_root apt-get update -qq && (cd "$tmp" && apt-get download libcgal-demo >/dev/null); }
+  dpkg-deb -x "$tmp"/libcgal-demo_*.deb "$tmp/deb"
+  tar -xzf "$tmp/deb/usr/share/doc/libcgal-dev/data.tar.gz" -C "$tmp" data/meshes/bunny00.off
+  mkdir -p data
+  mv "$tmp/data/meshes/bunny00.off" "$sample.tmp" && mv "$sample.tmp" "$sample"
+fi

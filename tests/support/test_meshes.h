@@ -1,0 +1,93 @@
+// Synthetic meshes for tests: a closed icosphere (watertight), an open grid with colours and UVs,
+// and a temporary directory that cleans itself up.
+#pragma once
+
+#include "preprocess/mesh.h"
+
+#include <cmath>
+#include <filesystem>
+#include <map>
+#include <random>
+#include <string>
+#include <unistd.h>
+
+#include <utility>
+
+namespace strata::test {
+
+// Icosahedron subdivided `levels` times, projected on the unit sphere, radius scaled and displaced
+// a little per vertex (deterministic) so the quadrics are not all tied.
+inline Mesh icosphere(int levels, float radius = 1.0f, float bumps = 0.02f) {
+    const float t = (1.0f + std::sqrt(5.0f)) / 2.0f;
+    Mesh m;
+    m.positions = {-1, t, 0, 1, t, 0, -1, -t, 0, 1, -t, 0, 0, -1, t, 0, 1, t,
+                   0, -1, -t, 0, 1, -t, t, 0, -1, t, 0, 1, -t, 0, -1, -t, 0, 1};
+    m.indices = {0, 11, 5, 0, 5, 1, 0, 1, 7, 0, 7, 10, 0, 10, 11, 1, 5, 9, 5, 11, 4, 11, 10, 2, 10, 7, 6, 7, 1, 8,
+                 3, 9, 4, 3, 4, 2, 3, 2, 6, 3, 6, 8, 3, 8, 9, 4, 9, 5, 2, 4, 11, 6, 2, 10, 8, 6, 7, 9, 8, 1};
+    for (int l = 0; l < levels; ++l) {
+        std::map<std::pair<uint32_t, uint32_t>, uint32_t> midpoint;
+        auto mid = [&](uint32_t a, uint32_t b) {
+            auto key = std::minmax(a, b);
+            auto it = midpoint.find(key);
+            if (it != midpoint.end()) return it->second;
+            uint32_t v = uint32_t(m.positions.size() / 3);
+            for (int k = 0; k < 3; ++k) m.positions.push_back(0.5f * (m.positions[3 * a + k] + m.positions[3 * b + k]));
+            midpoint[key] = v;
+            return v;
+        };
+        std::vector<uint32_t> next;
+        for (size_t i = 0; i < m.indices.size(); i += 3) {
+            uint32_t a = m.indices[i], b = m.indices[i + 1], c = m.indices[i + 2];
+            uint32_t ab = mid(a, b), bc = mid(b, c), ca = mid(c, a);
+            next.insert(next.end(), {a, ab, ca, b, bc, ab, c, ca, bc, ab, bc, ca});
+        }
+        m.indices = std::move(next);
+    }
+    std::mt19937 rng(12345);
+    std::uniform_real_distribution<float> noise(-bumps, bumps);
+    for (size_t v = 0; v < m.vertex_count(); ++v) {
+        float* p = &m.positions[3 * v];
+        float len = std::sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
+        float r = radius * (1.0f + noise(rng)) / len;
+        for (int k = 0; k < 3; ++k) p[k] *= r;
+    }
+    return m;
+}
+
+// An open, gently curved n×n grid of quads with per-vertex colours and UVs.
+inline Mesh colored_grid(int n) {
+    Mesh m;
+    for (int y = 0; y <= n; ++y)
+        for (int x = 0; x <= n; ++x) {
+            float u = float(x) / n, v = float(y) / n;
+            m.positions.insert(m.positions.end(), {u, v, 0.1f * std::sin(6 * u) * std::cos(5 * v)});
+            m.colors.insert(m.colors.end(), {uint8_t(255 * u), uint8_t(255 * v), 128, 255});
+            m.uvs.insert(m.uvs.end(), {u, v});
+        }
+    auto at = [n](int x, int y) { return uint32_t(y * (n + 1) + x); };
+    for (int y = 0; y < n; ++y)
+        for (int x = 0; x < n; ++x)
+            m.indices.insert(m.indices.end(), {at(x, y), at(x + 1, y), at(x + 1, y + 1), at(x, y), at(x + 1, y + 1), at(x, y + 1)});
+    return m;
+}
+
+class TempDir {
+public:
+    TempDir() {
+        static int counter = 0;
+        path_ = std::filesystem::temp_directory_path() /
+                ("strata-test-" + std::to_string(::getpid()) + "-" + std::to_string(counter++));
+        std::filesystem::create_directories(path_);
+    }
+    ~TempDir() {
+        std::error_code ec;
+        std::filesystem::remove_all(path_, ec);
+    }
+    std::filesystem::path operator/(const std::string& name) const { return path_ / name; }
+    const std::filesystem::path& path() const { return path_; }
+
+private:
+    std::filesystem::path path_;
+};
+
+}  // namespace strata::test

@@ -1,0 +1,66 @@
+#include "preprocess/hlod_builder.h"
+#include "preprocess/hlod_format.h"
+#include "preprocess/hlod_verify.h"
+#include "tests/support/test_meshes.h"
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <iterator>
+
+namespace strata {
+namespace {
+
+std::vector<char> file_bytes(const std::filesystem::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    return {std::istreambuf_iterator<char>(in), {}};
+}
+
+TEST(Builder, ClosedSphereVerifiesAndStaysWatertight) {
+    test::TempDir dir;
+    Mesh sphere = test::icosphere(6);  // 81 920 triangles
+    const size_t input = sphere.triangle_count();
+    BuildSettings s;
+    s.levels = 3;
+    BuildReport report = build_hlod(std::move(sphere), dir / "sphere.hlod", s, "sphere");
+    ASSERT_EQ(report.levels.size(), 4u);
+    EXPECT_EQ(report.levels.front().triangles, input);
+    // Each level keeps about a quarter of the triangles of the finer one (block borders keep a few more).
+    for (size_t i = 1; i < report.levels.size(); ++i) {
+        double kept = double(report.levels[i].triangles) / double(report.levels[i - 1].triangles);
+        EXPECT_GT(kept, 0.2) << "level " << report.levels[i].level;
+        EXPECT_LT(kept, 0.45) << "level " << report.levels[i].level;
+    }
+    HlodFile file(dir / "sphere.hlod");
+    VerifyReport v = verify_hlod(file);
+    EXPECT_TRUE(v.watertight);
+    EXPECT_EQ(file.header().max_level, 3u);
+    EXPECT_GT(file.header().error_q, 0.0f);
+}
+
+TEST(Builder, OutputIsByteIdenticalAtAnyThreadCount) {
+    test::TempDir dir;
+    BuildSettings s;
+    s.levels = 3;
+    s.threads = 1;
+    build_hlod(test::icosphere(5), dir / "one.hlod", s, "sphere");
+    s.threads = 4;
+    build_hlod(test::icosphere(5), dir / "four.hlod", s, "sphere");
+    EXPECT_EQ(file_bytes(dir / "one.hlod"), file_bytes(dir / "four.hlod"));
+}
+
+TEST(Builder, OpenGridWithColoursAndUvsVerifies) {
+    test::TempDir dir;
+    BuildSettings s;
+    s.levels = 2;
+    build_hlod(test::colored_grid(120), dir / "grid.hlod", s, "grid");
+    HlodFile file(dir / "grid.hlod");
+    EXPECT_TRUE(file.header().has_colors());
+    EXPECT_TRUE(file.header().has_uvs());
+    VerifyReport v = verify_hlod(file);
+    EXPECT_FALSE(v.watertight);
+    EXPECT_GT(v.triangles, 2u * 120 * 120);
+}
+
+}  // namespace
+}  // namespace strata
