@@ -4,6 +4,7 @@
 #include "preprocess/index_map.h"
 #include "preprocess/parallel.h"
 #include "preprocess/quadric.h"
+#include "preprocess/radix_sort.h"
 #include "preprocess/simplify.h"
 
 #include <meshoptimizer.h>
@@ -11,6 +12,7 @@
 #include <algorithm>
 #include <array>
 #include <atomic>
+#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <numeric>
@@ -65,6 +67,17 @@ struct Frame {
     uint32_t block;
     float sigma0;
     double cube_size(uint32_t level) const { return root_size / double(uint64_t(1) << level); }
+};
+
+// Adds the wall time of its scope to a counter.
+class StageTimer {
+public:
+    explicit StageTimer(double& total) : total_(total), start_(std::chrono::steady_clock::now()) {}
+    ~StageTimer() { total_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count(); }
+
+private:
+    double& total_;
+    std::chrono::steady_clock::time_point start_;
 };
 
 // ---- setting up level L -------------------------------------------------------------------
@@ -174,22 +187,25 @@ double longest_edge(const Mesh& mesh) {
 Level partition(Mesh& mesh, const Frame& f) {
     const uint32_t L = f.max_level;
     const size_t triangles = mesh.triangle_count();
-    std::vector<CubeKey> key(triangles);
+    // Sort by the dense linear index k·4^L + j·2^L + i (same order as CubeKey, fewer bits to sort).
+    std::vector<uint64_t> linear(triangles);
     for (size_t t = 0; t < triangles; ++t) {
         const uint32_t* tri = &mesh.indices[3 * t];
         auto c = cell_of(f, &mesh.positions[3 * tri[0]], &mesh.positions[3 * tri[1]], &mesh.positions[3 * tri[2]], L);
-        key[t] = make_key(c[0], c[1], c[2]);
+        linear[t] = uint64_t(c[2]) << (2 * L) | uint64_t(c[1]) << L | uint64_t(c[0]);
     }
     std::vector<uint32_t> order(triangles);
     std::iota(order.begin(), order.end(), 0u);
-    std::stable_sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) { return key[a] < key[b]; });
+    radix_sort_ids(linear, order, int(3 * L));
+    const uint64_t mask = (uint64_t(1) << L) - 1;
+    auto key_of = [&](uint32_t t) { return make_key(linear[t] & mask, (linear[t] >> L) & mask, linear[t] >> (2 * L)); };
 
     Level level;
     level.level = L;
     level.triangles.resize(3 * triangles);
     for (size_t t = 0; t < triangles; ++t) {
         std::memcpy(&level.triangles[3 * t], &mesh.indices[3 * size_t(order[t])], 12);
-        if (t == 0 || key[order[t]] != key[order[t - 1]]) level.cubes.push_back(Cube{key[order[t]], uint32_t(t), 0, {}, 0});
+        if (t == 0 || linear[order[t]] != linear[order[t - 1]]) level.cubes.push_back(Cube{key_of(order[t]), uint32_t(t), 0, {}, 0});
         ++level.cubes.back().count;
     }
     for (Cube& c : level.cubes) c.child_counts[0] = c.count;
@@ -621,10 +637,17 @@ BuildReport build_hlod(Mesh&& mesh, const std::filesystem::path& output, const B
     const unsigned threads = resolve_thread_count(settings.threads);
     progress("partition", 0, 1, "");
     std::vector<float> input_normals = std::move(mesh.normals);
-    Level level = partition(mesh, f);
-    if (!input_normals.empty()) take_input_normals(level, input_normals);
-    else compute_normals(level);
-    std::vector<float>().swap(input_normals);
+    Level level;
+    {
+        StageTimer timer(report.partition_seconds);
+        level = partition(mesh, f);
+    }
+    {
+        StageTimer timer(report.normals_seconds);
+        if (!input_normals.empty()) take_input_normals(level, input_normals);
+        else compute_normals(level);
+        std::vector<float>().swap(input_normals);
+    }
     progress.check();
 
     std::vector<Extra> extras;
@@ -633,17 +656,31 @@ BuildReport build_hlod(Mesh&& mesh, const std::filesystem::path& output, const B
         for (const Cube& c : l.cubes) error_q = std::max(error_q, float(c.error / f.cube_size(l.level)));
     };
     while (level.level > 0) {
-        Simplified s = simplify_level(level, f, settings, progress);
-        compute_normals(s.next);
+        Simplified s;
+        {
+            StageTimer timer(report.simplify_seconds);
+            s = simplify_level(level, f, settings, progress);
+        }
+        {
+            StageTimer timer(report.normals_seconds);
+            compute_normals(s.next);
+        }
         report.levels.push_back(LevelStats{level.level});
-        extras = write_level(level, s.next, s.parent, extras, f, header.flags, threads, writer, report.levels.back(), progress);
+        {
+            StageTimer timer(report.write_seconds);
+            extras = write_level(level, s.next, s.parent, extras, f, header.flags, threads, writer,
+                                 report.levels.back(), progress);
+        }
         note_errors(level);
         level = std::move(s.next);
     }
     std::vector<uint32_t> identity(level.wedge_count());
     std::iota(identity.begin(), identity.end(), 0u);
     report.levels.push_back(LevelStats{0});
-    write_level(level, level, identity, extras, f, header.flags, threads, writer, report.levels.back(), progress);
+    {
+        StageTimer timer(report.write_seconds);
+        write_level(level, level, identity, extras, f, header.flags, threads, writer, report.levels.back(), progress);
+    }
     note_errors(level);
 
     header.error_q = error_q;

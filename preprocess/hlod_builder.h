@@ -33,6 +33,8 @@ struct BuildReport {
     std::vector<LevelStats> levels;  // finest first
     std::vector<std::string> notes;  // choices the builder made that the user should know of
     uint64_t output_bytes = 0;
+    // Wall seconds per stage, for benchmarks: partition, simplify, normals, write.
+    double partition_seconds = 0, simplify_seconds = 0, normals_seconds = 0, write_seconds = 0;
 };
 
 // Consumes the mesh (its arrays become level L). Throws InputError for input it cannot build

@@ -1,6 +1,7 @@
 #include "preprocess/simplify.h"
 
 #include "preprocess/quadric.h"
+#include "preprocess/radix_sort.h"
 
 #include <algorithm>
 #include <array>
@@ -19,22 +20,26 @@ constexpr float kMinNormalCosine = 0.0f;
 
 enum class Kind : uint8_t { manifold, border, seam, locked };
 
-// Triangles around each point, rebuilt every pass from the live triangles (compressed rows).
+// The corners (3·triangle + corner) at each point, rebuilt every pass from the live triangles.
 struct Adjacency {
     std::vector<uint32_t> offsets;
-    std::vector<uint32_t> triangles;
+    std::vector<uint32_t> corners;
+    std::vector<uint32_t> fill;
 
-    void build(const std::vector<uint32_t>& tris, const std::vector<uint32_t>& wedge_point, uint32_t points) {
+    void build(const std::vector<uint32_t>& corner_points, uint32_t points) {
         offsets.assign(points + 1, 0);
-        for (uint32_t w : tris) ++offsets[wedge_point[w] + 1];
+        for (uint32_t p : corner_points) ++offsets[p + 1];
         std::partial_sum(offsets.begin(), offsets.end(), offsets.begin());
-        triangles.resize(tris.size());
-        std::vector<uint32_t> fill(offsets.begin(), offsets.end() - 1);
-        for (size_t i = 0; i < tris.size(); ++i) triangles[fill[wedge_point[tris[i]]]++] = uint32_t(i / 3);
+        corners.resize(corner_points.size());
+        fill.assign(offsets.begin(), offsets.end() - 1);
+        for (size_t i = 0; i < corner_points.size(); ++i) corners[fill[corner_points[i]]++] = uint32_t(i);
     }
-    const uint32_t* begin(uint32_t p) const { return triangles.data() + offsets[p]; }
-    const uint32_t* end(uint32_t p) const { return triangles.data() + offsets[p + 1]; }
+    const uint32_t* begin(uint32_t p) const { return corners.data() + offsets[p]; }
+    const uint32_t* end(uint32_t p) const { return corners.data() + offsets[p + 1]; }
 };
+
+inline uint32_t next_corner(uint32_t corner) { return corner % 3 == 2 ? corner - 2 : corner + 1; }
+inline uint32_t prev_corner(uint32_t corner) { return corner % 3 == 0 ? corner + 2 : corner - 1; }
 
 struct Candidate {
     float cost;
@@ -49,7 +54,10 @@ struct WedgePair {
 class BlockSimplifier {
 public:
     BlockSimplifier(const BlockMesh& mesh, const SimplifyLimits& limits)
-        : mesh_(mesh), limits_(limits), tris_(mesh.triangles), attribute_count_(mesh.attribute_count) {}
+        : mesh_(mesh), limits_(limits), wedges_(mesh.triangles), attribute_count_(mesh.attribute_count) {
+        points_.resize(wedges_.size());
+        for (size_t i = 0; i < wedges_.size(); ++i) points_[i] = mesh.wedge_point[wedges_[i]];
+    }
 
     SimplifyResult run();
 
@@ -58,18 +66,23 @@ private:
         const float* p = &mesh_.point_positions[3 * point];
         return {p[0], p[1], p[2]};
     }
-    uint32_t point_of(uint32_t wedge) const { return mesh_.wedge_point[wedge]; }
-    uint32_t corner_point(uint32_t tri, uint32_t corner) const { return point_of(tris_[3 * tri + corner]); }
-    int corner_of(uint32_t tri, uint32_t point) const {
-        for (int c = 0; c < 3; ++c)
-            if (corner_point(tri, c) == point) return c;
-        return -1;
+    // The corner of the triangle holding `corner` that sits on `point`, or ~0u.
+    uint32_t corner_at(uint32_t corner, uint32_t point) const {
+        uint32_t base = corner - corner % 3;
+        for (uint32_t c = base; c < base + 3; ++c)
+            if (points_[c] == point) return c;
+        return ~0u;
     }
+    bool has_half_edge(uint32_t from, uint32_t to) const {
+        for (const uint32_t* c = adjacency_.begin(from); c != adjacency_.end(from); ++c)
+            if (points_[next_corner(*c)] == to) return true;
+        return false;
+    }
+    bool is_boundary_edge(uint32_t a, uint32_t b) const { return has_half_edge(a, b) != has_half_edge(b, a); }
 
     void init_quadrics();
     void init_attributes();
     void classify();
-    bool has_half_edge(uint32_t from, uint32_t to) const;
     bool find_partners(uint32_t u, uint32_t w, std::vector<WedgePair>& pairs) const;
     float attribute_error(uint32_t from, uint32_t to) const;
     bool best_candidate(uint32_t u, Candidate& best);
@@ -82,7 +95,8 @@ private:
 
     const BlockMesh& mesh_;
     SimplifyLimits limits_;
-    std::vector<uint32_t> tris_;
+    std::vector<uint32_t> wedges_;          // per corner of the live triangles: its wedge
+    std::vector<uint32_t> points_;          // per corner: its point
     uint32_t attribute_count_;
 
     std::vector<Quadric> quadrics_;         // per point
@@ -91,39 +105,40 @@ private:
     std::vector<float> error_;              // per point
     std::vector<uint32_t> wedge_remap_;     // per wedge
     std::vector<uint32_t> point_remap_;     // per point, this pass
-    std::vector<Kind> kind_;
+    std::vector<Kind> kind_;                // per point, from the block as given
+    std::vector<uint8_t> single_wedge_;     // per point: all its corners carry one wedge
     std::vector<uint8_t> pass_locked_;
     Adjacency adjacency_;
+    std::vector<Candidate> candidates_;
     std::vector<WedgePair> pairs_;          // scratch
-    std::vector<uint32_t> neighbours_;      // scratch
+    std::vector<uint32_t> seen_;            // per point: stamp of the last link check that saw it
+    uint32_t stamp_ = 0;
+    std::vector<uint32_t> cost_bits_, order_;
 };
 
 void BlockSimplifier::init_quadrics() {
     quadrics_.assign(mesh_.point_count(), Quadric{});
-    for (uint32_t t = 0; t < mesh_.triangle_count(); ++t) {
-        Vec3 p0 = position(corner_point(t, 0)), p1 = position(corner_point(t, 1)), p2 = position(corner_point(t, 2));
+    for (uint32_t t = 0; t < wedges_.size(); t += 3) {
+        Vec3 p0 = position(points_[t]), p1 = position(points_[t + 1]), p2 = position(points_[t + 2]);
         Vec3 n = cross(p1 - p0, p2 - p0);
         float twice_area = length(n);
         if (twice_area == 0) continue;
         n = n * (1.0f / twice_area);
-        for (int c = 0; c < 3; ++c) quadrics_[corner_point(t, c)].add_plane(n, -dot(n, p0), 0.5f * twice_area);
+        for (int c = 0; c < 3; ++c) quadrics_[points_[t + c]].add_plane(n, -dot(n, p0), 0.5f * twice_area);
     }
     // Boundary edges: a plane through the edge, perpendicular to its face.
-    for (uint32_t t = 0; t < mesh_.triangle_count(); ++t) {
-        for (int c = 0; c < 3; ++c) {
-            uint32_t a = corner_point(t, c), b = corner_point(t, (c + 1) % 3);
-            if (has_half_edge(b, a)) continue;
-            Vec3 pa = position(a), pb = position(b), pc = position(corner_point(t, (c + 2) % 3));
-            Vec3 edge = pb - pa;
-            Vec3 face = cross(edge, pc - pa);
-            Vec3 n = cross(edge, face);
-            float len = length(n);
-            if (len == 0) continue;
-            n = n * (1.0f / len);
-            float w = kBoundaryWeight * dot(edge, edge);
-            quadrics_[a].add_plane(n, -dot(n, pa), w);
-            quadrics_[b].add_plane(n, -dot(n, pa), w);
-        }
+    for (uint32_t corner = 0; corner < wedges_.size(); ++corner) {
+        uint32_t a = points_[corner], b = points_[next_corner(corner)];
+        if (kind_[a] == Kind::manifold || kind_[a] == Kind::seam || has_half_edge(b, a)) continue;
+        Vec3 pa = position(a), pb = position(b), pc = position(points_[prev_corner(corner)]);
+        Vec3 edge = pb - pa;
+        Vec3 n = cross(edge, cross(edge, pc - pa));
+        float len = length(n);
+        if (len == 0) continue;
+        n = n * (1.0f / len);
+        float w = kBoundaryWeight * dot(edge, edge);
+        quadrics_[a].add_plane(n, -dot(n, pa), w);
+        quadrics_[b].add_plane(n, -dot(n, pa), w);
     }
 }
 
@@ -131,11 +146,11 @@ void BlockSimplifier::init_attributes() {
     const uint32_t stride = attribute_count_ + 2;
     moments_.assign(size_t(mesh_.wedge_count()) * stride, 0.0f);
     if (attribute_count_ == 0) return;
-    for (uint32_t t = 0; t < mesh_.triangle_count(); ++t) {
-        Vec3 p0 = position(corner_point(t, 0)), p1 = position(corner_point(t, 1)), p2 = position(corner_point(t, 2));
+    for (uint32_t t = 0; t < wedges_.size(); t += 3) {
+        Vec3 p0 = position(points_[t]), p1 = position(points_[t + 1]), p2 = position(points_[t + 2]);
         float area = length(cross(p1 - p0, p2 - p0)) * (0.5f / 3.0f);
         for (int c = 0; c < 3; ++c) {
-            uint32_t w = tris_[3 * t + c];
+            uint32_t w = wedges_[t + c];
             const float* a = &mesh_.wedge_attributes[size_t(w) * attribute_count_];
             float* m = &moments_[size_t(w) * stride];
             m[0] += area;
@@ -157,51 +172,38 @@ float BlockSimplifier::attribute_error(uint32_t from, uint32_t to) const {
     return e > 0 ? e : 0;
 }
 
-bool BlockSimplifier::has_half_edge(uint32_t from, uint32_t to) const {
-    for (const uint32_t* t = adjacency_.begin(from); t != adjacency_.end(from); ++t) {
-        int c = corner_of(*t, from);
-        if (corner_point(*t, (c + 1) % 3) == to) return true;
-    }
-    return false;
-}
-
+// Kinds are decided once, on the block as given: collapses that pass the link and boundary rules keep
+// interior points interior and boundary points on the boundary.
 void BlockSimplifier::classify() {
     const uint32_t points = mesh_.point_count();
     kind_.assign(points, Kind::manifold);
+    single_wedge_.assign(points, 1);
     for (uint32_t u = 0; u < points; ++u) {
-        if (mesh_.point_locked[u]) {
-            kind_[u] = Kind::locked;
-            continue;
-        }
         int out_open = 0, in_open = 0;
-        bool complex = false, seam = false;
-        uint32_t first_wedge = ~0u;
-        for (const uint32_t* t = adjacency_.begin(u); t != adjacency_.end(u); ++t) {
-            int c = corner_of(*t, u);
-            uint32_t next = corner_point(*t, (c + 1) % 3), prev = corner_point(*t, (c + 2) % 3);
-            uint32_t wedge = tris_[3 * *t + c];
-            if (first_wedge == ~0u) first_wedge = wedge;
-            seam |= wedge != first_wedge;
+        bool complex = false;
+        const uint32_t* first = adjacency_.begin(u);
+        for (const uint32_t* c = first; c != adjacency_.end(u); ++c) {
+            uint32_t next = points_[next_corner(*c)], prev = points_[prev_corner(*c)];
+            if (wedges_[*c] != wedges_[*first]) single_wedge_[u] = 0;
             int same = 0;
-            for (const uint32_t* s = adjacency_.begin(u); s != adjacency_.end(u); ++s)
-                same += corner_point(*s, (corner_of(*s, u) + 1) % 3) == next;
+            for (const uint32_t* s = first; s != adjacency_.end(u); ++s) same += points_[next_corner(*s)] == next;
             complex |= same > 1;
             out_open += !has_half_edge(next, u);
             in_open += !has_half_edge(u, prev);
         }
-        if (complex || out_open > 1 || out_open != in_open) kind_[u] = Kind::locked;
+        if (mesh_.point_locked[u] || complex || out_open > 1 || out_open != in_open) kind_[u] = Kind::locked;
         else if (out_open == 1) kind_[u] = Kind::border;
-        else if (seam) kind_[u] = Kind::seam;
+        else if (!single_wedge_[u]) kind_[u] = Kind::seam;
     }
 }
 
 // Pairs each wedge of u with the wedge of w across a shared triangle edge; false if one has none or two.
 bool BlockSimplifier::find_partners(uint32_t u, uint32_t w, std::vector<WedgePair>& pairs) const {
     pairs.clear();
-    for (const uint32_t* t = adjacency_.begin(u); t != adjacency_.end(u); ++t) {
-        int cw = corner_of(*t, w);
-        if (cw < 0) continue;
-        WedgePair pair{tris_[3 * *t + corner_of(*t, u)], tris_[3 * *t + cw]};
+    for (const uint32_t* c = adjacency_.begin(u); c != adjacency_.end(u); ++c) {
+        uint32_t cw = corner_at(*c, w);
+        if (cw == ~0u) continue;
+        WedgePair pair{wedges_[*c], wedges_[cw]};
         bool known = false;
         for (const WedgePair& p : pairs) {
             if (p.from != pair.from) continue;
@@ -209,87 +211,87 @@ bool BlockSimplifier::find_partners(uint32_t u, uint32_t w, std::vector<WedgePai
             known = true;
         }
         if (!known) pairs.push_back(pair);
+        if (single_wedge_[u] && single_wedge_[w]) return true;  // one pair says it all
     }
     if (pairs.empty()) return false;
+    if (single_wedge_[u]) return true;
     // Every wedge of u must have found its partner.
-    for (const uint32_t* t = adjacency_.begin(u); t != adjacency_.end(u); ++t) {
-        uint32_t wedge = tris_[3 * *t + corner_of(*t, u)];
-        if (std::none_of(pairs.begin(), pairs.end(), [&](const WedgePair& p) { return p.from == wedge; }))
+    for (const uint32_t* c = adjacency_.begin(u); c != adjacency_.end(u); ++c)
+        if (std::none_of(pairs.begin(), pairs.end(), [&](const WedgePair& p) { return p.from == wedges_[*c]; }))
             return false;
-    }
     return true;
 }
 
 bool BlockSimplifier::within_travel(uint32_t u, uint32_t w) const {
     const float* b = &box_[6 * u];
-    Vec3 p = position(w);
-    float d = std::max({p.x - b[0], p.y - b[1], p.z - b[2], b[3] - p.x, b[4] - p.y, b[5] - p.z});
-    return d <= limits_.max_travel;
+    const float* p = &mesh_.point_positions[3 * w];
+    const float t = limits_.max_travel;
+    return p[0] - b[0] <= t && p[1] - b[1] <= t && p[2] - b[2] <= t && b[3] - p[0] <= t && b[4] - p[1] <= t &&
+           b[5] - p[2] <= t;
 }
 
 // The cheapest legal collapse of u into one of its neighbours.
 bool BlockSimplifier::best_candidate(uint32_t u, Candidate& best) {
-    Kind kind = kind_[u];
+    const Kind kind = kind_[u];
     if (kind == Kind::locked) return false;
+    const Quadric& q = quadrics_[u];
+    const float inverse_weight = 1.0f / (q.weight > 0 ? q.weight : 1.0f);
     bool found = false;
-    auto consider = [&](uint32_t w) {
-        if (kind == Kind::border && (has_half_edge(u, w) == has_half_edge(w, u))) return;  // along the boundary only
+    auto consider = [&](uint32_t w, uint32_t from_wedge, uint32_t to_wedge) {
+        if (kind == Kind::border && !is_boundary_edge(u, w)) return;  // along the boundary only
         if (!within_travel(u, w)) return;
-        if (!find_partners(u, w, pairs_)) return;
-        float cost = quadrics_[u].evaluate(position(w));
-        for (const WedgePair& p : pairs_) cost += attribute_error(p.from, p.to);
-        cost /= quadrics_[u].weight > 0 ? quadrics_[u].weight : 1.0f;
+        float cost = q.evaluate(position(w));
+        if (attribute_count_) {
+            if (single_wedge_[u] && single_wedge_[w]) {
+                cost += attribute_error(from_wedge, to_wedge);
+            } else {
+                if (!find_partners(u, w, pairs_)) return;
+                for (const WedgePair& p : pairs_) cost += attribute_error(p.from, p.to);
+            }
+        }
+        cost *= inverse_weight;
         if (!found || cost < best.cost || (cost == best.cost && w < best.to)) best = {cost, u, w};
         found = true;
     };
-    for (const uint32_t* t = adjacency_.begin(u); t != adjacency_.end(u); ++t) {
-        int c = corner_of(*t, u);
-        consider(corner_point(*t, (c + 1) % 3));
-        if (kind == Kind::border) consider(corner_point(*t, (c + 2) % 3));
+    for (const uint32_t* c = adjacency_.begin(u); c != adjacency_.end(u); ++c) {
+        uint32_t next = next_corner(*c);
+        consider(points_[next], wedges_[*c], wedges_[next]);
+        if (kind == Kind::border) consider(points_[prev_corner(*c)], wedges_[*c], wedges_[prev_corner(*c)]);
     }
     return found;
 }
 
 // Link condition: u and w may share no neighbour other than the apexes of the triangles on edge uw;
-// otherwise the collapse pinches the surface into a non-manifold edge.
+// otherwise the collapse pinches the surface into a non-manifold edge. Neighbours of u are marked
+// with a fresh stamp, then w's marked neighbours are counted (each once, by re-stamping it).
 bool BlockSimplifier::keeps_link(uint32_t u, uint32_t w) {
-    neighbours_.clear();
+    const uint32_t mark = ++stamp_, counted = ++stamp_;
     int apexes = 0;
-    for (const uint32_t* t = adjacency_.begin(u); t != adjacency_.end(u); ++t) {
-        bool on_edge = corner_of(*t, w) >= 0;
-        apexes += on_edge;
-        for (int c = 0; c < 3; ++c) {
-            uint32_t p = point_remap_[corner_point(*t, c)];
-            if (p != u && p != w) neighbours_.push_back(p);
-        }
+    for (const uint32_t* c = adjacency_.begin(u); c != adjacency_.end(u); ++c) {
+        apexes += corner_at(*c, w) != ~0u;
+        seen_[point_remap_[points_[next_corner(*c)]]] = mark;
+        seen_[point_remap_[points_[prev_corner(*c)]]] = mark;
     }
-    std::sort(neighbours_.begin(), neighbours_.end());
-    neighbours_.erase(std::unique(neighbours_.begin(), neighbours_.end()), neighbours_.end());
     int shared = 0;
-    for (const uint32_t* t = adjacency_.begin(w); t != adjacency_.end(w); ++t) {
-        for (int c = 0; c < 3; ++c) {
-            uint32_t p = point_remap_[corner_point(*t, c)];
-            if (p == u || p == w) continue;
-            if (std::binary_search(neighbours_.begin(), neighbours_.end(), p)) {
-                ++shared;
-                neighbours_.erase(std::lower_bound(neighbours_.begin(), neighbours_.end(), p));
-            }
+    for (const uint32_t* c = adjacency_.begin(w); c != adjacency_.end(w); ++c)
+        for (uint32_t p : {points_[next_corner(*c)], points_[prev_corner(*c)]}) {
+            p = point_remap_[p];
+            if (p == u || p == w || seen_[p] != mark) continue;
+            seen_[p] = counted;
+            ++shared;
         }
-    }
     return shared == apexes;
 }
 
 // Would moving u onto w turn any of u's remaining triangles over (or flatten it to nothing)?
 bool BlockSimplifier::flips(uint32_t u, uint32_t w) const {
-    Vec3 target = position(w);
-    for (const uint32_t* t = adjacency_.begin(u); t != adjacency_.end(u); ++t) {
-        if (corner_of(*t, w) >= 0) continue;  // collapses away
-        int c = corner_of(*t, u);
-        Vec3 a = position(u);
-        Vec3 b = position(point_remap_[corner_point(*t, (c + 1) % 3)]);
-        Vec3 d = position(point_remap_[corner_point(*t, (c + 2) % 3)]);
-        Vec3 before = cross(b - a, d - a);
-        Vec3 after = cross(b - target, d - target);
+    const Vec3 from = position(u), to = position(w);
+    for (const uint32_t* c = adjacency_.begin(u); c != adjacency_.end(u); ++c) {
+        if (corner_at(*c, w) != ~0u) continue;  // collapses away
+        Vec3 b = position(point_remap_[points_[next_corner(*c)]]);
+        Vec3 d = position(point_remap_[points_[prev_corner(*c)]]);
+        Vec3 before = cross(b - from, d - from);
+        Vec3 after = cross(b - to, d - to);
         float cosine = dot(before, after);
         float scale = length(before) * length(after);
         if (scale == 0 || cosine <= kMinNormalCosine * scale) return true;
@@ -314,36 +316,39 @@ uint32_t BlockSimplifier::collapse(uint32_t u, uint32_t w) {
     error_[w] = std::max({error_[w], error_[u], geometric});
     point_remap_[u] = w;
     uint32_t removed = 0;
-    for (const uint32_t* t = adjacency_.begin(u); t != adjacency_.end(u); ++t) removed += corner_of(*t, w) >= 0;
+    for (const uint32_t* c = adjacency_.begin(u); c != adjacency_.end(u); ++c) removed += corner_at(*c, w) != ~0u;
     return removed;
 }
 
 uint32_t BlockSimplifier::run_pass() {
     const uint32_t points = mesh_.point_count();
-    adjacency_.build(tris_, mesh_.wedge_point, points);
-    classify();
-
-    std::vector<Candidate> candidates;
-    candidates.reserve(points);
+    candidates_.clear();
     for (uint32_t u = 0; u < points; ++u) {
         Candidate c;
-        if (adjacency_.offsets[u] != adjacency_.offsets[u + 1] && best_candidate(u, c)) candidates.push_back(c);
+        if (adjacency_.offsets[u] != adjacency_.offsets[u + 1] && best_candidate(u, c)) candidates_.push_back(c);
     }
-    std::sort(candidates.begin(), candidates.end(), [](const Candidate& a, const Candidate& b) {
-        return a.cost < b.cost || (a.cost == b.cost && a.from < b.from);
-    });
+    // Costs are non-negative floats, whose bits sort like them; candidates come in point order, so
+    // the stable sort breaks ties by point.
+    cost_bits_.resize(candidates_.size());
+    order_.resize(candidates_.size());
+    for (size_t i = 0; i < candidates_.size(); ++i) {
+        std::memcpy(&cost_bits_[i], &candidates_[i].cost, 4);
+        order_[i] = uint32_t(i);
+    }
+    radix_sort_ids(cost_bits_, order_, 32);
 
     // Each collapse locks its two points for the pass, so many candidates get skipped; allow the pass
     // somewhat more error than the cheapest goal-many collapses would need (as meshoptimizer does).
-    const uint32_t live = uint32_t(tris_.size() / 3);
+    const uint32_t live = uint32_t(wedges_.size() / 3);
     const uint32_t goal = live > limits_.target_triangles ? live - limits_.target_triangles : 0;
     const size_t edge_goal = goal / 2;
-    float cost_bound = edge_goal < candidates.size() ? 1.5f * candidates[edge_goal].cost : 1e30f;
+    float cost_bound = edge_goal < candidates_.size() ? 1.5f * candidates_[order_[edge_goal]].cost : 1e30f;
 
     pass_locked_.assign(points, 0);
     std::iota(point_remap_.begin(), point_remap_.end(), 0u);
     uint32_t removed = 0;
-    for (const Candidate& c : candidates) {
+    for (uint32_t index : order_) {
+        const Candidate& c = candidates_[index];
         if (removed >= goal) break;
         if (c.cost > cost_bound && removed > 0) break;
         if (pass_locked_[c.from] || pass_locked_[c.to]) continue;
@@ -361,18 +366,22 @@ uint32_t BlockSimplifier::run_pass() {
 
 void BlockSimplifier::compact_triangles() {
     size_t out = 0;
-    for (size_t t = 0; t < tris_.size(); t += 3) {
-        uint32_t a = wedge_remap_[tris_[t]], b = wedge_remap_[tris_[t + 1]], c = wedge_remap_[tris_[t + 2]];
-        uint32_t pa = point_of(a), pb = point_of(b), pc = point_of(c);
+    for (size_t t = 0; t < wedges_.size(); t += 3) {
+        uint32_t pa = point_remap_[points_[t]], pb = point_remap_[points_[t + 1]], pc = point_remap_[points_[t + 2]];
         if (pa == pb || pb == pc || pa == pc) continue;
-        tris_[out++] = a, tris_[out++] = b, tris_[out++] = c;
+        for (int c = 0; c < 3; ++c) wedges_[out + c] = wedge_remap_[wedges_[t + c]];
+        points_[out] = pa, points_[out + 1] = pb, points_[out + 2] = pc;
+        out += 3;
     }
-    tris_.resize(out);
+    wedges_.resize(out);
+    points_.resize(out);
+    adjacency_.build(points_, mesh_.point_count());
 }
 
 SimplifyResult BlockSimplifier::run() {
     const uint32_t points = mesh_.point_count();
-    adjacency_.build(tris_, mesh_.wedge_point, points);
+    adjacency_.build(points_, points);
+    classify();
     init_quadrics();
     init_attributes();
     box_.resize(6 * size_t(points));
@@ -382,8 +391,9 @@ SimplifyResult BlockSimplifier::run() {
     wedge_remap_.resize(mesh_.wedge_count());
     std::iota(wedge_remap_.begin(), wedge_remap_.end(), 0u);
     point_remap_.resize(points);
+    seen_.assign(points, 0);
 
-    while (tris_.size() / 3 > limits_.target_triangles && run_pass() > 0) {
+    while (wedges_.size() / 3 > limits_.target_triangles && run_pass() > 0) {
     }
 
     // Compose collapse chains: v → u in one pass and u → w in a later one make P(v) = w.
@@ -392,7 +402,7 @@ SimplifyResult BlockSimplifier::run() {
     for (uint32_t& target : result.wedge_remap)
         while (result.wedge_remap[target] != target) target = result.wedge_remap[target];
     result.point_error = std::move(error_);
-    result.triangles_left = uint32_t(tris_.size() / 3);
+    result.triangles_left = uint32_t(wedges_.size() / 3);
     return result;
 }
 
