@@ -10,6 +10,8 @@ namespace {
 
 int run_info(const std::string& path) {
     HlodFile file(path);
+    // Checksums are cheap next to the read; a corrupt payload is reported here, not at render time.
+    for (const HlodNode& n : file.nodes()) file.read_payload(n);
     const HlodHeader& h = file.header();
     std::printf("file        %s (%.2f MB)\n", path.c_str(), file.file_size() / 1e6);
     std::printf("source      %s: %llu vertices, %llu triangles\n", h.source.c_str(),

@@ -604,18 +604,21 @@ BuildReport build_hlod(Mesh&& mesh, const std::filesystem::path& output, const B
     // σ0 and L together (DESIGN.md §2): pick L, then the σ0 the data needs; never break constraint 1.
     const bool automatic = settings.levels < 0;
     uint32_t L = automatic ? choose_levels(mesh, f, settings.leaf_triangles) : uint32_t(settings.levels);
+    // At L = 0 every vertex lies in the root cell and nothing morphs: no edge bound applies there,
+    // so capping L always ends in a model.
     const double edge = longest_edge(mesh);
-    while (edge / f.cube_size(L) > kMaxSigma0) {
+    auto needed_sigma0 = [&](uint32_t levels) { return levels == 0 ? 0.0 : edge / f.cube_size(levels); };
+    while (needed_sigma0(L) > kMaxSigma0) {
         if (!automatic || L == 0)
             throw InputError(source_name + ": edges up to " + std::to_string(edge) + " long need σ0 = " +
-                             std::to_string(edge / f.cube_size(L)) + " > " + std::to_string(kMaxSigma0) +
+                             std::to_string(needed_sigma0(L)) + " > " + std::to_string(kMaxSigma0) +
                              " at " + std::to_string(L) + " levels; use fewer --levels");
         --L;
         report.notes.push_back("levels capped at " + std::to_string(L) + ": the input has edges of " +
                                std::to_string(edge) + " (max norm)");
     }
     f.max_level = L;
-    f.sigma0 = std::max(settings.sigma0, float(edge / f.cube_size(L)));
+    f.sigma0 = std::max(settings.sigma0, float(needed_sigma0(L)));
     if (f.sigma0 > settings.sigma0)
         report.notes.push_back("σ0 raised to " + std::to_string(f.sigma0) + " by the input's longest edge");
 

@@ -1,0 +1,256 @@
+// The builder benchmark (issue 2 §6): a ≥ 19 M-triangle mesh derived from a real scan, built end to
+// end by the real `strata build` (read → .hlod) in a child process, against one meshopt_simplify pass
+// of the same mesh to a quarter. Prints figures beside their targets; asserts nothing.
+//
+//   bench_build [--scan data/bunny.off] [--splits 16] [--runs 3] [--threads 0] [--no-meshopt] [--keep DIR]
+//
+// The derived mesh is four midpoint subdivisions of the scan (each triangle split 16 ways along its
+// edges, the same points) with a small deterministic displacement along the normal, written as binary
+// PLY once and reused from DIR.
+#include "preprocess/mesh_io.h"
+
+#include <meshoptimizer.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <string>
+#include <thread>
+#include <vector>
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
+
+double median(std::vector<double> v) {
+    std::sort(v.begin(), v.end());
+    return v.empty() ? 0 : v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
+}
+
+uint32_t hash32(uint64_t x) {
+    x ^= x >> 33, x *= 0xff51afd7ed558ccdull, x ^= x >> 33, x *= 0xc4ceb9fe1a85ec53ull, x ^= x >> 33;
+    return uint32_t(x);
+}
+
+// Splits every triangle into n² along a regular grid of its edges (n = 16: four midpoint subdivisions),
+// sharing the points on edges between neighbours so a closed scan stays closed; then moves every new
+// point along the interpolated normal by up to `bump` of the fine edge length.
+strata::Mesh subdivide(const strata::Mesh& in, int n, float bump) {
+    const size_t V = in.vertex_count(), F = in.triangle_count();
+    // Edges of the input, each with an id, found by sorting (min, max) pairs.
+    std::vector<std::pair<uint64_t, uint32_t>> half(3 * F);
+    for (size_t t = 0; t < F; ++t)
+        for (int e = 0; e < 3; ++e) {
+            uint64_t a = in.indices[3 * t + e], b = in.indices[3 * t + (e + 1) % 3];
+            half[3 * t + e] = {std::min(a, b) << 32 | std::max(a, b), uint32_t(3 * t + e)};
+        }
+    std::sort(half.begin(), half.end());
+    std::vector<uint32_t> edge_of(3 * F);
+    uint32_t edges = 0;
+    for (size_t i = 0; i < half.size(); ++i) {
+        if (i > 0 && half[i].first != half[i - 1].first) ++edges;
+        edge_of[half[i].second] = edges;
+    }
+    ++edges;
+
+    // Smooth input normals, for the displacement direction.
+    std::vector<float> normal(3 * V, 0.0f);
+    for (size_t t = 0; t < F; ++t) {
+        const float* p[3];
+        for (int c = 0; c < 3; ++c) p[c] = &in.positions[3 * in.indices[3 * t + c]];
+        float e1[3], e2[3];
+        for (int k = 0; k < 3; ++k) e1[k] = p[1][k] - p[0][k], e2[k] = p[2][k] - p[0][k];
+        float nx = e1[1] * e2[2] - e1[2] * e2[1], ny = e1[2] * e2[0] - e1[0] * e2[2], nz = e1[0] * e2[1] - e1[1] * e2[0];
+        for (int c = 0; c < 3; ++c) {
+            float* s = &normal[3 * in.indices[3 * t + c]];
+            s[0] += nx, s[1] += ny, s[2] += nz;
+        }
+    }
+    double edge_sum = 0;
+    for (auto& h : half) {
+        const float* a = &in.positions[3 * (h.first >> 32)];
+        const float* b = &in.positions[3 * (h.first & 0xFFFFFFFF)];
+        edge_sum += std::sqrt(double(a[0] - b[0]) * (a[0] - b[0]) + double(a[1] - b[1]) * (a[1] - b[1]) + double(a[2] - b[2]) * (a[2] - b[2]));
+    }
+    const float amplitude = float(edge_sum / half.size() / n) * bump;
+
+    strata::Mesh out;
+    const size_t per_edge = n - 1, interior = size_t(n - 1) * (n - 2) / 2;
+    out.positions.reserve(3 * (V + edges * per_edge + F * interior));
+    out.positions = in.positions;
+    auto add_point = [&](const float w[3], const uint32_t c[3]) {
+        float p[3], nrm[3];
+        for (int k = 0; k < 3; ++k) {
+            p[k] = w[0] * in.positions[3 * c[0] + k] + w[1] * in.positions[3 * c[1] + k] + w[2] * in.positions[3 * c[2] + k];
+            nrm[k] = w[0] * normal[3 * c[0] + k] + w[1] * normal[3 * c[1] + k] + w[2] * normal[3 * c[2] + k];
+        }
+        float len = std::sqrt(nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2]);
+        uint32_t id = uint32_t(out.positions.size() / 3);
+        float d = len > 0 ? amplitude * (float(hash32(id) % 2001) / 1000.0f - 1.0f) / len : 0;
+        for (int k = 0; k < 3; ++k) out.positions.push_back(p[k] + d * nrm[k]);
+        return id;
+    };
+    // Points inside each input edge, in order from its smaller to its larger vertex.
+    std::vector<uint32_t> edge_first(edges, ~0u);
+    for (size_t t = 0; t < F; ++t)
+        for (int e = 0; e < 3; ++e) {
+            uint32_t id = edge_of[3 * t + e];
+            if (edge_first[id] != ~0u) continue;
+            uint32_t a = in.indices[3 * t + e], b = in.indices[3 * t + (e + 1) % 3];
+            uint32_t lo = std::min(a, b), hi = std::max(a, b);
+            edge_first[id] = uint32_t(out.positions.size() / 3);
+            for (int s = 1; s < n; ++s) {
+                float w[3] = {1.0f - float(s) / n, float(s) / n, 0};
+                uint32_t c[3] = {lo, hi, lo};
+                add_point(w, c);
+            }
+        }
+    out.indices.reserve(3 * F * n * n);
+    std::vector<uint32_t> grid(size_t(n + 1) * (n + 2) / 2);
+    for (size_t t = 0; t < F; ++t) {
+        const uint32_t c[3] = {in.indices[3 * t], in.indices[3 * t + 1], in.indices[3 * t + 2]};
+        // Grid point (i, j), i + j ≤ n, sits at weights ((n−i−j)/n, i/n, j/n) of corners 0, 1, 2.
+        auto at = [n](int i, int j) { return size_t(j) * (n + 1) - size_t(j) * (j - 1) / 2 + i; };
+        auto edge_point = [&](int e, int s) {  // s steps from corner e towards corner e+1
+            uint32_t a = c[e], b = c[(e + 1) % 3];
+            uint32_t first = edge_first[edge_of[3 * t + e]];
+            return a < b ? first + (s - 1) : first + (n - s - 1);
+        };
+        for (int j = 0; j <= n; ++j)
+            for (int i = 0; i + j <= n; ++i) {
+                uint32_t id;
+                if (i == 0 && j == 0) id = c[0];
+                else if (i == n) id = c[1];
+                else if (j == n) id = c[2];
+                else if (j == 0) id = edge_point(0, i);
+                else if (i + j == n) id = edge_point(1, j);
+                else if (i == 0) id = edge_point(2, n - j);
+                else {
+                    float w[3] = {float(n - i - j) / n, float(i) / n, float(j) / n};
+                    id = add_point(w, c);
+                }
+                grid[at(i, j)] = id;
+            }
+        for (int j = 0; j < n; ++j)
+            for (int i = 0; i + j < n; ++i) {
+                out.indices.insert(out.indices.end(), {grid[at(i, j)], grid[at(i + 1, j)], grid[at(i, j + 1)]});
+                if (i + j + 1 < n)
+                    out.indices.insert(out.indices.end(), {grid[at(i + 1, j)], grid[at(i + 1, j + 1)], grid[at(i, j + 1)]});
+            }
+    }
+    return out;
+}
+
+struct ChildRun {
+    double seconds = 0;
+    long peak_kb = 0;
+    int status = -1;
+};
+
+ChildRun run_child(const std::vector<std::string>& args) {
+    std::vector<char*> argv;
+    for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+    argv.push_back(nullptr);
+    auto start = Clock::now();
+    pid_t pid = fork();
+    if (pid == 0) {
+        execv(argv[0], argv.data());
+        _exit(127);
+    }
+    int status = 0;
+    rusage usage{};
+    wait4(pid, &status, 0, &usage);
+    return {seconds_since(start), usage.ru_maxrss, WIFEXITED(status) ? WEXITSTATUS(status) : -1};
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    std::string scan = std::string(STRATA_SOURCE_DIR) + "/data/bunny.off";
+    std::string keep = std::filesystem::temp_directory_path() / "strata-bench";
+    int splits = 16, runs = 3, threads = 0;
+    bool with_meshopt = true;
+    for (int i = 1; i < argc; ++i) {
+        std::string a = argv[i];
+        auto value = [&] { return i + 1 < argc ? std::string(argv[++i]) : std::string(); };
+        if (a == "--scan") scan = value();
+        else if (a == "--splits") splits = std::stoi(value());
+        else if (a == "--runs") runs = std::stoi(value());
+        else if (a == "--threads") threads = std::stoi(value());
+        else if (a == "--keep") keep = value();
+        else if (a == "--no-meshopt") with_meshopt = false;
+        else {
+            std::fprintf(stderr, "usage: bench_build [--scan FILE] [--splits N] [--runs N] [--threads N] [--no-meshopt] [--keep DIR]\n");
+            return 2;
+        }
+    }
+    std::filesystem::create_directories(keep);
+    const std::string ply = keep + "/" + std::filesystem::path(scan).stem().string() + "_x" + std::to_string(splits * splits) + ".ply";
+    const std::string hlod = keep + "/bench.hlod";
+
+    if (!std::filesystem::exists(ply)) {
+        std::printf("deriving %s from %s (each triangle split %d ways)\n", ply.c_str(), scan.c_str(), splits * splits);
+        strata::Mesh base = strata::read_mesh(scan);
+        strata::write_ply(ply, subdivide(base, splits, 0.1f));
+    }
+    const double ply_mb = std::filesystem::file_size(ply) / 1e6;
+
+    // Binary PLY read, in process: median of three.
+    std::vector<double> reads;
+    strata::Mesh mesh;
+    for (int r = 0; r < 3; ++r) {
+        auto start = Clock::now();
+        mesh = strata::read_mesh(ply);
+        reads.push_back(seconds_since(start));
+    }
+    const double triangles = double(mesh.triangle_count());
+    const double mesh_mb = mesh.memory_bytes() / 1e6;
+    std::printf("mesh: %.2f M triangles, %.2f M vertices, binary PLY %.1f MB, in memory %.1f MB\n", triangles / 1e6,
+                mesh.vertex_count() / 1e6, ply_mb, mesh_mb);
+    const double read_s = median(reads);
+    std::printf("read binary PLY:    %.3f s median of 3 = %.0f MB/s            (target ≥ 300 MB/s)\n", read_s, ply_mb / read_s);
+
+    // meshopt_simplify to a quarter, once (it is the slow peer).
+    double meshopt_s = 0;
+    if (with_meshopt) {
+        std::vector<unsigned int> out(mesh.indices.size());
+        auto start = Clock::now();
+        size_t kept = meshopt_simplify(out.data(), mesh.indices.data(), mesh.indices.size(), mesh.positions.data(),
+                                       mesh.vertex_count(), 12, mesh.indices.size() / 4, 1e-2f);
+        meshopt_s = seconds_since(start);
+        std::printf("meshopt_simplify:   %.2f s to %.2f M triangles (one pass, one core)\n", meshopt_s, kept / 3 / 1e6);
+    }
+    mesh = strata::Mesh{};
+
+    // The real executable, end to end.
+    const unsigned cores = std::max(1u, std::thread::hardware_concurrency());
+    std::vector<double> builds;
+    long peak_kb = 0;
+    for (int r = 0; r < runs; ++r) {
+        ChildRun run = run_child({STRATA_EXECUTABLE, "build", ply, "-o", hlod, "-q", "--threads", std::to_string(threads)});
+        if (run.status != 0) {
+            std::fprintf(stderr, "bench_build: strata build failed (status %d)\n", run.status);
+            return 1;
+        }
+        builds.push_back(run.seconds);
+        peak_kb = std::max(peak_kb, run.peak_kb);
+    }
+    const double build_s = median(builds);
+    const unsigned used = threads > 0 ? unsigned(threads) : cores;
+    const double hlod_mb = std::filesystem::file_size(hlod) / 1e6;
+    std::printf("strata build:       %.2f s median of %d on %u threads = %.2f M tri/s = %.2f M tri/s per core (target ≥ 1.5)\n",
+                build_s, runs, used, triangles / build_s / 1e6, triangles / build_s / 1e6 / used);
+    if (with_meshopt) std::printf("build / meshopt:    %.3f                                   (target ≤ 0.25)\n", build_s / meshopt_s);
+    std::printf("peak memory:        %.0f MB = %.2f × the mesh in memory             (target ≤ 2.5)\n", peak_kb / 1e3,
+                peak_kb / 1e3 / mesh_mb);
+    std::printf(".hlod size:         %.1f MB = %.2f × the binary PLY               (target ≤ 0.5)\n", hlod_mb, hlod_mb / ply_mb);
+    std::filesystem::remove(hlod);
+    return 0;
+}

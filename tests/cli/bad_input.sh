@@ -1,0 +1,58 @@
+#!/usr/bin/env bash
+# Bad input to `strata build`: a clear error naming the file, a non-zero exit, no output left behind.
+source "$(dirname "$0")/common.sh"
+out=$WORK/out.hlod
+
+no_output() {
+    checks=$((checks + 1))
+    if ls "$WORK" | grep -q '^out.hlod'; then fail "$1: left $(ls "$WORK" | grep '^out.hlod')"; fi
+}
+
+expect_failure "missing file" "missing.ply" "$STRATA" build "$WORK/missing.ply" -o "$out"; no_output "missing file"
+
+: >"$WORK/empty.ply"
+expect_failure "empty file" "empty.ply" "$STRATA" build "$WORK/empty.ply" -o "$out"; no_output "empty file"
+
+printf 'this is not a mesh\n' >"$WORK/notes.xyz"
+expect_failure "unknown format" "notes.xyz" "$STRATA" build "$WORK/notes.xyz" -o "$out"; no_output "unknown format"
+
+# A binary PLY whose data stops halfway through the vertices.
+{
+    printf 'ply\nformat binary_little_endian 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n'
+    printf 'element face 2\nproperty list uchar int vertex_indices\nend_header\n'
+    head -c 20 /dev/zero
+} >"$WORK/truncated.ply"
+expect_failure "truncated binary PLY" "truncated.ply" "$STRATA" build "$WORK/truncated.ply" -o "$out"; no_output "truncated"
+
+# A binary PLY that claims two billion vertices in a few bytes.
+{
+    printf 'ply\nformat binary_little_endian 1.0\nelement vertex 2000000000\nproperty float x\nproperty float y\nproperty float z\n'
+    printf 'element face 1\nproperty list uchar int vertex_indices\nend_header\n'
+    head -c 64 /dev/zero
+} >"$WORK/huge.ply"
+expect_failure "lying binary count" "huge.ply" "$STRATA" build "$WORK/huge.ply" -o "$out"; no_output "lying binary count"
+
+printf 'OFF\n10 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n' >"$WORK/lying.off"
+expect_failure "counts that lie" "lying.off" "$STRATA" build "$WORK/lying.off" -o "$out"; no_output "counts that lie"
+
+printf 'OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n' >"$WORK/past.off"
+expect_failure "index past the vertices" "past.off" "$STRATA" build "$WORK/past.off" -o "$out"; no_output "index past"
+
+printf 'ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\nnan 1 0\n0 1 0\n3 0 1 2\n' >"$WORK/nan.ply"
+expect_failure "NaN coordinate" "nan.ply" "$STRATA" build "$WORK/nan.ply" -o "$out"; no_output "NaN"
+
+printf 'OFF\n3 1 0\n0 0 0\n0 0 0\n0 0 0\n3 0 1 2\n' >"$WORK/point.off"
+expect_failure "all at one point" "point.off" "$STRATA" build "$WORK/point.off" -o "$out"; no_output "one point"
+
+write_octahedron "$WORK/octahedron.off"
+: >"$WORK/plainfile"
+expect_failure "unwritable output" "plainfile/out.hlod" "$STRATA" build "$WORK/octahedron.off" -o "$WORK/plainfile/out.hlod"
+checks=$((checks + 1))
+[ -z "$(ls -A "$WORK" | grep -v -e octahedron.off -e plainfile -e '\.ply$' -e '\.off$' -e '\.xyz$' -e '\.txt$')" ] ||
+    fail "unwritable output: left $(ls "$WORK")"
+
+expect_failure "levels too fine for the edges" "use fewer --levels" "$STRATA" build "$WORK/octahedron.off" -o "$out" --levels 3; no_output "levels too fine"
+expect_failure "bad option value" "levels" "$STRATA" build "$WORK/octahedron.off" -o "$out" --levels many
+expect_failure "bad block size" "block" "$STRATA" build "$WORK/octahedron.off" -o "$out" --block 6
+expect_failure "no arguments" "input" "$STRATA" build
+finish
