@@ -472,6 +472,15 @@ uint16_t lattice(const Frame& f, float x, int axis, uint32_t level, uint32_t cel
     return uint16_t(stored);
 }
 
+// Appends wedge w of `level` to a cube's vertex arrays, on that level's lattice relative to `cell`.
+void append_vertex(VertexArrays& out, const Level& level, uint32_t w, const uint32_t cell[3], const Frame& f,
+                   uint32_t flags) {
+    for (int a = 0; a < 3; ++a) out.positions.push_back(lattice(f, level.positions[3 * size_t(w) + a], a, level.level, cell[a]));
+    out.normals.insert(out.normals.end(), level.normals[w].begin(), level.normals[w].end());
+    if (flags & kHasColors) out.colors.insert(out.colors.end(), &level.colors[4 * size_t(w)], &level.colors[4 * size_t(w) + 4]);
+    if (flags & kHasUvs) out.uvs.insert(out.uvs.end(), &level.uvs[2 * size_t(w)], &level.uvs[2 * size_t(w) + 2]);
+}
+
 struct EncodedCube {
     HlodNode node;
     std::vector<uint8_t> payload;
@@ -485,7 +494,6 @@ EncodedCube encode_level_cube(const Level& level, const Cube& cube, const Level&
     const uint32_t l = level.level;
     const bool root = l == 0;
     const CubeKey parent_cube = root ? cube.key : parent_key(cube.key);
-    const uint32_t parent_l = root ? 0 : l - 1;
 
     // Index order for the codec: vertex-cache order within each child group keeps the groups whole.
     std::vector<uint32_t> global(level.triangles.begin() + 3 * size_t(cube.first),
@@ -516,24 +524,12 @@ EncodedCube encode_level_cube(const Level& level, const Cube& cube, const Level&
     data.child_triangle_counts = cube.child_counts;
     const uint32_t cell[3] = {key_i(cube.key), key_j(cube.key), key_k(cube.key)};
     const uint32_t parent_cell[3] = {key_i(parent_cube), key_j(parent_cube), key_k(parent_cube)};
+    IndexMap parent_slot(ordered.size());
     for (uint32_t w : ordered) {
-        uint32_t pw = parent[w];
-        for (int a = 0; a < 3; ++a) {
-            data.positions.push_back(lattice(f, level.positions[3 * size_t(w) + a], a, l, cell[a]));
-            data.parent_positions.push_back(
-                lattice(f, parent_level.positions[3 * size_t(pw) + a], a, parent_l, parent_cell[a]));
-        }
-        data.normals.insert(data.normals.end(), level.normals[w].begin(), level.normals[w].end());
-        data.parent_normals.insert(data.parent_normals.end(), parent_level.normals[pw].begin(), parent_level.normals[pw].end());
-        if (flags & kHasColors) {
-            data.colors.insert(data.colors.end(), &level.colors[4 * size_t(w)], &level.colors[4 * size_t(w) + 4]);
-            data.parent_colors.insert(data.parent_colors.end(), &parent_level.colors[4 * size_t(pw)],
-                                      &parent_level.colors[4 * size_t(pw) + 4]);
-        }
-        if (flags & kHasUvs) {
-            data.uvs.insert(data.uvs.end(), &level.uvs[2 * size_t(w)], &level.uvs[2 * size_t(w) + 2]);
-            data.parent_uvs.insert(data.parent_uvs.end(), &parent_level.uvs[2 * size_t(pw)], &parent_level.uvs[2 * size_t(pw) + 2]);
-        }
+        append_vertex(data.vertices, level, w, cell, f, flags);
+        uint32_t slot = parent_slot.find_or_insert(parent[w], data.parents.size());
+        if (slot == data.parents.size()) append_vertex(data.parents, parent_level, parent[w], parent_cell, f, flags);
+        data.parent_of.push_back(slot);
     }
 
     EncodedCube out;

@@ -103,29 +103,27 @@ __attribute__((target("sse4.2"))) uint32_t crc32c_hardware(uint32_t crc, const u
 
 // ---- streams -------------------------------------------------------------------------------
 
-// Interleaves a vertex attribute with its parent's copy, so each vertex is one record for the codec.
-template <class T>
-std::vector<uint8_t> interleave(const std::vector<T>& own, const std::vector<T>& parent, size_t per_vertex,
-                                size_t vertices) {
-    std::vector<uint8_t> out(vertices * 2 * per_vertex * sizeof(T));
-    const size_t half = per_vertex * sizeof(T);
-    for (size_t v = 0; v < vertices; ++v) {
-        std::memcpy(&out[v * 2 * half], &own[v * per_vertex], half);
-        std::memcpy(&out[v * 2 * half + half], &parent[v * per_vertex], half);
+// Position and normal travel together as one 12-byte record (the last two bytes zero).
+std::vector<uint8_t> position_normal_records(const VertexArrays& v) {
+    std::vector<uint8_t> out(size_t(v.size()) * 12, 0);
+    for (size_t i = 0; i < v.size(); ++i) {
+        std::memcpy(&out[12 * i], &v.positions[3 * i], 6);
+        std::memcpy(&out[12 * i + 6], &v.normals[2 * i], 4);
     }
     return out;
 }
 
 template <class T>
-void deinterleave(const std::vector<uint8_t>& in, std::vector<T>& own, std::vector<T>& parent, size_t per_vertex,
-                  size_t vertices) {
-    own.resize(vertices * per_vertex);
-    parent.resize(vertices * per_vertex);
-    const size_t half = per_vertex * sizeof(T);
-    for (size_t v = 0; v < vertices; ++v) {
-        std::memcpy(&own[v * per_vertex], &in[v * 2 * half], half);
-        std::memcpy(&parent[v * per_vertex], &in[v * 2 * half + half], half);
-    }
+std::vector<uint8_t> as_bytes(const std::vector<T>& v) {
+    std::vector<uint8_t> out(v.size() * sizeof(T));
+    if (!v.empty()) std::memcpy(out.data(), v.data(), out.size());
+    return out;
+}
+
+template <class T>
+void from_bytes(const std::vector<uint8_t>& bytes, std::vector<T>& v) {
+    v.resize(bytes.size() / sizeof(T));
+    if (!v.empty()) std::memcpy(v.data(), bytes.data(), bytes.size());
 }
 
 std::vector<uint8_t> encode_vertices(const std::vector<uint8_t>& records, size_t count, size_t record_size) {
@@ -211,12 +209,14 @@ std::array<int16_t, 2> encode_normal(float x, float y, float z) {
         float oy = (1 - std::fabs(x)) * (y >= 0 ? 1.0f : -1.0f);
         x = ox, y = oy;
     }
-    auto snorm = [](float v) { return int16_t(std::lround(std::clamp(v, -1.0f, 1.0f) * 32767.0f)); };
+    constexpr float steps = float((1 << (kNormalBits - 1)) - 1);
+    auto snorm = [](float v) { return int16_t(std::lround(std::clamp(v, -1.0f, 1.0f) * steps)); };
     return {snorm(x), snorm(y)};
 }
 
 std::array<float, 3> decode_normal(int16_t u, int16_t v) {
-    float x = std::max(u / 32767.0f, -1.0f), y = std::max(v / 32767.0f, -1.0f);
+    constexpr float scale = float((1 << (kNormalBits - 1)) - 1);
+    float x = std::max(u / scale, -1.0f), y = std::max(v / scale, -1.0f);
     float z = 1 - std::fabs(x) - std::fabs(y);
     if (z < 0) {
         float ox = (1 - std::fabs(y)) * (x >= 0 ? 1.0f : -1.0f);
@@ -227,22 +227,52 @@ std::array<float, 3> decode_normal(int16_t u, int16_t v) {
     return {x / len, y / len, z / len};
 }
 
-// Payload: counts, child triangle counts, five stream sizes, then the streams (positions with their
-// parents, normals with theirs, colours, UVs, indices), each in meshoptimizer's codecs.
+namespace {
+
+constexpr int kStreams = 8;
+
+// A vertex set as three streams: position+normal records, colours, UVs (the last two may be empty).
+void encode_arrays(const VertexArrays& v, uint32_t flags, std::vector<uint8_t>* streams) {
+    const size_t n = v.size();
+    streams[0] = encode_vertices(position_normal_records(v), n, 12);
+    if (flags & kHasColors) streams[1] = encode_vertices(v.colors, n, 4);
+    if (flags & kHasUvs) streams[2] = encode_vertices(as_bytes(v.uvs), n, 8);
+}
+
+void decode_arrays(ByteReader& r, const uint32_t* sizes, size_t n, uint32_t flags, const std::string& what,
+                   VertexArrays& v) {
+    auto records = decode_vertices(r.get_bytes(sizes[0]), n, 12, what);
+    v.positions.resize(3 * n);
+    v.normals.resize(2 * n);
+    for (size_t i = 0; i < n; ++i) {
+        std::memcpy(&v.positions[3 * i], &records[12 * i], 6);
+        std::memcpy(&v.normals[2 * i], &records[12 * i + 6], 4);
+    }
+    auto colors = r.get_bytes(sizes[1]);
+    if (flags & kHasColors) v.colors = decode_vertices(colors, n, 4, what);
+    auto uvs = r.get_bytes(sizes[2]);
+    if (flags & kHasUvs) from_bytes(decode_vertices(uvs, n, 8, what), v.uvs);
+}
+
+}  // namespace
+
+// Payload: counts, child triangle counts, eight stream sizes, then the streams: the vertices
+// (position+normal, colours, UVs), each vertex's parent index, the parent table (position+normal,
+// colours, UVs) and the triangles, in meshoptimizer's vertex and index codecs.
 std::vector<uint8_t> encode_cube(const CubeData& cube, uint32_t flags) {
     const size_t n = cube.vertex_count();
-    std::vector<uint8_t> streams[5];
-    streams[0] = encode_vertices(interleave(cube.positions, cube.parent_positions, 3, n), n, 12);
-    streams[1] = encode_vertices(interleave(cube.normals, cube.parent_normals, 2, n), n, 8);
-    if (flags & kHasColors) streams[2] = encode_vertices(interleave(cube.colors, cube.parent_colors, 4, n), n, 8);
-    if (flags & kHasUvs) streams[3] = encode_vertices(interleave(cube.uvs, cube.parent_uvs, 2, n), n, 16);
+    std::vector<uint8_t> streams[kStreams];
+    encode_arrays(cube.vertices, flags, &streams[0]);
+    streams[3] = encode_vertices(as_bytes(cube.parent_of), n, 4);
+    encode_arrays(cube.parents, flags, &streams[4]);
     if (!cube.indices.empty()) {
-        streams[4].resize(meshopt_encodeIndexBufferBound(cube.indices.size(), n));
-        streams[4].resize(meshopt_encodeIndexBuffer(streams[4].data(), streams[4].size(), cube.indices.data(),
+        streams[7].resize(meshopt_encodeIndexBufferBound(cube.indices.size(), n));
+        streams[7].resize(meshopt_encodeIndexBuffer(streams[7].data(), streams[7].size(), cube.indices.data(),
                                                     cube.indices.size()));
     }
     ByteWriter w;
     w.put(uint32_t(n));
+    w.put(cube.parents.size());
     w.put(cube.triangle_count());
     for (uint32_t c : cube.child_triangle_counts) w.put(c);
     for (const auto& s : streams) w.put(uint32_t(s.size()));
@@ -254,31 +284,26 @@ CubeData decode_cube(std::span<const uint8_t> bytes, const HlodNode& node, uint3
     const std::string what = describe_cube(node);
     ByteReader r(bytes, what + " payload");
     CubeData cube;
-    uint32_t n = r.get<uint32_t>(), triangles = r.get<uint32_t>();
+    uint32_t n = r.get<uint32_t>(), parents = r.get<uint32_t>(), triangles = r.get<uint32_t>();
     if (n != node.vertex_count || triangles != node.triangle_count)
         throw std::runtime_error(what + ": payload counts disagree with the node table");
     uint64_t grouped = 0;
     for (uint32_t& c : cube.child_triangle_counts) grouped += c = r.get<uint32_t>();
     if (grouped != triangles) throw std::runtime_error(what + ": child triangle counts do not add up");
-    uint32_t sizes[5];
+    uint32_t sizes[kStreams];
     for (uint32_t& s : sizes) s = r.get<uint32_t>();
     // Bound counts by what the codecs could possibly have produced before allocating for them.
-    if (uint64_t(n) > uint64_t(bytes.size()) * 64 || uint64_t(triangles) > uint64_t(bytes.size()) * 64)
+    const uint64_t limit = uint64_t(bytes.size()) * 64;
+    if (n > limit || parents > limit || triangles > limit || parents > n)
         throw std::runtime_error(what + ": counts larger than the payload could hold");
-    auto records = decode_vertices(r.get_bytes(sizes[0]), n, 12, what);
-    deinterleave(records, cube.positions, cube.parent_positions, 3, n);
-    records = decode_vertices(r.get_bytes(sizes[1]), n, 8, what);
-    deinterleave(records, cube.normals, cube.parent_normals, 2, n);
-    if (flags & kHasColors) {
-        records = decode_vertices(r.get_bytes(sizes[2]), n, 8, what);
-        deinterleave(records, cube.colors, cube.parent_colors, 4, n);
-    }
-    if (flags & kHasUvs) {
-        records = decode_vertices(r.get_bytes(sizes[3]), n, 16, what);
-        deinterleave(records, cube.uvs, cube.parent_uvs, 2, n);
-    }
+    decode_arrays(r, &sizes[0], n, flags, what, cube.vertices);
+    from_bytes(decode_vertices(r.get_bytes(sizes[3]), n, 4, what), cube.parent_of);
+    decode_arrays(r, &sizes[4], parents, flags, what, cube.parents);
+    for (uint32_t p : cube.parent_of)
+        if (p >= parents) throw std::runtime_error(what + ": parent index " + std::to_string(p) + " past its " +
+                                                   std::to_string(parents) + " parents");
     cube.indices.resize(size_t(triangles) * 3);
-    auto index_stream = r.get_bytes(sizes[4]);
+    auto index_stream = r.get_bytes(sizes[7]);
     if (triangles && meshopt_decodeIndexBuffer(cube.indices.data(), cube.indices.size(), 4, index_stream.data(),
                                                index_stream.size()) != 0)
         throw std::runtime_error(what + ": index stream does not decode");

@@ -62,22 +62,28 @@ struct HlodNode {
     uint32_t checksum = 0;     // CRC-32C of the payload bytes
 };
 
-// One cube, decoded. Per vertex: the vertex and a copy of its parent P(v), so the cube draws on its own.
+// Vertices in struct-of-arrays form: a cube's own vertices, or its table of parents.
+struct VertexArrays {
+    std::vector<uint16_t> positions;  // 3 per vertex: lattice ints relative to a cell (see kLatticeBits)
+    std::vector<int16_t> normals;     // 2 per vertex: octahedral
+    std::vector<uint8_t> colors;      // 4 per vertex, if the model has colours
+    std::vector<float> uvs;           // 2 per vertex, if the model has UVs
+
+    uint32_t size() const { return uint32_t(positions.size() / 3); }
+};
+
+// One cube, decoded. Each vertex names its parent P(v) in the cube's own parent table, so the cube
+// draws (and morphs) on its own; about four vertices share a parent, so the table is small.
 struct CubeData {
-    std::vector<uint16_t> positions;         // 3 per vertex: level-l lattice, relative to the cube's cell
-    std::vector<uint16_t> parent_positions;  // 3 per vertex: level-(l−1) lattice, relative to the parent's cell
-    std::vector<int16_t> normals;            // 2 per vertex: octahedral
-    std::vector<int16_t> parent_normals;
-    std::vector<uint8_t> colors;             // 4 per vertex (if the model has colours)
-    std::vector<uint8_t> parent_colors;
-    std::vector<float> uvs;                  // 2 per vertex (if the model has UVs)
-    std::vector<float> parent_uvs;
-    std::vector<uint32_t> indices;           // 3 per triangle
+    VertexArrays vertices;            // level-l lattice, relative to the cube's cell
+    VertexArrays parents;             // distinct P(v): level-(l−1) lattice, relative to the parent cube's cell
+    std::vector<uint32_t> parent_of;  // per vertex: its parent's index in `parents`
+    std::vector<uint32_t> indices;    // 3 per triangle
     // Triangles are grouped by the child cube (octant i&1 | j&1<<1 | k&1<<2) they were simplified from;
-    // all zero but the count in [0] at level L, whose triangles have no children.
+    // at level L, whose triangles have no children, all are counted in [0].
     std::array<uint32_t, 8> child_triangle_counts{};
 
-    uint32_t vertex_count() const { return uint32_t(positions.size() / 3); }
+    uint32_t vertex_count() const { return vertices.size(); }
     uint32_t triangle_count() const { return uint32_t(indices.size() / 3); }
 };
 
@@ -87,7 +93,9 @@ std::vector<uint8_t> encode_cube(const CubeData& cube, uint32_t flags);
 // Throws std::runtime_error("...") describing what is wrong with the bytes.
 CubeData decode_cube(std::span<const uint8_t> bytes, const HlodNode& node, uint32_t flags);
 
-// Octahedral normal encoding (16-bit snorm per component).
+// Octahedral normal encoding: 12-bit snorm per component (±2047; worst error about 0.04°), kept
+// in an int16 whose small range the vertex codec packs tighter than full 16-bit values.
+inline constexpr int kNormalBits = 12;
 std::array<int16_t, 2> encode_normal(float x, float y, float z);
 std::array<float, 3> decode_normal(int16_t u, int16_t v);
 

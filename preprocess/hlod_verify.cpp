@@ -27,13 +27,13 @@ std::string fmt(double x) {
 }
 
 // A vertex as its bytes: position ints, normal, colour, UV. Parent copies are compared this way.
-std::string vertex_bytes(const CubeData& c, uint32_t v, bool parent) {
+std::string vertex_bytes(const VertexArrays& a, uint32_t v) {
     std::string key;
     auto add = [&](const void* p, size_t n) { key.append(static_cast<const char*>(p), n); };
-    add(&(parent ? c.parent_positions : c.positions)[3 * size_t(v)], 6);
-    add(&(parent ? c.parent_normals : c.normals)[2 * size_t(v)], 4);
-    if (!c.colors.empty()) add(&(parent ? c.parent_colors : c.colors)[4 * size_t(v)], 4);
-    if (!c.uvs.empty()) add(&(parent ? c.parent_uvs : c.uvs)[2 * size_t(v)], 8);
+    add(&a.positions[3 * size_t(v)], 6);
+    add(&a.normals[2 * size_t(v)], 4);
+    if (!a.colors.empty()) add(&a.colors[4 * size_t(v)], 4);
+    if (!a.uvs.empty()) add(&a.uvs[2 * size_t(v)], 8);
     return key;
 }
 
@@ -46,7 +46,7 @@ Triangle canonical(Triangle t) {
 }
 
 bool same_position(const CubeData& c, uint32_t a, uint32_t b) {
-    return std::memcmp(&c.positions[3 * size_t(a)], &c.positions[3 * size_t(b)], 6) == 0;
+    return std::memcmp(&c.vertices.positions[3 * size_t(a)], &c.vertices.positions[3 * size_t(b)], 6) == 0;
 }
 
 class Verifier {
@@ -104,7 +104,7 @@ void Verifier::check_cube_bounds(const LevelData& level, size_t c) {
     const uint32_t cell[3] = {n.i, n.j, n.k};
     for (uint32_t v = 0; v < cube.vertex_count(); ++v)
         for (int a = 0; a < 3; ++a) {
-            double x = decode_coordinate(h_, a, level.level, cell[a], cube.positions[3 * v + a]);
+            double x = decode_coordinate(h_, a, level.level, cell[a], cube.vertices.positions[3 * v + a]);
             double lo = h_.origin[a] + cell[a] * s, hi = lo + s;
             double d = std::max({0.0, lo - x, x - hi});
             if (d > tolerance)
@@ -116,7 +116,7 @@ void Verifier::check_cube_bounds(const LevelData& level, size_t c) {
 // At level 0 every vertex is its own parent.
 void Verifier::check_root(const CubeData& cube, const HlodNode& n) {
     for (uint32_t v = 0; v < cube.vertex_count(); ++v)
-        if (vertex_bytes(cube, v, false) != vertex_bytes(cube, v, true))
+        if (vertex_bytes(cube.vertices, v) != vertex_bytes(cube.parents, cube.parent_of[v]))
             fail(describe_cube(n) + ": vertex " + std::to_string(v) + " is not its own parent at level 0");
 }
 
@@ -131,22 +131,23 @@ void Verifier::check_against_parent(const LevelData& level, size_t c, const Leve
     const CubeData& parent = parents.cubes[p];
     auto& lookup = parent_lookup_[p];
     if (lookup.empty())
-        for (uint32_t v = parent.vertex_count(); v-- > 0;) lookup[vertex_bytes(parent, v, false)] = v;
+        for (uint32_t v = parent.vertex_count(); v-- > 0;) lookup[vertex_bytes(parent.vertices, v)] = v;
 
     // P(v): a vertex of the parent cube, within σ0·s_{l+1} of v.
     const double bound = h_.sigma0 * h_.cube_size(l + 1) + h_.lattice_step(l) + h_.lattice_step(l - 1);
     const uint32_t cell[3] = {n.i, n.j, n.k}, parent_cell[3] = {pn.i, pn.j, pn.k};
     std::vector<uint32_t> parent_of(cube.vertex_count());
     for (uint32_t v = 0; v < cube.vertex_count(); ++v) {
-        auto found = lookup.find(vertex_bytes(cube, v, true));
+        const uint32_t pv = cube.parent_of[v];
+        auto found = lookup.find(vertex_bytes(cube.parents, pv));
         if (found == lookup.end())
             fail(describe_cube(n) + ": the parent of vertex " + std::to_string(v) + " is not a vertex of " +
                  describe_cube(pn));
         parent_of[v] = found->second;
         double d = 0;
         for (int a = 0; a < 3; ++a) {
-            float x = decode_coordinate(h_, a, l, cell[a], cube.positions[3 * v + a]);
-            float px = decode_coordinate(h_, a, l - 1, parent_cell[a], cube.parent_positions[3 * v + a]);
+            float x = decode_coordinate(h_, a, l, cell[a], cube.vertices.positions[3 * v + a]);
+            float px = decode_coordinate(h_, a, l - 1, parent_cell[a], cube.parents.positions[3 * size_t(pv) + a]);
             d = std::max(d, std::fabs(double(x) - double(px)));
         }
         if (d > bound)
@@ -155,7 +156,7 @@ void Verifier::check_against_parent(const LevelData& level, size_t c, const Leve
     }
 
     // P(T(C)) ≃ the parent's triangles from this child, up to degenerates and cyclic rotation.
-    auto canonical_parent_index = [&](uint32_t v) { return lookup.at(vertex_bytes(parent, v, false)); };
+    auto canonical_parent_index = [&](uint32_t v) { return lookup.at(vertex_bytes(parent.vertices, v)); };
     std::vector<Triangle> mapped, expected;
     for (size_t t = 0; t < cube.indices.size(); t += 3) {
         Triangle tri{parent_of[cube.indices[t]], parent_of[cube.indices[t + 1]], parent_of[cube.indices[t + 2]]};
@@ -199,7 +200,7 @@ bool Verifier::check_watertight(const LevelData& level, bool required) {
         for (uint32_t v = 0; v < cube.vertex_count(); ++v) {
             std::array<int32_t, 3> q;
             for (int a = 0; a < 3; ++a)
-                q[a] = int32_t(cube.positions[3 * v + a]) + int32_t(cell[a] << kLatticeBits) - kLatticeBias;
+                q[a] = int32_t(cube.vertices.positions[3 * v + a]) + int32_t(cell[a] << kLatticeBits) - kLatticeBias;
             id[v] = ids.emplace(q, uint32_t(ids.size())).first->second;
         }
         for (size_t t = 0; t < cube.indices.size(); t += 3)
