@@ -1,0 +1,556 @@
+#include "preprocess/mesh_io.h"
+
+#include <fcntl.h>
+#include <sys/mman.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <bit>
+#include <cctype>
+#include <cerrno>
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <new>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "preprocess/mesh_readers.h"
+
+namespace strata {
+namespace detail {
+
+void advise_huge_pages(const void* data, size_t bytes) {
+    constexpr uintptr_t kHuge = uintptr_t(2) << 20;
+    const uintptr_t begin = (reinterpret_cast<uintptr_t>(data) + kHuge - 1) & ~(kHuge - 1);
+    const uintptr_t end = (reinterpret_cast<uintptr_t>(data) + bytes) & ~(kHuge - 1);
+    if (end > begin) ::madvise(reinterpret_cast<void*>(begin), end - begin, MADV_HUGEPAGE);  // a hint only
+}
+
+size_t first_non_finite(const float* xyz, size_t count) {
+    // Fixed-size blocks of branch-free checks, which GCC vectorizes at -O2, so the common all-finite
+    // case costs one pass at memory speed; only a bad block (or the tail) is searched one by one.
+    constexpr size_t kBlock = 256;
+    const size_t floats = count * 3;
+    size_t start = 0;
+    for (; start + kBlock <= floats; start += kBlock) {
+        uint32_t bad = 0;
+        for (size_t k = 0; k < kBlock; ++k)
+            bad |= uint32_t((std::bit_cast<uint32_t>(xyz[start + k]) & 0x7f800000u) == 0x7f800000u);
+        if (bad) break;
+    }
+    for (size_t i = start; i < floats; ++i)
+        if (!std::isfinite(xyz[i])) return i / 3;
+    return count;
+}
+
+}  // namespace detail
+
+namespace {
+
+// ---- reading the file -----------------------------------------------------------------------------
+
+// The whole input mapped read-only: one "read" with no copy, and the page cache does the buffering.
+class MappedFile {
+public:
+    MappedFile(const std::filesystem::path& path, const std::string& name) {
+        int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+        if (fd < 0) fail(name, "cannot open", errno);
+        struct stat info {};
+        if (::fstat(fd, &info) != 0) close_and_fail(fd, name, "cannot stat", errno);
+        if (S_ISDIR(info.st_mode)) close_and_fail(fd, name, "is a directory, not a mesh file", 0);
+        if (!S_ISREG(info.st_mode)) close_and_fail(fd, name, "is not a regular file", 0);
+        if (info.st_size == 0) close_and_fail(fd, name, "empty file", 0);
+        size_ = size_t(info.st_size);
+        void* mapped = ::mmap(nullptr, size_, PROT_READ, MAP_PRIVATE, fd, 0);
+        int mmap_errno = errno;
+        ::close(fd);  // the mapping keeps the file open
+        if (mapped == MAP_FAILED) fail(name, "cannot read", mmap_errno);
+        data_ = static_cast<const char*>(mapped);
+        ::madvise(mapped, size_, MADV_SEQUENTIAL);  // readers walk it front to back: read ahead
+    }
+    ~MappedFile() { ::munmap(const_cast<char*>(data_), size_); }
+    MappedFile(const MappedFile&) = delete;
+    MappedFile& operator=(const MappedFile&) = delete;
+
+    const char* data() const { return data_; }
+    size_t size() const { return size_; }
+
+private:
+    [[noreturn]] static void fail(const std::string& name, const char* what, int error) {
+        std::string message = name + ": " + what;
+        if (error) message += std::string(" (") + std::strerror(error) + ")";
+        throw InputError(message);
+    }
+    [[noreturn]] static void close_and_fail(int fd, const std::string& name, const char* what, int error) {
+        ::close(fd);
+        fail(name, what, error);
+    }
+    const char* data_ = nullptr;
+    size_t size_ = 0;
+};
+
+// ---- choosing the reader --------------------------------------------------------------------------
+
+enum class Format { unknown, ply, obj, off, stl };
+
+bool is_binary_stl(const char* data, size_t size) {
+    if (size < 84) return false;
+    uint32_t count;
+    std::memcpy(&count, data + 80, 4);
+    if constexpr (std::endian::native == std::endian::big) count = __builtin_bswap32(count);
+    return 84 + 50 * uint64_t(count) == size;
+}
+
+// "OFF" with Geomview's optional prefixes: ST (uv), C (colour), N (normal), 4 (4D), n (dimension).
+bool is_off_keyword(std::string_view token) {
+    if (token.size() < 3 || token.substr(token.size() - 3) != "OFF") return false;
+    return token.substr(0, token.size() - 3).find_first_not_of("STCN4n") == std::string_view::npos;
+}
+
+bool is_obj_keyword(std::string_view token) {
+    static constexpr std::array<std::string_view, 12> kKeywords = {
+        "v", "vt", "vn", "vp", "f", "o", "g", "s", "l", "p", "mtllib", "usemtl"};
+    return std::find(kKeywords.begin(), kKeywords.end(), token) != kKeywords.end();
+}
+
+// The first token of the first line that is neither blank nor a '#' comment (text formats only).
+std::string_view first_keyword(const char* data, size_t size) {
+    detail::Lines lines(data, data + std::min<size_t>(size, 1 << 16));
+    std::string_view line;
+    while (lines.next(line)) {
+        detail::Tokens tokens(line);
+        std::string_view token = tokens.next();
+        if (!token.empty() && token[0] != '#') return token;
+    }
+    return {};
+}
+
+Format sniff_content(const char* data, size_t size) {
+    if (size >= 3 && std::memcmp(data, "ply", 3) == 0 && (size == 3 || data[3] == '\n' || data[3] == '\r'))
+        return Format::ply;
+    // Binary STL first: its free-form 80-byte header may well start with "solid".
+    if (is_binary_stl(data, size)) return Format::stl;
+    std::string_view keyword = first_keyword(data, size);
+    if (is_off_keyword(keyword)) return Format::off;
+    if (keyword == "solid") return Format::stl;
+    if (is_obj_keyword(keyword)) return Format::obj;
+    return Format::unknown;
+}
+
+Format format_from_extension(const std::filesystem::path& path) {
+    std::string ext = path.extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+    if (ext == ".ply") return Format::ply;
+    if (ext == ".obj") return Format::obj;
+    if (ext == ".off") return Format::off;
+    if (ext == ".stl") return Format::stl;
+    return Format::unknown;
+}
+
+Mesh read_format(Format format, const detail::ReadInput& input) {
+    switch (format) {
+        case Format::ply: return detail::read_ply(input);
+        case Format::obj: return detail::read_obj(input);
+        case Format::off: return detail::read_off(input);
+        case Format::stl: return detail::read_stl(input);
+        case Format::unknown: break;
+    }
+    input.fail("unknown mesh format (expected PLY, OBJ, OFF or STL)");
+}
+
+// ---- weld -----------------------------------------------------------------------------------------
+
+constexpr uint32_t kNone = UINT32_MAX;
+
+// The bytes of one vertex across the attribute arrays the mesh has.
+struct VertexBytes {
+    const float* positions;
+    const float* normals;  // null when absent, like the others
+    const uint8_t* colors;
+    const float* uvs;
+
+    static uint64_t mix(uint64_t h, uint64_t word) {
+        h = (h ^ word) * 0x9E3779B97F4A7C15ull;
+        return h ^ (h >> 31);
+    }
+    static uint64_t xyz_words(uint64_t h, const float* p) {
+        uint64_t a;
+        uint32_t b;
+        std::memcpy(&a, p, 8);
+        std::memcpy(&b, p + 2, 4);
+        return mix(mix(h, a), b);
+    }
+    uint64_t hash(size_t i) const {
+        uint64_t h = xyz_words(0x51ED270B27A4B8C1ull, positions + 3 * i);
+        if (normals) h = xyz_words(h, normals + 3 * i);
+        if (colors) {
+            uint32_t rgba;
+            std::memcpy(&rgba, colors + 4 * i, 4);
+            h = mix(h, rgba);
+        }
+        if (uvs) {
+            uint64_t uv;
+            std::memcpy(&uv, uvs + 2 * i, 8);
+            h = mix(h, uv);
+        }
+        // murmur3's finalizer: the table index takes the low bits, the tag the high ones.
+        h ^= h >> 33;
+        h *= 0xff51afd7ed558ccdull;
+        h ^= h >> 33;
+        h *= 0xc4ceb9fe1a85ec53ull;
+        return h ^ (h >> 33);
+    }
+    bool same_position(size_t a, size_t b) const { return std::memcmp(positions + 3 * a, positions + 3 * b, 12) == 0; }
+    bool equal(size_t a, size_t b) const {
+        return same_position(a, b) && (!normals || std::memcmp(normals + 3 * a, normals + 3 * b, 12) == 0) &&
+               (!colors || std::memcmp(colors + 4 * a, colors + 4 * b, 4) == 0) &&
+               (!uvs || std::memcmp(uvs + 2 * a, uvs + 2 * b, 8) == 0);
+    }
+};
+
+// Scratch arrays for weld, straight from mmap: already zeroed (no fill pass) and on huge pages.
+template <class T>
+class PageArray {
+public:
+    explicit PageArray(size_t count) : count_(count), bytes_(count * sizeof(T) + kHuge) {
+        void* mapped = ::mmap(nullptr, bytes_, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+        if (mapped == MAP_FAILED) throw std::bad_alloc();
+        base_ = mapped;
+        const uintptr_t aligned = (reinterpret_cast<uintptr_t>(mapped) + kHuge - 1) & ~(kHuge - 1);
+        data_ = reinterpret_cast<T*>(aligned);
+        detail::advise_huge_pages(data_, count * sizeof(T));
+    }
+    ~PageArray() { ::munmap(base_, bytes_); }
+    PageArray(const PageArray&) = delete;
+    PageArray& operator=(const PageArray&) = delete;
+
+    T& operator[](size_t i) { return data_[i]; }
+    T* data() { return data_; }
+    size_t size() const { return count_; }
+
+private:
+    static constexpr size_t kHuge = size_t(2) << 20;
+    size_t count_;
+    size_t bytes_;
+    void* base_ = nullptr;
+    T* data_ = nullptr;
+};
+
+bool any_index_at_least(const std::vector<uint32_t>& indices, uint32_t n) {
+    // Fixed-size blocks of branch-free compares, which GCC vectorizes at -O2.
+    constexpr size_t kBlock = 64;
+    const uint32_t* idx = indices.data();
+    size_t i = 0;
+    for (; i + kBlock <= indices.size(); i += kBlock) {
+        uint32_t bad = 0;
+        for (size_t k = 0; k < kBlock; ++k) bad |= uint32_t(idx[i + k] >= n);
+        if (bad) return true;
+    }
+    for (; i < indices.size(); ++i)
+        if (idx[i] >= n) return true;
+    return false;
+}
+
+void check_weldable(const Mesh& mesh) {
+    const size_t n = mesh.vertex_count();
+    if (mesh.positions.size() % 3 != 0) throw std::invalid_argument("weld: positions are not xyz triples");
+    if (n >= kNone) throw std::invalid_argument("weld: too many vertices for 32-bit indices");
+    if (mesh.has_normals() && mesh.normals.size() != 3 * n) throw std::invalid_argument("weld: normals size");
+    if (mesh.has_colors() && mesh.colors.size() != 4 * n) throw std::invalid_argument("weld: colors size");
+    if (mesh.has_uvs() && mesh.uvs.size() != 2 * n) throw std::invalid_argument("weld: uvs size");
+    if (mesh.indices.size() % 3 != 0) throw std::invalid_argument("weld: indices are not triangles");
+    if (any_index_at_least(mesh.indices, uint32_t(n)))
+        throw std::invalid_argument("weld: index past the vertex count");
+}
+
+// -0.0 + 0.0 == +0.0, so after this equal values have equal bits and byte hashing is exact. (The
+// compiler may not drop the addition: without -ffast-math it is not an identity.) Fixed-size blocks
+// let GCC vectorize it at -O2.
+void canonicalize_zeros(std::vector<float>& values) {
+    constexpr size_t kBlock = 16;
+    float* v = values.data();
+    size_t i = 0;
+    for (; i + kBlock <= values.size(); i += kBlock)
+        for (size_t k = 0; k < kBlock; ++k) v[i + k] += 0.0f;
+    for (; i < values.size(); ++i) v[i] += 0.0f;
+}
+
+// representative[i]: the first vertex equal to i. An open-addressing table of (hash tag, vertex + 1),
+// 0 meaning empty, with the slot of a vertex a few iterations ahead prefetched: every probe of a table
+// this size is a cache miss, and prefetching overlaps them.
+void find_representatives(const VertexBytes& bytes, PageArray<uint32_t>& representative) {
+    const size_t n = representative.size();
+    const size_t capacity = std::bit_ceil(std::max<size_t>(16, n + n / 2));
+    const size_t mask = capacity - 1;
+    PageArray<uint64_t> table(capacity);
+    constexpr size_t kAhead = 16;
+    std::array<uint64_t, kAhead> pending{};
+    for (size_t i = 0; i < std::min(n, kAhead); ++i) {
+        pending[i] = bytes.hash(i);
+        __builtin_prefetch(&table[pending[i] & mask]);
+    }
+    for (size_t i = 0; i < n; ++i) {
+        const uint64_t h = pending[i % kAhead];
+        if (i + kAhead < n) {
+            const uint64_t later = bytes.hash(i + kAhead);
+            pending[i % kAhead] = later;
+            __builtin_prefetch(&table[later & mask], 1);
+        }
+        const uint64_t tag = h >> 32;
+        for (size_t slot = h & mask;; slot = (slot + 1) & mask) {
+            const uint64_t entry = table[slot];
+            if (entry == 0) {
+                table[slot] = (tag << 32) | (i + 1);
+                representative[i] = uint32_t(i);
+                break;
+            }
+            const uint32_t other = uint32_t(entry) - 1;
+            if ((entry >> 32) == tag && bytes.equal(other, i)) {
+                representative[i] = other;
+                break;
+            }
+        }
+    }
+}
+
+// Rewrites triangles onto representatives and drops those with two corners at one position. Without
+// attributes, representatives are unique per position, so comparing indices is enough.
+void keep_proper_triangles(Mesh& mesh, const VertexBytes& bytes, PageArray<uint32_t>& representative) {
+    const bool seams_possible = bytes.normals || bytes.colors || bytes.uvs;
+    uint32_t* idx = mesh.indices.data();
+    size_t kept = 0;
+    for (size_t t = 0; t < mesh.indices.size(); t += 3) {
+        const uint32_t a = representative[idx[t]], b = representative[idx[t + 1]], c = representative[idx[t + 2]];
+        if (a == b || b == c || a == c) continue;
+        if (seams_possible && (bytes.same_position(a, b) || bytes.same_position(b, c) || bytes.same_position(a, c)))
+            continue;
+        idx[kept] = a;
+        idx[kept + 1] = b;
+        idx[kept + 2] = c;
+        kept += 3;
+    }
+    mesh.indices.resize(kept);
+}
+
+template <class T>
+void move_vertex(std::vector<T>& values, size_t width, size_t from, size_t to) {
+    if (values.empty()) return;
+    std::copy_n(values.begin() + from * width, width, values.begin() + to * width);
+}
+
+// Drops vertices no triangle uses, keeping the order of the rest; `scratch` is reused as the new ids.
+void compact_vertices(Mesh& mesh, PageArray<uint32_t>& scratch) {
+    PageArray<uint32_t>& new_id = scratch;
+    std::fill_n(new_id.data(), new_id.size(), kNone);
+    for (uint32_t index : mesh.indices) new_id[index] = 0;
+    uint32_t next = 0;
+    for (size_t v = 0; v < new_id.size(); ++v) {
+        if (new_id[v] == kNone) continue;
+        new_id[v] = next;
+        if (v != next) {
+            move_vertex(mesh.positions, 3, v, next);
+            move_vertex(mesh.normals, 3, v, next);
+            move_vertex(mesh.colors, 4, v, next);
+            move_vertex(mesh.uvs, 2, v, next);
+        }
+        ++next;
+    }
+    if (next == new_id.size()) return;  // nothing dropped: ids unchanged
+    for (uint32_t& index : mesh.indices) index = new_id[index];
+    mesh.positions.resize(size_t(next) * 3);
+    if (mesh.has_normals()) mesh.normals.resize(size_t(next) * 3);
+    if (mesh.has_colors()) mesh.colors.resize(size_t(next) * 4);
+    if (mesh.has_uvs()) mesh.uvs.resize(size_t(next) * 2);
+}
+
+// ---- write_ply ------------------------------------------------------------------------------------
+
+// A temporary file beside the target that is removed unless commit() renamed it into place.
+class TempFile {
+public:
+    TempFile(const std::filesystem::path& target, std::string name) : target_(target), name_(std::move(name)) {
+        static std::atomic<unsigned> counter{0};
+        std::string leaf = "." + target.filename().string() + ".tmp-" + std::to_string(::getpid()) + "-" +
+                           std::to_string(counter.fetch_add(1));
+        temp_ = target.parent_path() / leaf;
+        file_ = std::fopen(temp_.c_str(), "wbx");
+        if (!file_) fail("cannot create temporary file " + temp_.string(), errno);
+        std::setvbuf(file_, nullptr, _IOFBF, size_t(1) << 20);
+    }
+    ~TempFile() {
+        if (file_) std::fclose(file_);
+        if (!committed_) {
+            std::error_code ignored;
+            std::filesystem::remove(temp_, ignored);
+        }
+    }
+    TempFile(const TempFile&) = delete;
+    TempFile& operator=(const TempFile&) = delete;
+
+    void write(const void* data, size_t size) {
+        if (size && std::fwrite(data, 1, size, file_) != size) fail("write failed", errno);
+    }
+    void write(std::string_view text) { write(text.data(), text.size()); }
+
+    void commit() {
+        if (std::fflush(file_) != 0 || ::fsync(::fileno(file_)) != 0) fail("write failed", errno);
+        int closed = std::fclose(file_);
+        file_ = nullptr;
+        if (closed != 0) fail("write failed", errno);
+        std::error_code ec;
+        std::filesystem::rename(temp_, target_, ec);
+        if (ec) throw std::runtime_error(name_ + ": cannot rename temporary file into place (" + ec.message() + ")");
+        committed_ = true;
+    }
+
+private:
+    [[noreturn]] void fail(const std::string& what, int error) {
+        throw std::runtime_error(name_ + ": " + what + " (" + std::strerror(error) + ")");
+    }
+    std::filesystem::path target_;
+    std::filesystem::path temp_;
+    std::string name_;
+    std::FILE* file_ = nullptr;
+    bool committed_ = false;
+};
+
+void check_writable(const Mesh& mesh, const std::string& name) {
+    try {
+        check_weldable(mesh);  // the same consistency rules
+    } catch (const std::invalid_argument& e) {
+        throw std::runtime_error(name + ": cannot write an inconsistent mesh (" + e.what() + ")");
+    }
+}
+
+std::string ply_header(const Mesh& mesh, PlyEncoding encoding) {
+    static constexpr std::array<const char*, 3> kFormats = {"binary_little_endian", "binary_big_endian", "ascii"};
+    std::string h = "ply\nformat " + std::string(kFormats[size_t(encoding)]) + " 1.0\ncomment written by strata\n";
+    if (!mesh.texture.empty()) h += "comment TextureFile " + mesh.texture + "\n";
+    h += "element vertex " + std::to_string(mesh.vertex_count()) + "\n";
+    h += "property float x\nproperty float y\nproperty float z\n";
+    if (mesh.has_normals()) h += "property float nx\nproperty float ny\nproperty float nz\n";
+    if (mesh.has_colors())
+        h += "property uchar red\nproperty uchar green\nproperty uchar blue\nproperty uchar alpha\n";
+    if (mesh.has_uvs()) h += "property float u\nproperty float v\n";
+    h += "element face " + std::to_string(mesh.triangle_count()) + "\n";
+    h += "property list uchar uint vertex_indices\nend_header\n";
+    return h;
+}
+
+// Appends 4-byte words in the file's byte order.
+template <bool Swap>
+void put_words(std::vector<char>& out, const void* words, size_t count) {
+    const size_t at = out.size();
+    out.resize(at + 4 * count);
+    char* dst = out.data() + at;
+    for (size_t i = 0; i < count; ++i) {
+        uint32_t w;
+        std::memcpy(&w, static_cast<const char*>(words) + 4 * i, 4);
+        if constexpr (Swap) w = __builtin_bswap32(w);
+        std::memcpy(dst + 4 * i, &w, 4);
+    }
+}
+
+constexpr size_t kWriteChunk = size_t(1) << 20;
+
+template <bool Swap>
+void write_binary_body(TempFile& file, const Mesh& mesh) {
+    std::vector<char> buffer;
+    buffer.reserve(kWriteChunk + 64);
+    for (size_t v = 0; v < mesh.vertex_count(); ++v) {
+        put_words<Swap>(buffer, &mesh.positions[3 * v], 3);
+        if (mesh.has_normals()) put_words<Swap>(buffer, &mesh.normals[3 * v], 3);
+        if (mesh.has_colors()) buffer.insert(buffer.end(), &mesh.colors[4 * v], &mesh.colors[4 * v] + 4);
+        if (mesh.has_uvs()) put_words<Swap>(buffer, &mesh.uvs[2 * v], 2);
+        if (buffer.size() >= kWriteChunk) file.write(buffer.data(), buffer.size()), buffer.clear();
+    }
+    for (size_t t = 0; t < mesh.indices.size(); t += 3) {
+        buffer.push_back(3);
+        put_words<Swap>(buffer, &mesh.indices[t], 3);
+        if (buffer.size() >= kWriteChunk) file.write(buffer.data(), buffer.size()), buffer.clear();
+    }
+    file.write(buffer.data(), buffer.size());
+}
+
+// Shortest text that reads back as exactly the same value (std::to_chars round-trips).
+template <class T>
+void put_text(std::string& out, T value, char separator) {
+    char digits[32];
+    auto [end, ec] = std::to_chars(digits, digits + sizeof digits, value);
+    out.append(digits, end);
+    out += separator;
+}
+
+void write_ascii_body(TempFile& file, const Mesh& mesh) {
+    std::string buffer;
+    for (size_t v = 0; v < mesh.vertex_count(); ++v) {
+        for (int k = 0; k < 3; ++k) put_text(buffer, mesh.positions[3 * v + k], ' ');
+        if (mesh.has_normals())
+            for (int k = 0; k < 3; ++k) put_text(buffer, mesh.normals[3 * v + k], ' ');
+        if (mesh.has_colors())
+            for (int k = 0; k < 4; ++k) put_text(buffer, unsigned(mesh.colors[4 * v + k]), ' ');
+        if (mesh.has_uvs())
+            for (int k = 0; k < 2; ++k) put_text(buffer, mesh.uvs[2 * v + k], ' ');
+        buffer.back() = '\n';
+        if (buffer.size() >= kWriteChunk) file.write(buffer), buffer.clear();
+    }
+    for (size_t t = 0; t < mesh.indices.size(); t += 3) {
+        buffer += "3 ";
+        for (int k = 0; k < 3; ++k) put_text(buffer, mesh.indices[t + k], k == 2 ? '\n' : ' ');
+        if (buffer.size() >= kWriteChunk) file.write(buffer), buffer.clear();
+    }
+    file.write(buffer);
+}
+
+}  // namespace
+
+Mesh read_mesh(const std::filesystem::path& path, const Progress& progress) {
+    const std::string name = path.string();
+    MappedFile file(path, name);
+    const detail::ReadInput input{path, name, file.data(), file.size(), progress};
+    Format format = sniff_content(file.data(), file.size());
+    if (format == Format::unknown) format = format_from_extension(path);
+    progress("read", 0, double(file.size()), "B");
+    progress.check();
+    Mesh mesh = read_format(format, input);
+    weld(mesh);
+    progress("read", double(file.size()), double(file.size()), "B");
+    return mesh;
+}
+
+void weld(Mesh& mesh) {
+    check_weldable(mesh);
+    canonicalize_zeros(mesh.positions);
+    canonicalize_zeros(mesh.normals);
+    canonicalize_zeros(mesh.uvs);
+    const VertexBytes bytes{mesh.positions.data(), mesh.has_normals() ? mesh.normals.data() : nullptr,
+                            mesh.has_colors() ? mesh.colors.data() : nullptr,
+                            mesh.has_uvs() ? mesh.uvs.data() : nullptr};
+    PageArray<uint32_t> representative(mesh.vertex_count());
+    find_representatives(bytes, representative);
+    keep_proper_triangles(mesh, bytes, representative);
+    compact_vertices(mesh, representative);
+}
+
+void write_ply(const std::filesystem::path& path, const Mesh& mesh, PlyEncoding encoding) {
+    const std::string name = path.string();
+    check_writable(mesh, name);
+    TempFile file(path, name);
+    file.write(ply_header(mesh, encoding));
+    constexpr bool kLittleHost = std::endian::native == std::endian::little;
+    switch (encoding) {
+        case PlyEncoding::binary_little_endian: write_binary_body<!kLittleHost>(file, mesh); break;
+        case PlyEncoding::binary_big_endian: write_binary_body<kLittleHost>(file, mesh); break;
+        case PlyEncoding::ascii: write_ascii_body(file, mesh); break;
+    }
+    file.commit();
+}
+
+}  // namespace strata

@@ -1,0 +1,176 @@
+// Internal to mesh import: the per-format readers that read_mesh() dispatches to, and the small pieces
+// they share (error reporting, progress ticks, text scanning, number parsing). Not a public API.
+#pragma once
+
+#include <charconv>
+#include <cstddef>
+#include <cstdint>
+#include <cstring>
+#include <filesystem>
+#include <string>
+#include <string_view>
+#include <system_error>
+#include <vector>
+
+#include "preprocess/mesh.h"
+#include "preprocess/progress.h"
+
+namespace strata::detail {
+
+// One whole input file, mapped into memory, plus what every reader needs to report about it.
+struct ReadInput {
+    const std::filesystem::path& path;
+    std::string name;  // path as the user gave it; every error message starts with it
+    const char* data = nullptr;
+    size_t size = 0;
+    const Progress& progress;
+
+    [[noreturn]] void fail(std::string_view what) const {
+        throw InputError(name + ": " + std::string(what));
+    }
+};
+
+// Entry points, one per format. Each returns the mesh as the file lists it (not yet welded) and throws
+// InputError for malformed input. read_mesh() picks one by content, then welds.
+Mesh read_ply(const ReadInput& input);
+Mesh read_obj(const ReadInput& input);
+Mesh read_off(const ReadInput& input);
+Mesh read_stl(const ReadInput& input);
+
+// Asks for transparent huge pages on [data, data + bytes) before its first touch: for arrays of
+// hundreds of MB, 4 KB page faults and TLB misses otherwise cost more than the parsing itself.
+void advise_huge_pages(const void* data, size_t bytes);
+
+// Reserves a large vector's storage untouched, so advise_huge_pages() still applies to it.
+template <class T>
+void reserve_huge(std::vector<T>& values, size_t count) {
+    values.reserve(count);
+    advise_huge_pages(values.data(), count * sizeof(T));
+}
+
+// Index of the first vertex (xyz triple) with a NaN or infinite coordinate, or `count` if all are finite.
+size_t first_non_finite(const float* xyz, size_t count);
+
+// Reports "read" progress and polls cancellation every few MB, however often at() is called.
+class ReadTicker {
+public:
+    static constexpr size_t kStep = size_t(4) << 20;
+
+    ReadTicker(const Progress& progress, size_t total) : progress_(progress), total_(total) {}
+    void at(size_t done) {
+        if (done >= next_) tick(done);
+    }
+    void finish() { tick(total_); }
+
+private:
+    void tick(size_t done) {
+        progress_("read", double(done), double(total_), "B");
+        progress_.check();
+        next_ = done + kStep;
+    }
+    const Progress& progress_;
+    size_t total_;
+    size_t next_ = 0;
+};
+
+// ---- text scanning --------------------------------------------------------------------------------
+
+inline bool is_space(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\n' || c == '\f' || c == '\v'; }
+inline bool is_blank(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\f' || c == '\v'; }
+
+// 1-based line number of `at` within [begin, ...): only computed when an error needs it.
+inline size_t line_number(const char* begin, const char* at) {
+    size_t line = 1;
+    for (const char* p = begin; p < at; ++p) line += (*p == '\n');
+    return line;
+}
+
+// Splits a line (or any text) into whitespace-separated tokens.
+class Tokens {
+public:
+    Tokens(const char* begin, const char* end) : p_(begin), end_(end) {}
+    explicit Tokens(std::string_view text) : p_(text.data()), end_(text.data() + text.size()) {}
+
+    // The next token, or an empty view at the end.
+    std::string_view next() {
+        while (p_ < end_ && is_space(*p_)) ++p_;
+        const char* start = p_;
+        while (p_ < end_ && !is_space(*p_)) ++p_;
+        return {start, size_t(p_ - start)};
+    }
+    // Whatever is left, without surrounding blanks (a name that may contain spaces).
+    std::string_view rest() {
+        while (p_ < end_ && is_space(*p_)) ++p_;
+        const char* e = end_;
+        while (e > p_ && is_space(e[-1])) --e;
+        return {p_, size_t(e - p_)};
+    }
+    // Skips the rest of the current line (a free-form name such as STL's "solid <name>").
+    void skip_line() {
+        const void* nl = std::memchr(p_, '\n', size_t(end_ - p_));
+        p_ = nl ? static_cast<const char*>(nl) + 1 : end_;
+    }
+    bool at_end() {
+        while (p_ < end_ && is_space(*p_)) ++p_;
+        return p_ == end_;
+    }
+    const char* position() const { return p_; }
+
+private:
+    const char* p_;
+    const char* end_;
+};
+
+// Splits text into lines; the returned line excludes the '\n' and a trailing '\r'.
+class Lines {
+public:
+    Lines(const char* begin, const char* end) : p_(begin), end_(end) {}
+
+    bool next(std::string_view& line) {
+        if (p_ >= end_) return false;
+        const char* start = p_;
+        const void* nl = std::memchr(p_, '\n', size_t(end_ - p_));
+        const char* stop = nl ? static_cast<const char*>(nl) : end_;
+        p_ = nl ? stop + 1 : end_;
+        ++line_;
+        if (stop > start && stop[-1] == '\r') --stop;
+        line = {start, size_t(stop - start)};
+        return true;
+    }
+    size_t line() const { return line_; }  // 1-based number of the line last returned
+    const char* position() const { return p_; }
+
+private:
+    const char* p_;
+    const char* end_;
+    size_t line_ = 0;
+};
+
+// ---- numbers --------------------------------------------------------------------------------------
+// std::from_chars: locale-independent and exact. It rejects a leading '+', which some writers emit.
+
+template <class T>
+bool parse_number(std::string_view token, T& out) {
+    if (!token.empty() && token[0] == '+') token.remove_prefix(1);
+    if (token.empty()) return false;
+    auto [end, ec] = std::from_chars(token.data(), token.data() + token.size(), out);
+    return ec == std::errc() && end == token.data() + token.size();
+}
+
+// A float 0..1 colour channel as a byte, clamped, NaN as 0.
+inline uint8_t unit_to_byte(double value) {
+    if (!(value > 0.0)) return 0;
+    if (value >= 1.0) return 255;
+    return uint8_t(value * 255.0 + 0.5);
+}
+
+// Quotes a token for an error message, shortened so a binary blob cannot flood the message.
+inline std::string quoted(std::string_view token) {
+    constexpr size_t kMax = 40;
+    std::string out = "'";
+    for (char c : token.substr(0, kMax)) out += (static_cast<unsigned char>(c) < 32 ? '?' : c);
+    if (token.size() > kMax) out += "...";
+    return out + "'";
+}
+
+}  // namespace strata::detail

@@ -1,0 +1,782 @@
+// PLY reader: ascii, binary_little_endian and binary_big_endian. Scans are mostly binary PLY with the
+// plain layout (float x y z [+ fixed-size extras], faces as uchar 3 + int indices), so that layout
+// gets column loops over chunks of the mapped file and a 13-bytes-per-face loop; anything else goes
+// through a slower per-property walk that handles lists and unknown elements.
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "preprocess/mesh_readers.h"
+
+namespace strata::detail {
+namespace {
+
+// ---- header ---------------------------------------------------------------------------------------
+
+enum class PlyType : uint8_t { int8, uint8, int16, uint16, int32, uint32, float32, float64 };
+
+size_t type_size(PlyType type) {
+    static constexpr std::array<size_t, 8> kSizes = {1, 1, 2, 2, 4, 4, 4, 8};
+    return kSizes[size_t(type)];
+}
+bool is_integer(PlyType type) { return type < PlyType::float32; }
+
+bool parse_type(std::string_view name, PlyType& type) {
+    struct Named {
+        std::string_view a, b;
+        PlyType type;
+    };
+    static constexpr std::array<Named, 8> kTypes = {{{"char", "int8", PlyType::int8},
+                                                     {"uchar", "uint8", PlyType::uint8},
+                                                     {"short", "int16", PlyType::int16},
+                                                     {"ushort", "uint16", PlyType::uint16},
+                                                     {"int", "int32", PlyType::int32},
+                                                     {"uint", "uint32", PlyType::uint32},
+                                                     {"float", "float32", PlyType::float32},
+                                                     {"double", "float64", PlyType::float64}}};
+    for (const Named& named : kTypes) {
+        if (name == named.a || name == named.b) {
+            type = named.type;
+            return true;
+        }
+    }
+    return false;
+}
+
+struct PlyProperty {
+    std::string name;
+    PlyType type = PlyType::float32;  // the value type, or a list's item type
+    bool is_list = false;
+    PlyType count_type = PlyType::uint8;
+};
+
+struct PlyElement {
+    std::string name;
+    uint64_t count = 0;
+    std::vector<PlyProperty> properties;
+
+    bool has_lists() const {
+        return std::any_of(properties.begin(), properties.end(), [](const PlyProperty& p) { return p.is_list; });
+    }
+    // Bytes of one record when it has no lists.
+    size_t fixed_size() const {
+        size_t size = 0;
+        for (const PlyProperty& p : properties) size += type_size(p.type);
+        return size;
+    }
+    // What error messages call the records: "vertices", "faces", "edge elements".
+    std::string noun() const {
+        if (name == "vertex") return "vertices";
+        if (name == "face") return "faces";
+        return "'" + name + "' elements";
+    }
+};
+
+enum class PlyFormat { ascii, binary_little_endian, binary_big_endian };
+
+struct PlyHeader {
+    PlyFormat format = PlyFormat::ascii;
+    std::vector<PlyElement> elements;
+    size_t body_offset = 0;
+    std::string texture;  // "comment TextureFile name", as MeshLab writes it
+};
+
+class HeaderParser {
+public:
+    explicit HeaderParser(const ReadInput& input) : input_(input), lines_(input.data, input.data + input.size) {}
+
+    PlyHeader parse() {
+        std::string_view line;
+        lines_.next(line);  // "ply", checked by the caller
+        bool have_format = false;
+        while (lines_.next(line)) {
+            Tokens tokens(line);
+            std::string_view keyword = tokens.next();
+            if (keyword == "end_header") {
+                if (!have_format) fail("header has no 'format' line");
+                header_.body_offset = size_t(lines_.position() - input_.data);
+                return std::move(header_);
+            }
+            if (keyword.empty() || keyword == "obj_info") continue;
+            if (keyword == "comment") {
+                comment(tokens);
+            } else if (keyword == "format") {
+                format(tokens);
+                have_format = true;
+            } else if (keyword == "element") {
+                element(tokens);
+            } else if (keyword == "property") {
+                property(tokens);
+            } else {
+                fail("unexpected header line " + quoted(line));
+            }
+        }
+        fail("header has no 'end_header' line");
+    }
+
+private:
+    [[noreturn]] void fail(const std::string& what) const {
+        input_.fail("PLY header line " + std::to_string(lines_.line()) + ": " + what);
+    }
+    void comment(Tokens& tokens) {
+        if (tokens.next() == "TextureFile" && header_.texture.empty()) header_.texture = std::string(tokens.rest());
+    }
+    void format(Tokens& tokens) {
+        std::string_view name = tokens.next();
+        if (name == "ascii") header_.format = PlyFormat::ascii;
+        else if (name == "binary_little_endian") header_.format = PlyFormat::binary_little_endian;
+        else if (name == "binary_big_endian") header_.format = PlyFormat::binary_big_endian;
+        else fail("unknown format " + quoted(name));
+    }
+    void element(Tokens& tokens) {
+        PlyElement element;
+        element.name = std::string(tokens.next());
+        std::string_view count = tokens.next();
+        if (element.name.empty() || count.empty()) fail("element needs a name and a count");
+        if (count[0] == '-') fail("element '" + element.name + "' has a negative count " + std::string(count));
+        if (!parse_number(count, element.count))
+            fail("element '" + element.name + "' has a bad count " + quoted(count));
+        header_.elements.push_back(std::move(element));
+    }
+    PlyType type(std::string_view name) const {
+        PlyType t;
+        if (!parse_type(name, t)) fail("unknown property type " + quoted(name));
+        return t;
+    }
+    void property(Tokens& tokens) {
+        if (header_.elements.empty()) fail("property before any element");
+        PlyProperty p;
+        std::string_view first = tokens.next();
+        if (first == "list") {
+            p.is_list = true;
+            p.count_type = type(tokens.next());
+            if (!is_integer(p.count_type)) fail("list count type must be an integer type");
+            p.type = type(tokens.next());
+        } else {
+            p.type = type(first);
+        }
+        p.name = std::string(tokens.next());
+        if (p.name.empty()) fail("property has no name");
+        header_.elements.back().properties.push_back(std::move(p));
+    }
+
+    const ReadInput& input_;
+    Lines lines_;
+    PlyHeader header_;
+};
+
+// ---- which vertex property feeds which attribute ---------------------------------------------------
+
+enum Slot : int8_t { kX, kY, kZ, kNx, kNy, kNz, kRed, kGreen, kBlue, kAlpha, kU, kV, kSlotCount, kNoSlot = -1 };
+
+Slot slot_of(std::string_view name) {
+    struct Named {
+        std::string_view name;
+        Slot slot;
+    };
+    static constexpr std::array<Named, 26> kNames = {{
+        {"x", kX}, {"y", kY}, {"z", kZ},
+        {"nx", kNx}, {"ny", kNy}, {"nz", kNz}, {"normal_x", kNx}, {"normal_y", kNy}, {"normal_z", kNz},
+        {"red", kRed}, {"green", kGreen}, {"blue", kBlue}, {"alpha", kAlpha},
+        {"diffuse_red", kRed}, {"diffuse_green", kGreen}, {"diffuse_blue", kBlue}, {"diffuse_alpha", kAlpha},
+        {"u", kU}, {"v", kV}, {"s", kU}, {"t", kV},
+        {"texture_u", kU}, {"texture_v", kV}, {"texture_s", kU}, {"texture_t", kV}, {"texcoord_u", kU},
+    }};
+    for (const Named& named : kNames)
+        if (named.name == name) return named.slot;
+    return kNoSlot;
+}
+
+struct VertexLayout {
+    std::array<int, kSlotCount> property{};  // index into the element's properties, or -1
+    std::vector<Slot> slot_of_property;      // the inverse, kNoSlot for skipped properties
+    bool normals = false, colors = false, alpha = false, uvs = false;
+};
+
+VertexLayout vertex_layout(const ReadInput& input, const PlyElement& element) {
+    VertexLayout layout;
+    layout.property.fill(-1);
+    for (size_t i = 0; i < element.properties.size(); ++i) {
+        const PlyProperty& p = element.properties[i];
+        Slot slot = slot_of(p.name);
+        if (slot == kNoSlot || layout.property[slot] >= 0) continue;
+        if (p.is_list) input.fail("vertex property '" + p.name + "' is a list, expected a number");
+        layout.property[slot] = int(i);
+    }
+    auto all = [&](std::initializer_list<Slot> slots) {
+        return std::all_of(slots.begin(), slots.end(), [&](Slot s) { return layout.property[s] >= 0; });
+    };
+    if (!all({kX, kY, kZ})) input.fail("PLY vertex element lacks an x, y or z property");
+    layout.normals = all({kNx, kNy, kNz});
+    layout.colors = all({kRed, kGreen, kBlue});
+    layout.alpha = layout.colors && layout.property[kAlpha] >= 0;
+    layout.uvs = all({kU, kV});
+    // Forget partial groups (a lone nx), so nothing is stored for an attribute the mesh will not have.
+    auto drop = [&](bool keep, std::initializer_list<Slot> slots) {
+        if (!keep)
+            for (Slot s : slots) layout.property[s] = -1;
+    };
+    drop(layout.normals, {kNx, kNy, kNz});
+    drop(layout.colors, {kRed, kGreen, kBlue});
+    drop(layout.alpha, {kAlpha});
+    drop(layout.uvs, {kU, kV});
+    layout.slot_of_property.assign(element.properties.size(), kNoSlot);
+    for (int s = 0; s < kSlotCount; ++s)
+        if (layout.property[s] >= 0) layout.slot_of_property[size_t(layout.property[s])] = Slot(s);
+    return layout;
+}
+
+// Colour channels come as bytes, 16-bit, or float 0..1; the mesh keeps bytes.
+uint8_t color_byte(double value, PlyType type) {
+    if (!is_integer(type)) return unit_to_byte(value);
+    if (type == PlyType::uint16 || type == PlyType::int16) value /= 257.0;
+    return uint8_t(std::clamp(value, 0.0, 255.0));
+}
+
+void size_attributes(Mesh& mesh, const VertexLayout& layout, size_t count) {
+    reserve_huge(mesh.positions, 3 * count);
+    mesh.positions.resize(3 * count);
+    if (layout.normals) reserve_huge(mesh.normals, 3 * count), mesh.normals.resize(3 * count);
+    if (layout.colors) reserve_huge(mesh.colors, 4 * count), mesh.colors.assign(4 * count, 255);  // opaque by default
+    if (layout.uvs) reserve_huge(mesh.uvs, 2 * count), mesh.uvs.resize(2 * count);
+}
+
+void store(Mesh& mesh, size_t vertex, Slot slot, double value, PlyType type) {
+    if (slot <= kZ) mesh.positions[3 * vertex + size_t(slot)] = float(value);
+    else if (slot <= kNz) mesh.normals[3 * vertex + size_t(slot - kNx)] = float(value);
+    else if (slot <= kAlpha) mesh.colors[4 * vertex + size_t(slot - kRed)] = color_byte(value, type);
+    else mesh.uvs[2 * vertex + size_t(slot - kU)] = float(value);
+}
+
+// Builds triangles from polygons, fanning around the first corner.
+class TriangleSink {
+public:
+    explicit TriangleSink(std::vector<uint32_t>& out) : out_(out) {}
+    void reserve_triangles(size_t count) {
+        reserve_huge(out_, used_ + 3 * count);
+        out_.resize(used_ + 3 * count);
+    }
+    void polygon(const uint32_t* corners, size_t n) {
+        if (used_ + 3 * (n - 2) > out_.size()) out_.resize(std::max(2 * out_.size(), used_ + 3 * (n - 2)));
+        for (size_t k = 1; k + 1 < n; ++k) {
+            out_[used_++] = corners[0];
+            out_[used_++] = corners[k];
+            out_[used_++] = corners[k + 1];
+        }
+    }
+    // Room for `triangles` more without growing, for loops that write directly.
+    uint32_t* room(size_t triangles) { return used_ + 3 * triangles <= out_.size() ? out_.data() + used_ : nullptr; }
+    size_t free_triangles() const { return (out_.size() - used_) / 3; }
+    void advance(size_t triangles) { used_ += 3 * triangles; }
+    void finish() { out_.resize(used_); }
+
+private:
+    std::vector<uint32_t>& out_;
+    size_t used_ = 0;
+};
+
+// ---- binary ---------------------------------------------------------------------------------------
+
+template <class T>
+T byte_swapped(T value) {
+    if constexpr (sizeof(T) == 1) return value;
+    using U = std::conditional_t<sizeof(T) == 2, uint16_t, std::conditional_t<sizeof(T) == 4, uint32_t, uint64_t>>;
+    U bits;
+    std::memcpy(&bits, &value, sizeof(T));
+    if constexpr (sizeof(T) == 2) bits = __builtin_bswap16(bits);
+    if constexpr (sizeof(T) == 4) bits = __builtin_bswap32(bits);
+    if constexpr (sizeof(T) == 8) bits = __builtin_bswap64(bits);
+    std::memcpy(&value, &bits, sizeof(T));
+    return value;
+}
+
+template <class T, bool Swap>
+T load(const char* p) {
+    T value;
+    std::memcpy(&value, p, sizeof(T));
+    if constexpr (Swap) value = byte_swapped(value);
+    return value;
+}
+
+// Calls fn(T{}) with the C++ type of a PLY type: one switch per column or element, not per value.
+template <class Fn>
+decltype(auto) with_type(PlyType type, Fn&& fn) {
+    switch (type) {
+        case PlyType::int8: return fn(int8_t{});
+        case PlyType::uint8: return fn(uint8_t{});
+        case PlyType::int16: return fn(int16_t{});
+        case PlyType::uint16: return fn(uint16_t{});
+        case PlyType::int32: return fn(int32_t{});
+        case PlyType::uint32: return fn(uint32_t{});
+        case PlyType::float32: return fn(float{});
+        case PlyType::float64: break;
+    }
+    return fn(double{});
+}
+
+double load_number(const char* p, PlyType type, bool swap) {
+    return with_type(type, [&]<class T>(T) {
+        return double(swap ? load<T, true>(p) : load<T, false>(p));
+    });
+}
+
+// One attribute of a run of vertices: strided source bytes to a strided float or byte array.
+using FloatColumn = void (*)(const char* src, size_t stride, size_t n, float* dst, size_t dst_stride);
+using ByteColumn = void (*)(const char* src, size_t stride, size_t n, uint8_t* dst);
+
+template <class T, bool Swap>
+void float_column(const char* src, size_t stride, size_t n, float* dst, size_t dst_stride) {
+    for (size_t i = 0; i < n; ++i) dst[i * dst_stride] = float(load<T, Swap>(src + i * stride));
+}
+
+template <class T, bool Swap>
+void color_column(const char* src, size_t stride, size_t n, uint8_t* dst) {
+    constexpr PlyType kType = std::is_same_v<T, uint8_t> ? PlyType::uint8
+                              : std::is_same_v<T, int8_t> ? PlyType::int8
+                              : std::is_same_v<T, uint16_t> ? PlyType::uint16
+                              : std::is_same_v<T, int16_t> ? PlyType::int16
+                              : std::is_floating_point_v<T> ? PlyType::float32
+                                                            : PlyType::int32;
+    for (size_t i = 0; i < n; ++i) {
+        if constexpr (std::is_same_v<T, uint8_t>) dst[4 * i] = uint8_t(src[i * stride]);
+        else dst[4 * i] = color_byte(double(load<T, Swap>(src + i * stride)), kType);
+    }
+}
+
+FloatColumn float_column_for(PlyType type, bool swap) {
+    return with_type(type, [&]<class T>(T) -> FloatColumn {
+        return swap ? &float_column<T, true> : &float_column<T, false>;
+    });
+}
+ByteColumn color_column_for(PlyType type, bool swap) {
+    return with_type(type, [&]<class T>(T) -> ByteColumn {
+        return swap ? &color_column<T, true> : &color_column<T, false>;
+    });
+}
+
+// Walks the binary body of a PLY file element by element.
+class BinaryBody {
+public:
+    BinaryBody(const ReadInput& input, const PlyHeader& header, ReadTicker& ticker)
+        : input_(input),
+          p_(input.data + header.body_offset),
+          end_(input.data + input.size),
+          ticker_(ticker),
+          swap_((header.format == PlyFormat::binary_big_endian) != (std::endian::native == std::endian::big)) {}
+
+    void vertices(const PlyElement& element, const VertexLayout& layout, Mesh& mesh) {
+        if (element.has_lists()) return vertices_with_lists(element, layout, mesh);
+        const size_t stride = element.fixed_size();
+        require_records(element, stride);
+        size_attributes(mesh, layout, element.count);
+        std::vector<size_t> offsets = property_offsets(element);
+        constexpr size_t kChunk = 1 << 14;  // a chunk's source bytes stay in L2 across the columns
+        for (size_t first = 0; first < element.count; first += kChunk) {
+            const size_t n = std::min<size_t>(kChunk, element.count - first);
+            vertex_chunk(element, layout, offsets, p_ + first * stride, stride, first, n, mesh);
+            ticker_.at(size_t(p_ - input_.data) + (first + n) * stride);
+        }
+        p_ += element.count * stride;
+    }
+
+    void faces(const PlyElement& element, size_t list, uint32_t vertex_count, Mesh& mesh) {
+        require_min_records(element, min_face_bytes(element, list));
+        TriangleSink sink(mesh.indices);
+        sink.reserve_triangles(element.count);
+        const bool plain = element.properties.size() == 1 && type_size(element.properties[0].count_type) == 1 &&
+                           type_size(element.properties[0].type) == 4;
+        std::vector<uint32_t> corners;
+        for (uint64_t face = 0; face < element.count;) {
+            if (plain) face = swap_ ? plain_triangles<true>(face, element.count, vertex_count, sink)
+                                    : plain_triangles<false>(face, element.count, vertex_count, sink);
+            if (face == element.count) break;
+            any_face(element, list, face, vertex_count, corners, sink);
+            ++face;
+            if ((face & 0xffff) == 0) ticker_.at(size_t(p_ - input_.data));
+        }
+        sink.finish();
+    }
+
+    void skip(const PlyElement& element) {
+        if (element.properties.empty()) return;
+        if (!element.has_lists()) {
+            require_records(element, element.fixed_size());
+            p_ += element.count * element.fixed_size();
+            return;
+        }
+        for (uint64_t i = 0; i < element.count; ++i) {
+            for (const PlyProperty& p : element.properties) skip_property(p, element, i);
+            if ((i & 0xffff) == 0) ticker_.at(size_t(p_ - input_.data));
+        }
+    }
+
+private:
+    [[noreturn]] void truncated(const PlyElement& element, uint64_t complete) const {
+        input_.fail("expected " + std::to_string(element.count) + " " + element.noun() + ", file ends after " +
+                    std::to_string(complete));
+    }
+    size_t remaining() const { return size_t(end_ - p_); }
+
+    // Checked before allocating, so a lying count cannot drive a huge allocation.
+    void require_records(const PlyElement& element, size_t record_bytes) const {
+        if (element.count > remaining() / record_bytes) truncated(element, remaining() / record_bytes);
+    }
+    void require_min_records(const PlyElement& element, size_t min_record_bytes) const {
+        if (element.count > remaining() / min_record_bytes)
+            input_.fail("expected " + std::to_string(element.count) + " " + element.noun() + ", but only " +
+                        std::to_string(remaining()) + " bytes are left, room for at most " +
+                        std::to_string(remaining() / min_record_bytes));
+    }
+    void need(size_t bytes, const PlyElement& element, uint64_t record) const {
+        if (bytes > remaining()) truncated(element, record);
+    }
+
+    static std::vector<size_t> property_offsets(const PlyElement& element) {
+        std::vector<size_t> offsets;
+        size_t at = 0;
+        for (const PlyProperty& p : element.properties) offsets.push_back(at), at += type_size(p.type);
+        return offsets;
+    }
+
+    void vertex_chunk(const PlyElement& element, const VertexLayout& layout, const std::vector<size_t>& offsets,
+                      const char* src, size_t stride, size_t first, size_t n, Mesh& mesh) const {
+        for (int s = 0; s < kSlotCount; ++s) {
+            const int prop = layout.property[s];
+            if (prop < 0) continue;
+            const PlyType type = element.properties[size_t(prop)].type;
+            const char* column = src + offsets[size_t(prop)];
+            if (s >= kRed && s <= kAlpha) {
+                color_column_for(type, swap_)(column, stride, n, &mesh.colors[4 * first + size_t(s - kRed)]);
+            } else if (s == kX && xyz_packed(element, layout, offsets)) {
+                copy_xyz(column, stride, n, &mesh.positions[3 * first]);
+                s = kZ;  // y and z came along
+            } else {
+                auto [dst, width, base] = float_target(s, mesh);
+                float_column_for(type, swap_)(column, stride, n, dst + width * first + size_t(s - base), width);
+            }
+        }
+    }
+
+    struct FloatTarget {
+        float* data;
+        size_t width;
+        int first_slot;
+    };
+    static FloatTarget float_target(int slot, Mesh& mesh) {
+        if (slot <= kZ) return {mesh.positions.data(), 3, kX};
+        if (slot <= kNz) return {mesh.normals.data(), 3, kNx};
+        return {mesh.uvs.data(), 2, kU};
+    }
+
+    // The common case: float x y z next to each other in file byte order = host order.
+    bool xyz_packed(const PlyElement& element, const VertexLayout& layout, const std::vector<size_t>& offsets) const {
+        if (swap_) return false;
+        for (int k = 0; k < 3; ++k) {
+            const size_t prop = size_t(layout.property[kX + k]);
+            if (element.properties[prop].type != PlyType::float32) return false;
+            if (offsets[prop] != offsets[size_t(layout.property[kX])] + 4 * size_t(k)) return false;
+        }
+        return true;
+    }
+    static void copy_xyz(const char* src, size_t stride, size_t n, float* dst) {
+        if (stride == 12) return void(std::memcpy(dst, src, 12 * n));
+        for (size_t i = 0; i < n; ++i) std::memcpy(dst + 3 * i, src + i * stride, 12);
+    }
+
+    void vertices_with_lists(const PlyElement& element, const VertexLayout& layout, Mesh& mesh) {
+        size_t min_bytes = 0;
+        for (const PlyProperty& p : element.properties)
+            min_bytes += p.is_list ? type_size(p.count_type) : type_size(p.type);
+        require_min_records(element, min_bytes);
+        size_attributes(mesh, layout, element.count);
+        for (uint64_t v = 0; v < element.count; ++v) {
+            for (size_t i = 0; i < element.properties.size(); ++i) {
+                const PlyProperty& p = element.properties[i];
+                const Slot slot = layout.slot_of_property[i];
+                if (slot == kNoSlot) {
+                    skip_property(p, element, v);
+                    continue;
+                }
+                need(type_size(p.type), element, v);
+                store(mesh, v, slot, load_number(p_, p.type, swap_), p.type);
+                p_ += type_size(p.type);
+            }
+            if ((v & 0xffff) == 0) ticker_.at(size_t(p_ - input_.data));
+        }
+    }
+
+    void skip_property(const PlyProperty& p, const PlyElement& element, uint64_t record) {
+        if (!p.is_list) {
+            need(type_size(p.type), element, record);
+            p_ += type_size(p.type);
+            return;
+        }
+        need(type_size(p.count_type), element, record);
+        const double n = load_number(p_, p.count_type, swap_);
+        p_ += type_size(p.count_type);
+        if (n < 0)
+            input_.fail(element.name + " " + std::to_string(record) + ": list '" + p.name + "' has negative length");
+        need(size_t(n) * type_size(p.type), element, record);
+        p_ += size_t(n) * type_size(p.type);
+    }
+
+    static size_t min_face_bytes(const PlyElement& element, size_t list) {
+        size_t bytes = 0;
+        for (size_t i = 0; i < element.properties.size(); ++i) {
+            const PlyProperty& p = element.properties[i];
+            bytes += p.is_list ? type_size(p.count_type) : type_size(p.type);
+            if (i == list) bytes += 3 * type_size(p.type);
+        }
+        return bytes;
+    }
+
+    // Faces that are exactly "uchar 3, three 4-byte indices": as many in a row as possible, stopping at
+    // anything else (polygon, bad index, end of data) for any_face() to handle or report.
+    template <bool Swap>
+    uint64_t plain_triangles(uint64_t face, uint64_t count, uint32_t vertex_count, TriangleSink& sink) {
+        constexpr uint64_t kBatch = 1 << 16;
+        while (face < count) {
+            const uint64_t batch = std::min({count - face, kBatch, uint64_t(sink.free_triangles()),
+                                             uint64_t(remaining() / 13)});
+            uint32_t* out = sink.room(batch);
+            uint64_t done = 0;
+            for (; done < batch; ++done) {
+                const char* record = p_ + 13 * done;
+                if (record[0] != 3) break;
+                const uint32_t a = load<uint32_t, Swap>(record + 1), b = load<uint32_t, Swap>(record + 5),
+                               c = load<uint32_t, Swap>(record + 9);
+                if (a >= vertex_count || b >= vertex_count || c >= vertex_count) break;
+                out[3 * done] = a, out[3 * done + 1] = b, out[3 * done + 2] = c;
+            }
+            p_ += 13 * done;
+            sink.advance(done);
+            face += done;
+            ticker_.at(size_t(p_ - input_.data));
+            if (done < batch || batch == 0) break;
+        }
+        return face;
+    }
+
+    void any_face(const PlyElement& element, size_t list, uint64_t face, uint32_t vertex_count,
+                  std::vector<uint32_t>& corners, TriangleSink& sink) {
+        for (size_t i = 0; i < element.properties.size(); ++i) {
+            const PlyProperty& p = element.properties[i];
+            if (i != list) {
+                skip_property(p, element, face);
+                continue;
+            }
+            need(type_size(p.count_type), element, face);
+            const double n = load_number(p_, p.count_type, swap_);
+            p_ += type_size(p.count_type);
+            if (n < 3) input_.fail("face " + std::to_string(face) + " has " + std::to_string(int64_t(n)) +
+                                   " corners, at least 3 needed");
+            const size_t item = type_size(p.type);
+            need(size_t(n) * item, element, face);
+            corners.resize(size_t(n));
+            for (size_t k = 0; k < corners.size(); ++k, p_ += item)
+                corners[k] = checked_index(load_number(p_, p.type, swap_), face, vertex_count);
+            sink.polygon(corners.data(), corners.size());
+        }
+    }
+
+    uint32_t checked_index(double index, uint64_t face, uint32_t vertex_count) const {
+        if (!(index >= 0 && index < vertex_count))
+            input_.fail("face " + std::to_string(face) + " indexes vertex " + std::to_string(int64_t(index)) + " of " +
+                        std::to_string(vertex_count));
+        return uint32_t(index);
+    }
+
+    const ReadInput& input_;
+    const char* p_;
+    const char* end_;
+    ReadTicker& ticker_;
+    bool swap_;
+};
+
+// ---- ascii ----------------------------------------------------------------------------------------
+
+class AsciiBody {
+public:
+    AsciiBody(const ReadInput& input, const PlyHeader& header, ReadTicker& ticker)
+        : input_(input), tokens_(input.data + header.body_offset, input.data + input.size), ticker_(ticker) {}
+
+    void vertices(const PlyElement& element, const VertexLayout& layout, Mesh& mesh) {
+        size_attributes(mesh, layout, plausible_count(element));
+        for (uint64_t v = 0; v < element.count; ++v) {
+            for (size_t i = 0; i < element.properties.size(); ++i) {
+                const PlyProperty& p = element.properties[i];
+                const Slot slot = layout.slot_of_property[i];
+                if (slot == kNoSlot) {
+                    skip_property(p, element, v);
+                    continue;
+                }
+                store(mesh, v, slot, number(p.type, element, v), p.type);
+            }
+            ticker_.at(offset());
+        }
+    }
+
+    void faces(const PlyElement& element, size_t list, uint32_t vertex_count, Mesh& mesh) {
+        TriangleSink sink(mesh.indices);
+        sink.reserve_triangles(plausible_count(element));
+        std::vector<uint32_t> corners;
+        for (uint64_t face = 0; face < element.count; ++face) {
+            for (size_t i = 0; i < element.properties.size(); ++i) {
+                const PlyProperty& p = element.properties[i];
+                if (i != list) {
+                    skip_property(p, element, face);
+                    continue;
+                }
+                const double n = number(p.count_type, element, face);
+                if (n < 3) fail("face " + std::to_string(face) + " has " + std::to_string(int64_t(n)) +
+                                " corners, at least 3 needed");
+                corners.clear();
+                for (double k = 0; k < n; ++k)
+                    corners.push_back(index(number(p.type, element, face), face, vertex_count));
+                sink.polygon(corners.data(), corners.size());
+            }
+            ticker_.at(offset());
+        }
+        sink.finish();
+    }
+
+    void skip(const PlyElement& element) {
+        if (element.properties.empty()) return;
+        for (uint64_t i = 0; i < element.count; ++i) {
+            for (const PlyProperty& p : element.properties) skip_property(p, element, i);
+            ticker_.at(offset());
+        }
+    }
+
+    // Anything after the last element means the header's counts were too small.
+    void finish() {
+        if (!tokens_.at_end())
+            fail("unexpected data " + quoted(tokens_.next()) + " after the last element (header counts too small?)");
+    }
+
+private:
+    size_t offset() const { return size_t(tokens_.position() - input_.data); }
+    [[noreturn]] void fail(const std::string& what) const {
+        input_.fail("line " + std::to_string(line_number(input_.data, tokens_.position())) + ": " + what);
+    }
+
+    // At most one record per two bytes left (a digit and a separator), so a lying header count cannot
+    // make us allocate more than the file could hold; a real shortfall fails when the tokens run out.
+    size_t plausible_count(const PlyElement& element) const {
+        const size_t tokens = std::max<size_t>(1, element.properties.size());
+        const size_t bound = (input_.size - offset()) / (2 * tokens) + 1;
+        return size_t(std::min<uint64_t>(element.count, bound));
+    }
+
+    double number(PlyType type, const PlyElement& element, uint64_t record) {
+        std::string_view token = tokens_.next();
+        if (token.empty())
+            input_.fail("expected " + std::to_string(element.count) + " " + element.noun() + ", file ends after " +
+                        std::to_string(record));
+        double value = 0;
+        bool ok;
+        if (is_integer(type)) {
+            int64_t i = 0;
+            ok = parse_number(token, i);
+            value = double(i);
+        } else if (type == PlyType::float32) {
+            float f = 0;  // parsed as float, so a float written by to_chars reads back bit-exact
+            ok = parse_number(token, f);
+            value = f;
+        } else {
+            ok = parse_number(token, value);
+        }
+        if (!ok)
+            fail(element.name + " " + std::to_string(record) + ": expected " +
+                 (is_integer(type) ? "an integer" : "a number") + ", found " + quoted(token));
+        return value;
+    }
+
+    void skip_property(const PlyProperty& p, const PlyElement& element, uint64_t record) {
+        if (!p.is_list) return void(number(p.type, element, record));
+        const double n = number(p.count_type, element, record);
+        if (n < 0) fail(element.name + " " + std::to_string(record) + ": list '" + p.name + "' has negative length");
+        for (double k = 0; k < n; ++k) number(p.type, element, record);
+    }
+
+    uint32_t index(double value, uint64_t face, uint32_t vertex_count) const {
+        if (!(value >= 0 && value < vertex_count))
+            fail("face " + std::to_string(face) + " indexes vertex " + std::to_string(int64_t(value)) + " of " +
+                 std::to_string(vertex_count));
+        return uint32_t(value);
+    }
+
+    const ReadInput& input_;
+    Tokens tokens_;
+    ReadTicker& ticker_;
+};
+
+// ---- putting it together --------------------------------------------------------------------------
+
+const PlyElement* find_element(const PlyHeader& header, std::string_view name, const ReadInput& input) {
+    const PlyElement* found = nullptr;
+    for (const PlyElement& element : header.elements) {
+        if (element.name != name) continue;
+        if (found) input.fail("PLY header has more than one '" + std::string(name) + "' element");
+        found = &element;
+    }
+    return found;
+}
+
+size_t face_list(const ReadInput& input, const PlyElement& face) {
+    for (size_t i = 0; i < face.properties.size(); ++i) {
+        const PlyProperty& p = face.properties[i];
+        if (p.name != "vertex_indices" && p.name != "vertex_index") continue;
+        if (!p.is_list) input.fail("face property '" + p.name + "' is not a list");
+        if (!is_integer(p.type)) input.fail("face property '" + p.name + "' has non-integer indices");
+        return i;
+    }
+    input.fail("PLY face element has no vertex_indices list");
+}
+
+template <class Body>
+void read_body(Body& body, const PlyHeader& header, const VertexLayout& layout, size_t list, uint32_t vertex_count,
+               Mesh& mesh) {
+    for (const PlyElement& element : header.elements) {
+        if (element.name == "vertex") body.vertices(element, layout, mesh);
+        else if (element.name == "face") body.faces(element, list, vertex_count, mesh);
+        else body.skip(element);
+    }
+}
+
+void check_positions(const ReadInput& input, const Mesh& mesh) {
+    const size_t bad = first_non_finite(mesh.positions.data(), mesh.vertex_count());
+    if (bad < mesh.vertex_count()) input.fail("vertex " + std::to_string(bad) + " has a NaN or infinite coordinate");
+}
+
+}  // namespace
+
+Mesh read_ply(const ReadInput& input) {
+    const PlyHeader header = HeaderParser(input).parse();
+    const PlyElement* vertex = find_element(header, "vertex", input);
+    const PlyElement* face = find_element(header, "face", input);
+    if (!vertex) input.fail("PLY file has no vertex element");
+    if (vertex->count >= UINT32_MAX) input.fail("too many vertices (" + std::to_string(vertex->count) + ")");
+    const VertexLayout layout = vertex_layout(input, *vertex);
+    const size_t list = face ? face_list(input, *face) : 0;
+    const uint32_t vertex_count = uint32_t(vertex->count);
+
+    Mesh mesh;
+    mesh.texture = header.texture;
+    ReadTicker ticker(input.progress, input.size);
+    if (header.format == PlyFormat::ascii) {
+        AsciiBody body(input, header, ticker);
+        read_body(body, header, layout, list, vertex_count, mesh);
+        body.finish();
+    } else {
+        BinaryBody body(input, header, ticker);
+        read_body(body, header, layout, list, vertex_count, mesh);
+    }
+    check_positions(input, mesh);
+    return mesh;
+}
+
+}  // namespace strata::detail

@@ -1,0 +1,138 @@
+// STL reader, binary and ASCII. STL is a triangle soup (every triangle has its own three corners), so
+// this emits three vertices per triangle and leaves it to weld() to make the mesh indexed. Facet normals
+// are ignored: they are often wrong and the corners' order already gives the orientation.
+#include <algorithm>
+#include <bit>
+#include <cstring>
+#include <numeric>
+#include <string>
+
+#include "preprocess/mesh_readers.h"
+
+namespace strata::detail {
+namespace {
+
+constexpr size_t kHeaderBytes = 84;     // 80 free-form bytes + uint32 triangle count
+constexpr size_t kTriangleBytes = 50;   // normal, three corners (12 floats), uint16 attribute
+
+uint32_t triangle_count(const ReadInput& input) {
+    uint32_t count;
+    std::memcpy(&count, input.data + 80, 4);
+    if constexpr (std::endian::native == std::endian::big) count = __builtin_bswap32(count);
+    return count;
+}
+
+// Binary STLs may start with "solid" too; a size that matches the count settles it, otherwise an
+// ASCII file says "facet" early on.
+bool is_ascii(const ReadInput& input) {
+    if (input.size >= kHeaderBytes && kHeaderBytes + kTriangleBytes * uint64_t(triangle_count(input)) == input.size)
+        return false;
+    Tokens tokens(input.data, input.data + input.size);
+    if (tokens.next() != "solid") return false;
+    const std::string_view start(input.data, std::min<size_t>(input.size, 1024));
+    return start.find("facet") != std::string_view::npos || start.find("endsolid") != std::string_view::npos;
+}
+
+void check_corners(const ReadInput& input, const Mesh& mesh) {
+    const size_t bad = first_non_finite(mesh.positions.data(), mesh.vertex_count());
+    if (bad < mesh.vertex_count())
+        input.fail("triangle " + std::to_string(bad / 3) + " has a NaN or infinite coordinate");
+}
+
+void sequential_indices(Mesh& mesh) {
+    reserve_huge(mesh.indices, mesh.vertex_count());
+    mesh.indices.resize(mesh.vertex_count());
+    std::iota(mesh.indices.begin(), mesh.indices.end(), 0u);
+}
+
+Mesh read_binary(const ReadInput& input) {
+    if (input.size < kHeaderBytes)
+        input.fail("too small for a binary STL (" + std::to_string(input.size) + " bytes) and not an ASCII STL");
+    const uint64_t count = triangle_count(input);
+    const uint64_t present = (input.size - kHeaderBytes) / kTriangleBytes;
+    if (present < count)  // extra bytes after the triangles are tolerated; missing ones are not
+        input.fail("expected " + std::to_string(count) + " triangles, file ends after " + std::to_string(present));
+    if (3 * count >= UINT32_MAX) input.fail("too many triangles (" + std::to_string(count) + ")");
+    Mesh mesh;
+    reserve_huge(mesh.positions, 9 * count);
+    mesh.positions.resize(9 * count);
+    ReadTicker ticker(input.progress, input.size);
+    const char* src = input.data + kHeaderBytes;
+    for (uint64_t t = 0; t < count; ++t) {
+        std::memcpy(&mesh.positions[9 * t], src + kTriangleBytes * t + 12, 36);
+        if ((t & 0xffff) == 0) ticker.at(kHeaderBytes + kTriangleBytes * t);
+    }
+    if constexpr (std::endian::native == std::endian::big) {
+        for (float& f : mesh.positions) {
+            uint32_t bits = __builtin_bswap32(std::bit_cast<uint32_t>(f));
+            f = std::bit_cast<float>(bits);
+        }
+    }
+    check_corners(input, mesh);
+    sequential_indices(mesh);
+    return mesh;
+}
+
+class AsciiParser {
+public:
+    explicit AsciiParser(const ReadInput& input)
+        : input_(input), tokens_(input.data, input.data + input.size), ticker_(input.progress, input.size) {}
+
+    Mesh parse() {
+        for (std::string_view token = tokens_.next(); !token.empty(); token = tokens_.next()) {
+            if (token == "solid" || token == "endsolid") tokens_.skip_line();  // followed by a free-form name
+            else if (token == "facet") facet_normal();
+            else if (token == "outer") expect("loop"), corners_ = 0;
+            else if (token == "vertex") vertex();
+            else if (token == "endloop") end_loop();
+            else if (token != "endfacet") fail("unexpected " + quoted(token));
+            ticker_.at(size_t(tokens_.position() - input_.data));
+        }
+        if (corners_ != 0) input_.fail("file ends inside a facet");
+        check_corners(input_, mesh_);
+        return std::move(mesh_);
+    }
+
+private:
+    [[noreturn]] void fail(const std::string& what) const {
+        input_.fail("line " + std::to_string(line_number(input_.data, tokens_.position())) + ": " + what);
+    }
+    void expect(std::string_view word) {
+        std::string_view token = tokens_.next();
+        if (token != word) fail("expected '" + std::string(word) + "', found " + quoted(token));
+    }
+    float number() {
+        std::string_view token = tokens_.next();
+        float value = 0;
+        if (!parse_number(token, value)) fail("expected a number, found " + quoted(token));
+        return value;
+    }
+    void facet_normal() {
+        expect("normal");
+        for (int k = 0; k < 3; ++k) number();
+    }
+    void vertex() {
+        for (int k = 0; k < 3; ++k) mesh_.positions.push_back(number());
+        ++corners_;
+    }
+    // A loop is normally a triangle; a longer one is fanned (its corners are already stored in order).
+    void end_loop() {
+        if (corners_ < 3) fail("facet has " + std::to_string(corners_) + " vertices, at least 3 needed");
+        const uint32_t first = uint32_t(mesh_.vertex_count() - corners_);
+        for (uint32_t k = 1; k + 1 < corners_; ++k)
+            mesh_.indices.insert(mesh_.indices.end(), {first, first + k, first + k + 1});
+        corners_ = 0;
+    }
+
+    const ReadInput& input_;
+    Tokens tokens_;
+    ReadTicker ticker_;
+    Mesh mesh_;
+    uint32_t corners_ = 0;
+};
+
+}  // namespace
+
+Mesh read_stl(const ReadInput& input) { return is_ascii(input) ? AsciiParser(input).parse() : read_binary(input); }
+
+}  // namespace strata::detail
