@@ -15,6 +15,7 @@ struct BuildOptions {
     std::string input, output, levels = "auto";
     BuildSettings settings;
     bool quiet = false;
+    bool verbose = false;
 };
 
 int run_build(const BuildOptions& o) {
@@ -35,6 +36,7 @@ int run_build(const BuildOptions& o) {
     auto start = std::chrono::steady_clock::now();
     try {
         Mesh mesh = read_mesh(o.input, progress);
+        const double read_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         const size_t triangles = mesh.triangle_count();
         BuildReport report = build_hlod(std::move(mesh), o.output, settings,
                                         std::filesystem::path(o.input).filename().string(), progress);
@@ -45,6 +47,14 @@ int run_build(const BuildOptions& o) {
             std::printf("%s: %zu triangles, %u levels, σ0 %.3g, ε_q %.3g, %.1f MB, %.2f s (%.2f M triangles/s)\n",
                         o.output.c_str(), triangles, report.max_level + 1, report.sigma0, report.error_q,
                         report.output_bytes / 1e6, seconds, triangles / seconds / 1e6);
+        if (o.verbose) {
+            for (const LevelStats& l : report.levels)
+                std::printf("  level %2u: %7llu cubes %11llu vertices %11llu triangles %10.2f MB\n", l.level,
+                            (unsigned long long)l.cubes, (unsigned long long)l.vertices,
+                            (unsigned long long)l.triangles, l.bytes / 1e6);
+            std::printf("  seconds: read %.2f, partition %.2f, simplify %.2f, normals %.2f, write %.2f\n", read_seconds,
+                        report.partition_seconds, report.simplify_seconds, report.normals_seconds, report.write_seconds);
+        }
         return kOk;
     } catch (const Cancelled&) {
         bar.finish();
@@ -69,6 +79,7 @@ Command add_build(CLI::App& app) {
     sub->add_option("--error", o->settings.error, "Stop simplifying a level at this error, relative to the cube size (ε_q)");
     sub->add_option("--threads", o->settings.threads, "Worker threads (0: every core)")->capture_default_str();
     sub->add_flag("-q,--quiet", o->quiet, "No progress bar and no summary");
+    sub->add_flag("-v,--verbose", o->verbose, "Also print each level's counts and each stage's time");
     return {sub, [o] { return run_build(*o); }};
 }
 
