@@ -184,16 +184,19 @@ double longest_edge(const Mesh& mesh) {
 }
 
 // Level L: every triangle in the cell of its barycenter; triangles are never cut (000 §3.2.3).
-Level partition(Mesh& mesh, const Frame& f) {
+Level partition(Mesh& mesh, const Frame& f, bool positions_may_repeat, unsigned threads) {
     const uint32_t L = f.max_level;
     const size_t triangles = mesh.triangle_count();
     // Sort by the dense linear index k·4^L + j·2^L + i (same order as CubeKey, fewer bits to sort).
     std::vector<uint64_t> linear(triangles);
-    for (size_t t = 0; t < triangles; ++t) {
-        const uint32_t* tri = &mesh.indices[3 * t];
-        auto c = cell_of(f, &mesh.positions[3 * tri[0]], &mesh.positions[3 * tri[1]], &mesh.positions[3 * tri[2]], L);
-        linear[t] = uint64_t(c[2]) << (2 * L) | uint64_t(c[1]) << L | uint64_t(c[0]);
-    }
+    constexpr size_t kChunk = 1 << 16;
+    parallel_for((triangles + kChunk - 1) / kChunk, threads, [&](size_t chunk, unsigned) {
+        for (size_t t = chunk * kChunk; t < std::min(triangles, (chunk + 1) * kChunk); ++t) {
+            const uint32_t* tri = &mesh.indices[3 * t];
+            auto c = cell_of(f, &mesh.positions[3 * tri[0]], &mesh.positions[3 * tri[1]], &mesh.positions[3 * tri[2]], L);
+            linear[t] = uint64_t(c[2]) << (2 * L) | uint64_t(c[1]) << L | uint64_t(c[0]);
+        }
+    });
     std::vector<uint32_t> order(triangles);
     std::iota(order.begin(), order.end(), 0u);
     radix_sort_ids(linear, order, int(3 * L));
@@ -210,10 +213,18 @@ Level partition(Mesh& mesh, const Frame& f) {
     }
     for (Cube& c : level.cubes) c.child_counts[0] = c.count;
     std::vector<uint32_t>().swap(mesh.indices);
+    // A welded mesh with no attribute but position has one wedge per point.
+    const bool one_wedge_per_point = !positions_may_repeat;
     level.positions = std::move(mesh.positions);
     level.colors = std::move(mesh.colors);
     level.uvs = std::move(mesh.uvs);
-    level.point_count = weld_points(level.positions, level.wedge_point);
+    if (one_wedge_per_point) {
+        level.wedge_point.resize(level.positions.size() / 3);
+        std::iota(level.wedge_point.begin(), level.wedge_point.end(), 0u);
+        level.point_count = level.wedge_count();
+    } else {
+        level.point_count = weld_points(level.positions, level.wedge_point);
+    }
     return level;
 }
 
@@ -508,7 +519,7 @@ EncodedCube encode_level_cube(const Level& level, const Cube& cube, const Level&
     }
     size_t group_first = 0;
     for (uint32_t count : cube.child_counts) {
-        if (count) meshopt_optimizeVertexCache(&indices[group_first], &indices[group_first], 3 * size_t(count), vertices.size());
+        if (count) meshopt_optimizeVertexCacheFifo(&indices[group_first], &indices[group_first], 3 * size_t(count), vertices.size(), 16);
         group_first += 3 * size_t(count);
     }
     std::vector<uint32_t> fetch_remap(vertices.size());
@@ -561,7 +572,7 @@ std::vector<Extra> write_level(const Level& level, const Level& parent_level, co
                                HlodWriter& writer, LevelStats& stats, const Progress& progress) {
     const std::string stage = "write level " + std::to_string(level.level);
     std::vector<Extra> needed;
-    const size_t batch = size_t(threads) * 16;
+    const size_t batch = size_t(threads) * 128;
     std::vector<EncodedCube> encoded;
     for (size_t first = 0; first < level.cubes.size(); first += batch) {
         progress.check();
@@ -639,7 +650,7 @@ BuildReport build_hlod(Mesh&& mesh, const std::filesystem::path& output, const B
     Level level;
     {
         StageTimer timer(report.partition_seconds);
-        level = partition(mesh, f);
+        level = partition(mesh, f, !input_normals.empty() || mesh.has_colors() || mesh.has_uvs(), threads);
     }
     {
         StageTimer timer(report.normals_seconds);

@@ -37,7 +37,8 @@ struct BuildReport {
     double partition_seconds = 0, simplify_seconds = 0, normals_seconds = 0, write_seconds = 0;
 };
 
-// Consumes the mesh (its arrays become level L). Throws InputError for input it cannot build
+// Consumes the mesh (its arrays become level L), which must be welded as read_mesh returns it: a
+// position repeats only on vertices whose attributes differ. Throws InputError for input it cannot build
 // (empty, flat to a point, settings out of range), Cancelled when progress.cancel is raised, and
 // std::runtime_error for output failures; in every case no output file is left behind.
 BuildReport build_hlod(Mesh&& mesh, const std::filesystem::path& output, const BuildSettings& settings,

@@ -173,23 +173,32 @@ float BlockSimplifier::attribute_error(uint32_t from, uint32_t to) const {
 }
 
 // Kinds are decided once, on the block as given: collapses that pass the link and boundary rules keep
-// interior points interior and boundary points on the boundary.
+// interior points interior and boundary points on the boundary. Edge u→x has a twin x→u exactly when x
+// also precedes u in one of u's triangles, so u's own corners tell everything.
 void BlockSimplifier::classify() {
     const uint32_t points = mesh_.point_count();
     kind_.assign(points, Kind::manifold);
     single_wedge_.assign(points, 1);
+    std::vector<uint32_t> nexts, prevs;
     for (uint32_t u = 0; u < points; ++u) {
-        int out_open = 0, in_open = 0;
-        bool complex = false;
+        nexts.clear(), prevs.clear();
         const uint32_t* first = adjacency_.begin(u);
         for (const uint32_t* c = first; c != adjacency_.end(u); ++c) {
-            uint32_t next = points_[next_corner(*c)], prev = points_[prev_corner(*c)];
+            nexts.push_back(points_[next_corner(*c)]);
+            prevs.push_back(points_[prev_corner(*c)]);
             if (wedges_[*c] != wedges_[*first]) single_wedge_[u] = 0;
-            int same = 0;
-            for (const uint32_t* s = first; s != adjacency_.end(u); ++s) same += points_[next_corner(*s)] == next;
-            complex |= same > 1;
-            out_open += !has_half_edge(next, u);
-            in_open += !has_half_edge(u, prev);
+        }
+        bool complex = false;
+        int out_open = 0, in_open = 0;
+        for (size_t i = 0; i < nexts.size(); ++i) {
+            bool twin_out = false, twin_in = false;
+            for (size_t j = 0; j < nexts.size(); ++j) {
+                complex |= j != i && (nexts[j] == nexts[i] || prevs[j] == prevs[i]);
+                twin_out |= prevs[j] == nexts[i];
+                twin_in |= nexts[j] == prevs[i];
+            }
+            out_open += !twin_out;
+            in_open += !twin_in;
         }
         if (mesh_.point_locked[u] || complex || out_open > 1 || out_open != in_open) kind_[u] = Kind::locked;
         else if (out_open == 1) kind_[u] = Kind::border;
