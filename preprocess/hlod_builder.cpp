@@ -238,13 +238,13 @@ void compute_normals(Level& level) {
         Vec3 a{p[0][0], p[0][1], p[0][2]}, b{p[1][0], p[1][1], p[1][2]}, d{p[2][0], p[2][1], p[2][2]};
         Vec3 n = cross(b - a, d - a);  // length = twice the area: the area weighting
         for (int c = 0; c < 3; ++c) {
-            float* s = &sum[3 * level.wedge_point[level.triangles[t + c]]];
+            float* s = &sum[3 * size_t(level.wedge_point[level.triangles[t + c]])];
             s[0] += n.x, s[1] += n.y, s[2] += n.z;
         }
     }
     level.normals.resize(level.wedge_count());
     for (uint32_t w = 0; w < level.wedge_count(); ++w) {
-        const float* s = &sum[3 * level.wedge_point[w]];
+        const float* s = &sum[3 * size_t(level.wedge_point[w])];
         level.normals[w] = encode_normal(s[0], s[1], s[2]);
     }
 }
@@ -317,11 +317,13 @@ BlockOutput simplify_one_block(const Level& level, const Block& block, const std
     uint32_t block_triangles = 0;
     for (uint32_t c : block.cubes) block_triangles += level.cubes[c].count;
 
+    // Scratch keeps its capacity from block to block: no allocation churn in the hot loop.
     BlockMesh& m = scratch.mesh;
-    m = BlockMesh{};
+    m.point_positions.clear(), m.point_locked.clear(), m.wedge_point.clear(), m.wedge_attributes.clear();
+    m.triangles.clear();
     m.attribute_count = (level.colors.empty() ? 0 : 4) + (level.uvs.empty() ? 0 : 2);
-    scratch.wedges.reset(3 * block_triangles);
-    scratch.points.reset(3 * block_triangles);
+    scratch.wedges.reset(block_triangles / 2 + 64);  // a closed mesh has about half as many vertices
+    scratch.points.reset(block_triangles / 2 + 64);
     scratch.local_to_wedge.clear();
     scratch.local_to_point.clear();
     m.triangles.reserve(3 * block_triangles);

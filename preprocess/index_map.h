@@ -1,10 +1,11 @@
 // An open-addressing hash map from 32-bit ids to 32-bit ids, for the hot loops that renumber vertices
-// (global → block-local, global → cube-local). Flat arrays, linear probing, no erase; reset() reuses
-// the storage, so a worker keeps one map for all its blocks.
+// (global → block-local, global → cube-local). Flat arrays, linear probing, no erase; it doubles when
+// half full, and reset() reuses the storage, so a worker keeps one map for all its blocks.
 #pragma once
 
 #include <cstdint>
 #include <algorithm>
+#include <stdexcept>
 #include <vector>
 
 namespace strata {
@@ -15,7 +16,7 @@ public:
 
     explicit IndexMap(size_t expected) { reset(expected); }
 
-    // Empties the map and sizes it for `expected` entries (load factor at most 1/2).
+    // Empties the map and sizes it for about `expected` entries.
     void reset(size_t expected) {
         size_t capacity = 16;
         while (capacity < 2 * expected) capacity *= 2;
@@ -26,6 +27,7 @@ public:
             std::fill(keys_.begin(), keys_.end(), kMissing);
         }
         mask_ = capacity - 1;
+        size_ = 0;
     }
 
     // The value stored for key, or kMissing.
@@ -43,6 +45,7 @@ public:
             if (keys_[slot] == kMissing) {
                 keys_[slot] = key;
                 values_[slot] = value;
+                if (2 * ++size_ > keys_.size()) grow();
                 return value;
             }
         }
@@ -55,6 +58,7 @@ public:
         for (size_t slot = mix(item_hash) & mask_;; slot = (slot + 1) & mask_) {
             if (keys_[slot] == kMissing) {
                 keys_[slot] = item;
+                if (2 * ++size_ > keys_.size()) throw std::logic_error("IndexMap: set-of-items mode needs its full size up front");
                 return item;
             }
             if (same(keys_[slot])) return keys_[slot];
@@ -62,6 +66,19 @@ public:
     }
 
 private:
+    void grow() {
+        std::vector<uint32_t> keys(keys_.size() * 2, kMissing), values(keys_.size() * 2);
+        const size_t mask = keys.size() - 1;
+        for (size_t i = 0; i < keys_.size(); ++i) {
+            if (keys_[i] == kMissing) continue;
+            size_t slot = hash(keys_[i]) & mask;
+            while (keys[slot] != kMissing) slot = (slot + 1) & mask;
+            keys[slot] = keys_[i], values[slot] = values_[i];
+        }
+        keys_.swap(keys), values_.swap(values);
+        mask_ = mask;
+    }
+
     static uint64_t mix(uint64_t h) {
         h ^= h >> 33;
         h *= 0xff51afd7ed558ccdull;
@@ -72,6 +89,7 @@ private:
 
     std::vector<uint32_t> keys_, values_;
     size_t mask_ = 0;
+    size_t size_ = 0;
 };
 
 }  // namespace strata

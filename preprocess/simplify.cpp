@@ -105,6 +105,7 @@ private:
     std::vector<float> error_;              // per point
     std::vector<uint32_t> wedge_remap_;     // per wedge
     std::vector<uint32_t> point_remap_;     // per point, this pass
+    std::vector<uint32_t> collapsed_;       // points collapsed this pass
     std::vector<Kind> kind_;                // per point, from the block as given
     std::vector<uint8_t> single_wedge_;     // per point: all its corners carry one wedge
     std::vector<uint8_t> pass_locked_;
@@ -324,6 +325,7 @@ uint32_t BlockSimplifier::collapse(uint32_t u, uint32_t w) {
     }
     error_[w] = std::max({error_[w], error_[u], geometric});
     point_remap_[u] = w;
+    collapsed_.push_back(u);
     uint32_t removed = 0;
     for (const uint32_t* c = adjacency_.begin(u); c != adjacency_.end(u); ++c) removed += corner_at(*c, w) != ~0u;
     return removed;
@@ -348,28 +350,35 @@ uint32_t BlockSimplifier::run_pass() {
 
     // Each collapse locks its two points for the pass, so many candidates get skipped; allow the pass
     // somewhat more error than the cheapest goal-many collapses would need (as meshoptimizer does).
+    // Candidates that fail a test do not count towards those goal-many: cheap ones that keep failing
+    // (a fold, a pinch) would otherwise set the bound and starve the pass. The bound applies once a
+    // tenth of the goal is done.
     const uint32_t live = uint32_t(wedges_.size() / 3);
     const uint32_t goal = live > limits_.target_triangles ? live - limits_.target_triangles : 0;
-    const size_t edge_goal = goal / 2;
-    float cost_bound = edge_goal < candidates_.size() ? 1.5f * candidates_[order_[edge_goal]].cost : 1e30f;
+    size_t bound_index = goal / 2;
+    auto cost_bound = [&] { return bound_index < order_.size() ? 1.5f * candidates_[order_[bound_index]].cost : 1e30f; };
 
     pass_locked_.assign(points, 0);
-    std::iota(point_remap_.begin(), point_remap_.end(), 0u);
     uint32_t removed = 0;
     for (uint32_t index : order_) {
         const Candidate& c = candidates_[index];
         if (removed >= goal) break;
-        if (c.cost > cost_bound && removed > 0) break;
+        if (c.cost > cost_bound() && removed > goal / 10) break;
         if (pass_locked_[c.from] || pass_locked_[c.to]) continue;
         float geometric = std::sqrt(quadrics_[c.from].evaluate(position(c.to)) /
                                     std::max(quadrics_[c.from].weight, 1e-30f));
-        if (geometric > limits_.max_error) continue;
-        if (!keeps_link(c.from, c.to) || flips(c.from, c.to)) continue;
-        if (!find_partners(c.from, c.to, pairs_)) continue;
+        if (geometric > limits_.max_error || !keeps_link(c.from, c.to) || flips(c.from, c.to) ||
+            !find_partners(c.from, c.to, pairs_)) {
+            ++bound_index;
+            continue;
+        }
         removed += collapse(c.from, c.to);
         pass_locked_[c.from] = pass_locked_[c.to] = 1;
     }
     if (removed) compact_triangles();
+    // point_remap_ is the identity again for the next pass: only collapsed points were changed.
+    for (uint32_t u : collapsed_) point_remap_[u] = u;
+    collapsed_.clear();
     return removed;
 }
 
@@ -400,6 +409,7 @@ SimplifyResult BlockSimplifier::run() {
     wedge_remap_.resize(mesh_.wedge_count());
     std::iota(wedge_remap_.begin(), wedge_remap_.end(), 0u);
     point_remap_.resize(points);
+    std::iota(point_remap_.begin(), point_remap_.end(), 0u);
     seen_.assign(points, 0);
 
     while (wedges_.size() / 3 > limits_.target_triangles && run_pass() > 0) {
