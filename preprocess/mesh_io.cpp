@@ -513,15 +513,21 @@ void write_ascii_body(TempFile& file, const Mesh& mesh) {
 
 Mesh read_mesh(const std::filesystem::path& path, const Progress& progress) {
     const std::string name = path.string();
-    MappedFile file(path, name);
-    const detail::ReadInput input{path, name, file.data(), file.size(), progress};
-    Format format = sniff_content(file.data(), file.size());
-    if (format == Format::unknown) format = format_from_extension(path);
-    progress("read", 0, double(file.size()), "B");
-    progress.check();
-    Mesh mesh = read_format(format, input);
+    Mesh mesh;
+    double size = 0;
+    {
+        // The mapping ends before weld, so the file's pages and weld's tables are never resident at once.
+        MappedFile file(path, name);
+        const detail::ReadInput input{path, name, file.data(), file.size(), progress};
+        Format format = sniff_content(file.data(), file.size());
+        if (format == Format::unknown) format = format_from_extension(path);
+        size = double(file.size());
+        progress("read", 0, size, "B");
+        progress.check();
+        mesh = read_format(format, input);
+    }
     weld(mesh);
-    progress("read", double(file.size()), double(file.size()), "B");
+    progress("read", size, size, "B");
     return mesh;
 }
 
