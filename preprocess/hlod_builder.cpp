@@ -24,6 +24,9 @@ namespace {
 // colour change costs like moving a tenth of a cube; a UV change of 1 like moving half a cube.
 constexpr float kColorWeight = 0.1f;
 constexpr float kUvWeight = 0.5f;
+// Scanned normals (level L only; coarser levels' normals come from their own triangles): a reversal
+// costs like moving a fifth of a cube.
+constexpr float kNormalWeight = 0.1f;
 // The 16-bit lattice holds a cell plus an overhang below half a cell on each side.
 constexpr float kMaxSigma0 = 0.45f;
 constexpr int kMaxLevels = 15;  // keeps the lattice integer q = 2^15·cell + … within 31 bits
@@ -52,6 +55,7 @@ struct Level {
     std::vector<uint8_t> colors;                  // 4 per wedge, or empty
     std::vector<float> uvs;                       // 2 per wedge, or empty
     std::vector<std::array<int16_t, 2>> normals;  // per wedge, octahedral
+    bool scanned_normals = false;                 // normals came with the input (an attribute to keep)
     std::vector<uint32_t> wedge_point;
     uint32_t point_count = 0;
     std::vector<uint32_t> triangles;
@@ -250,6 +254,7 @@ void compute_normals(Level& level) {
 }
 
 void take_input_normals(Level& level, const std::vector<float>& normals) {
+    level.scanned_normals = true;
     level.normals.resize(level.wedge_count());
     for (uint32_t w = 0; w < level.wedge_count(); ++w)
         level.normals[w] = encode_normal(normals[3 * w], normals[3 * w + 1], normals[3 * w + 2]);
@@ -321,7 +326,7 @@ BlockOutput simplify_one_block(const Level& level, const Block& block, const std
     BlockMesh& m = scratch.mesh;
     m.point_positions.clear(), m.point_locked.clear(), m.wedge_point.clear(), m.wedge_attributes.clear();
     m.triangles.clear();
-    m.attribute_count = (level.colors.empty() ? 0 : 4) + (level.uvs.empty() ? 0 : 2);
+    m.attribute_count = (level.colors.empty() ? 0 : 4) + (level.uvs.empty() ? 0 : 2) + (level.scanned_normals ? 3 : 0);
     scratch.wedges.reset(block_triangles / 2 + 64);  // a closed mesh has about half as many vertices
     scratch.points.reset(block_triangles / 2 + 64);
     scratch.local_to_wedge.clear();
@@ -347,6 +352,9 @@ BlockOutput simplify_one_block(const Level& level, const Block& block, const std
                     m.wedge_attributes.push_back(level.colors[4 * size_t(w) + k] * (kColorWeight / 255.0f));
                 for (int k = 0; k < 2 && !level.uvs.empty(); ++k)
                     m.wedge_attributes.push_back(level.uvs[2 * size_t(w) + k] * kUvWeight);
+                if (level.scanned_normals)
+                    for (float x : decode_normal(level.normals[w][0], level.normals[w][1]))
+                        m.wedge_attributes.push_back(x * kNormalWeight);
             }
             m.triangles.push_back(local);
         }

@@ -14,6 +14,8 @@ namespace {
 // An open boundary of the model is kept in shape by planes through its edges, perpendicular to the
 // surface, weighted well above the faces (DESIGN.md §2: not locked, but expensive to move).
 constexpr float kBoundaryWeight = 10.0f;
+// A seam (one position, two attribute charts) is held in shape by edge planes too, on each side.
+constexpr float kSeamWeight = 2.0f;
 
 // A collapse whose triangles turn by more than this (cosine of the angle) is refused: it would fold.
 constexpr float kMinNormalCosine = 0.0f;
@@ -73,6 +75,12 @@ private:
             if (points_[c] == point) return c;
         return ~0u;
     }
+    // The corner at `to` of the triangle that holds half-edge to→from (the twin of from→to), or ~0u.
+    uint32_t twin_corner(uint32_t from, uint32_t to) const {
+        for (const uint32_t* c = adjacency_.begin(to); c != adjacency_.end(to); ++c)
+            if (points_[next_corner(*c)] == from) return *c;
+        return ~0u;
+    }
     bool has_half_edge(uint32_t from, uint32_t to) const {
         for (const uint32_t* c = adjacency_.begin(from); c != adjacency_.end(from); ++c)
             if (points_[next_corner(*c)] == to) return true;
@@ -127,17 +135,26 @@ void BlockSimplifier::init_quadrics() {
         n = n * (1.0f / twice_area);
         for (int c = 0; c < 3; ++c) quadrics_[points_[t + c]].add_plane(n, -dot(n, p0), 0.5f * twice_area);
     }
-    // Boundary edges: a plane through the edge, perpendicular to its face.
+    // Boundary and seam edges: a plane through the edge, perpendicular to its face, so collapses along
+    // them keep the outline (and a seam's two sides keep matching). Both endpoints of such an edge are
+    // border, seam or locked points; an edge with a manifold end is neither.
     for (uint32_t corner = 0; corner < wedges_.size(); ++corner) {
         uint32_t a = points_[corner], b = points_[next_corner(corner)];
-        if (kind_[a] == Kind::manifold || kind_[a] == Kind::seam || has_half_edge(b, a)) continue;
+        if (kind_[a] == Kind::manifold || kind_[b] == Kind::manifold) continue;
+        uint32_t twin = twin_corner(a, b);
+        float weight = kBoundaryWeight;
+        if (twin != ~0u) {
+            bool seam = wedges_[corner] != wedges_[next_corner(twin)] || wedges_[next_corner(corner)] != wedges_[twin];
+            if (!seam) continue;
+            weight = kSeamWeight;
+        }
         Vec3 pa = position(a), pb = position(b), pc = position(points_[prev_corner(corner)]);
         Vec3 edge = pb - pa;
         Vec3 n = cross(edge, cross(edge, pc - pa));
         float len = length(n);
         if (len == 0) continue;
         n = n * (1.0f / len);
-        float w = kBoundaryWeight * dot(edge, edge);
+        float w = weight * dot(edge, edge);
         quadrics_[a].add_plane(n, -dot(n, pa), w);
         quadrics_[b].add_plane(n, -dot(n, pa), w);
     }

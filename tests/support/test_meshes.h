@@ -71,6 +71,35 @@ inline Mesh colored_grid(int n) {
     return m;
 }
 
+// An n×n grid cut by a UV seam down its middle column: the column's vertices exist twice (left chart
+// u, right chart u + 1), and every vertex carries a scanned normal.
+inline Mesh seamed_grid(int n) {
+    Mesh m;
+    const int seam = n / 2;
+    auto add = [&](int x, int y, float chart) {
+        float u = float(x) / n, v = float(y) / n;
+        float z = 0.1f * std::sin(6 * u) * std::cos(5 * v);
+        m.positions.insert(m.positions.end(), {u, v, z});
+        m.normals.insert(m.normals.end(), {0.0f, 0.0f, 1.0f});
+        m.uvs.insert(m.uvs.end(), {u + chart, v});
+        return uint32_t(m.positions.size() / 3 - 1);
+    };
+    std::vector<uint32_t> left((n + 1) * (n + 1)), right((n + 1) * (n + 1));
+    for (int y = 0; y <= n; ++y)
+        for (int x = 0; x <= n; ++x) {
+            uint32_t id = add(x, y, x > seam ? 1.0f : 0.0f);
+            left[y * (n + 1) + x] = right[y * (n + 1) + x] = id;
+            if (x == seam) right[y * (n + 1) + x] = add(x, y, 1.0f);
+        }
+    for (int y = 0; y < n; ++y)
+        for (int x = 0; x < n; ++x) {
+            const auto& ids = x < seam ? left : right;
+            auto at = [&](int i, int j) { return ids[j * (n + 1) + i]; };
+            m.indices.insert(m.indices.end(), {at(x, y), at(x + 1, y), at(x + 1, y + 1), at(x, y), at(x + 1, y + 1), at(x, y + 1)});
+        }
+    return m;
+}
+
 class TempDir {
 public:
     TempDir() {

@@ -62,5 +62,29 @@ TEST(Builder, OpenGridWithColoursAndUvsVerifies) {
     EXPECT_GT(v.triangles, 2u * 120 * 120);
 }
 
+TEST(Builder, UvSeamStaysASeamAndVerifies) {
+    test::TempDir dir;
+    BuildSettings s;
+    s.levels = 2;
+    build_hlod(test::seamed_grid(96), dir / "seam.hlod", s, "seam");
+    HlodFile file(dir / "seam.hlod");
+    ASSERT_TRUE(file.header().has_uvs());
+    verify_hlod(file);
+    // No triangle may mix the two charts (u < 0.5 + ε on the left, u ≥ 0.5 on the right copy): a
+    // collapse across the seam would smear the texture.
+    for (const HlodNode& n : file.nodes()) {
+        CubeData cube = file.read_cube(n);
+        for (size_t t = 0; t < cube.indices.size(); t += 3) {
+            int charts[2] = {0, 0};
+            for (int c = 0; c < 3; ++c) {
+                float u = cube.vertices.uvs[2 * size_t(cube.indices[t + c])];
+                if (u < 0.499f) charts[0]++;
+                if (u > 1.001f) charts[1]++;
+            }
+            EXPECT_FALSE(charts[0] && charts[1]) << describe_cube(n) << " triangle " << t / 3;
+        }
+    }
+}
+
 }  // namespace
 }  // namespace strata
