@@ -483,9 +483,11 @@ struct Extra {
     bool operator==(const Extra& o) const { return cube == o.cube && wedge == o.wedge; }
 };
 
+// q = round((x − O)/h_l), as a multiplication by 1/h_l (a power of two over L_c): the same code
+// quantizes a vertex in its cube and as a parent copy, so the two always agree.
 uint16_t lattice(const Frame& f, float x, int axis, uint32_t level, uint32_t cell) {
-    const double step = f.cube_size(level) / double(1 << kLatticeBits);
-    int64_t q = std::llround((double(x) - f.origin[axis]) / step);
+    const double inverse_step = double(uint64_t(1) << (level + kLatticeBits)) / f.root_size;
+    int64_t q = std::llround((double(x) - f.origin[axis]) * inverse_step);
     int64_t stored = q - (int64_t(cell) << kLatticeBits) + kLatticeBias;
     if (stored < 0 || stored > 0xFFFF)
         throw std::runtime_error("internal error: a level-" + std::to_string(level) +
@@ -519,7 +521,7 @@ EncodedCube encode_level_cube(const Level& level, const Cube& cube, const Level&
     // Index order for the codec: vertex-cache order within each child group keeps the groups whole.
     std::vector<uint32_t> global(level.triangles.begin() + 3 * size_t(cube.first),
                                  level.triangles.begin() + 3 * size_t(cube.first + cube.count));
-    IndexMap local_of(global.size() + extras.size());
+    IndexMap local_of(global.size() / 4 + extras.size() + 16);  // about half as many vertices as triangles
     std::vector<uint32_t> vertices;
     std::vector<uint32_t> indices(global.size());
     for (size_t i = 0; i < global.size(); ++i) {
@@ -545,7 +547,13 @@ EncodedCube encode_level_cube(const Level& level, const Cube& cube, const Level&
     data.child_triangle_counts = cube.child_counts;
     const uint32_t cell[3] = {key_i(cube.key), key_j(cube.key), key_k(cube.key)};
     const uint32_t parent_cell[3] = {key_i(parent_cube), key_j(parent_cube), key_k(parent_cube)};
-    IndexMap parent_slot(ordered.size());
+    IndexMap parent_slot(ordered.size() / 2 + 16);
+    for (VertexArrays* a : {&data.vertices, &data.parents}) {
+        a->positions.reserve(3 * ordered.size()), a->normals.reserve(2 * ordered.size());
+        if (flags & kHasColors) a->colors.reserve(4 * ordered.size());
+        if (flags & kHasUvs) a->uvs.reserve(2 * ordered.size());
+    }
+    data.parent_of.reserve(ordered.size());
     for (uint32_t w : ordered) {
         append_vertex(data.vertices, level, w, cell, f, flags);
         uint32_t slot = parent_slot.find_or_insert(parent[w], data.parents.size());
