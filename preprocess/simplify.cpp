@@ -114,6 +114,9 @@ private:
     std::vector<uint32_t> wedge_remap_;     // per wedge
     std::vector<uint32_t> point_remap_;     // per point, this pass
     std::vector<uint32_t> collapsed_;       // points collapsed this pass
+    std::vector<Candidate> best_;           // per point: its best collapse when last looked at
+    std::vector<uint8_t> has_best_;         // per point: best_ holds one
+    std::vector<uint8_t> dirty_;            // per point: best_ must be looked at again
     std::vector<Kind> kind_;                // per point, from the block as given
     std::vector<uint8_t> single_wedge_;     // per point: all its corners carry one wedge
     std::vector<uint8_t> pass_locked_;
@@ -343,6 +346,9 @@ uint32_t BlockSimplifier::collapse(uint32_t u, uint32_t w) {
     error_[w] = std::max({error_[w], error_[u], geometric});
     point_remap_[u] = w;
     collapsed_.push_back(u);
+    dirty_[w] = 1;
+    for (const uint32_t* c = adjacency_.begin(u); c != adjacency_.end(u); ++c)
+        dirty_[points_[next_corner(*c)]] = dirty_[points_[prev_corner(*c)]] = 1;
     uint32_t removed = 0;
     for (const uint32_t* c = adjacency_.begin(u); c != adjacency_.end(u); ++c) removed += corner_at(*c, w) != ~0u;
     return removed;
@@ -350,10 +356,17 @@ uint32_t BlockSimplifier::collapse(uint32_t u, uint32_t w) {
 
 uint32_t BlockSimplifier::run_pass() {
     const uint32_t points = mesh_.point_count();
+    // A point's best collapse depends on its quadric, box and neighbours, and its neighbours'
+    // positions: only collapse targets and neighbours of collapsed points need a new look. Ties break
+    // by target id, so a reused candidate is exactly what a new look would find.
     candidates_.clear();
     for (uint32_t u = 0; u < points; ++u) {
-        Candidate c;
-        if (adjacency_.offsets[u] != adjacency_.offsets[u + 1] && best_candidate(u, c)) candidates_.push_back(c);
+        if (adjacency_.offsets[u] == adjacency_.offsets[u + 1]) continue;
+        if (dirty_[u]) {
+            has_best_[u] = best_candidate(u, best_[u]);
+            dirty_[u] = 0;
+        }
+        if (has_best_[u]) candidates_.push_back(best_[u]);
     }
     // Costs are non-negative floats, whose bits sort like them; candidates come in point order, so
     // the stable sort breaks ties by point.
@@ -428,6 +441,9 @@ SimplifyResult BlockSimplifier::run() {
     point_remap_.resize(points);
     std::iota(point_remap_.begin(), point_remap_.end(), 0u);
     seen_.assign(points, 0);
+    best_.resize(points);
+    has_best_.assign(points, 0);
+    dirty_.assign(points, 1);
 
     while (wedges_.size() / 3 > limits_.target_triangles && run_pass() > 0) {
     }
