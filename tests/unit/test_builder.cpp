@@ -1,6 +1,7 @@
 #include "preprocess/hlod_builder.h"
 #include "preprocess/hlod_format.h"
 #include "preprocess/hlod_verify.h"
+#include "preprocess/mesh_io.h"
 #include "tests/support/test_meshes.h"
 
 #include <gtest/gtest.h>
@@ -84,6 +85,35 @@ TEST(Builder, UvSeamStaysASeamAndVerifies) {
             EXPECT_FALSE(charts[0] && charts[1]) << describe_cube(n) << " triangle " << t / 3;
         }
     }
+}
+
+// The bundled real scan (fetched by scripts/setup.sh): bounds from the scan, about a quarter of the
+// triangles per level, every invariant, and every level closed like the scan itself.
+TEST(Builder, RealScanLevelsBoundsAndClosure) {
+    const std::filesystem::path scan = std::filesystem::path(STRATA_SOURCE_DIR) / "data" / "bunny.off";
+    if (!std::filesystem::exists(scan)) GTEST_SKIP() << scan << " missing: run scripts/setup.sh";
+    test::TempDir dir;
+    Mesh mesh = read_mesh(scan);
+    float lo[3] = {1e30f, 1e30f, 1e30f}, hi[3] = {-1e30f, -1e30f, -1e30f};
+    for (size_t v = 0; v < mesh.vertex_count(); ++v)
+        for (int a = 0; a < 3; ++a) lo[a] = std::min(lo[a], mesh.positions[3 * v + a]), hi[a] = std::max(hi[a], mesh.positions[3 * v + a]);
+    const size_t input = mesh.triangle_count();
+    BuildReport report = build_hlod(std::move(mesh), dir / "bunny.hlod", BuildSettings{}, "bunny.off");
+
+    HlodFile file(dir / "bunny.hlod");
+    const HlodHeader& h = file.header();
+    for (int a = 0; a < 3; ++a) EXPECT_EQ(h.origin[a], double(lo[a]));
+    EXPECT_EQ(h.root_size, std::max({double(hi[0]) - lo[0], double(hi[1]) - lo[1], double(hi[2]) - lo[2]}));
+    EXPECT_EQ(h.input_triangles, input);
+    ASSERT_GE(report.levels.size(), 3u);
+    EXPECT_EQ(report.levels.front().triangles, input);
+    for (size_t i = 1; i < report.levels.size(); ++i) {
+        double kept = double(report.levels[i].triangles) / double(report.levels[i - 1].triangles);
+        EXPECT_GT(kept, 0.2) << "level " << report.levels[i].level;
+        EXPECT_LT(kept, 0.45) << "level " << report.levels[i].level;
+    }
+    VerifyReport v = verify_hlod(file);
+    EXPECT_TRUE(v.watertight);
 }
 
 }  // namespace
