@@ -210,8 +210,11 @@ Level partition(Mesh& mesh, const Frame& f, bool positions_may_repeat, unsigned 
     Level level;
     level.level = L;
     level.triangles.resize(3 * triangles);
+    parallel_for((triangles + kChunk - 1) / kChunk, threads, [&](size_t chunk, unsigned) {
+        for (size_t t = chunk * kChunk; t < std::min(triangles, (chunk + 1) * kChunk); ++t)
+            std::memcpy(&level.triangles[3 * t], &mesh.indices[3 * size_t(order[t])], 12);
+    });
     for (size_t t = 0; t < triangles; ++t) {
-        std::memcpy(&level.triangles[3 * t], &mesh.indices[3 * size_t(order[t])], 12);
         if (t == 0 || linear[order[t]] != linear[order[t - 1]]) level.cubes.push_back(Cube{key_of(order[t]), uint32_t(t), 0, {}, 0});
         ++level.cubes.back().count;
     }
