@@ -292,9 +292,14 @@ CubeData decode_cube(std::span<const uint8_t> bytes, const HlodNode& node, uint3
     if (grouped != triangles) throw std::runtime_error(what + ": child triangle counts do not add up");
     uint32_t sizes[kStreams];
     for (uint32_t& s : sizes) s = r.get<uint32_t>();
-    // Bound counts by what the codecs could possibly have produced before allocating for them.
-    const uint64_t limit = uint64_t(bytes.size()) * 64;
-    if (n > limit || parents > limit || triangles > limit || parents > n)
+    // Bound every count by the stream that holds it before allocating for it: meshoptimizer's vertex
+    // codec spends at least 2 bits per 16 records on each byte of a record (so a 12-byte record costs
+    // ≥ 3/16 byte), its index codec at least a byte per triangle.
+    uint64_t streamed = 0;
+    for (uint32_t size : sizes) streamed += size;
+    auto fits = [](uint64_t count, uint32_t stream) { return count <= 8 * uint64_t(stream) + 16; };
+    if (streamed > bytes.size() || parents > n || !fits(n, sizes[0]) || !fits(parents, sizes[4]) ||
+        triangles > sizes[7])
         throw std::runtime_error(what + ": counts larger than the payload could hold");
     decode_arrays(r, &sizes[0], n, flags, what, cube.vertices);
     from_bytes(decode_vertices(r.get_bytes(sizes[3]), n, 4, what), cube.parent_of);
@@ -413,7 +418,10 @@ HlodFile::HlodFile(const std::filesystem::path& path) : path_(path) {
     size_t checked = r.position();
     if (r.get<uint32_t>() != crc32c(head.data(), checked))
         throw std::runtime_error(name + ": header checksum mismatch (the file is corrupt)");
-    if (h.max_level > 15 || !(h.root_size > 0) || !(h.sigma0 > 0 && h.sigma0 < 0.5f))
+    bool finite = std::isfinite(h.root_size) && std::isfinite(h.error_q) && std::isfinite(h.ratio) &&
+                  std::isfinite(h.error_limit) && h.error_q >= 0;
+    for (double o : h.origin) finite &= std::isfinite(o);
+    if (!finite || h.max_level > 15 || !(h.root_size > 0) || !(h.sigma0 > 0 && h.sigma0 < 0.5f))
         throw std::runtime_error(name + ": header values out of range");
 
     uint64_t table_bytes = file_size_ - std::min(file_size_, h.node_table_offset);

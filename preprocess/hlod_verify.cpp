@@ -58,11 +58,17 @@ public:
 
 private:
     [[noreturn]] void fail(const std::string& what) const { throw VerifyError(name_ + ": " + what); }
+    // Positions decode in float (as the renderer does): allow a few ulps of the model's coordinates.
+    double float_slack() const {
+        double extent = std::max({std::fabs(h_.origin[0]), std::fabs(h_.origin[1]), std::fabs(h_.origin[2])}) + h_.root_size;
+        return 4 * extent * 0x1p-23;
+    }
     LevelData load_level(uint32_t level);
     void check_cube_bounds(const LevelData& level, size_t c);
     void check_root(const CubeData& cube, const HlodNode& node);
     void check_against_parent(const LevelData& level, size_t c, const LevelData& parents);
     bool check_watertight(const LevelData& level, bool required);
+    void check_parent_groups(const LevelData& children, const LevelData& parents);
 
     const HlodFile& file_;
     const HlodHeader& h_;
@@ -100,7 +106,7 @@ LevelData Verifier::load_level(uint32_t level) {
 void Verifier::check_cube_bounds(const LevelData& level, size_t c) {
     const HlodNode& n = *level.nodes[c];
     const CubeData& cube = level.cubes[c];
-    const double s = h_.cube_size(level.level), tolerance = h_.sigma0 * s + h_.lattice_step(level.level);
+    const double s = h_.cube_size(level.level), tolerance = h_.sigma0 * s + h_.lattice_step(level.level) + float_slack();
     const uint32_t cell[3] = {n.i, n.j, n.k};
     for (uint32_t v = 0; v < cube.vertex_count(); ++v)
         for (int a = 0; a < 3; ++a) {
@@ -134,7 +140,7 @@ void Verifier::check_against_parent(const LevelData& level, size_t c, const Leve
         for (uint32_t v = parent.vertex_count(); v-- > 0;) lookup[vertex_bytes(parent.vertices, v)] = v;
 
     // P(v): a vertex of the parent cube, within σ0·s_{l+1} of v.
-    const double bound = h_.sigma0 * h_.cube_size(l + 1) + h_.lattice_step(l) + h_.lattice_step(l - 1);
+    const double bound = h_.sigma0 * h_.cube_size(l + 1) + h_.lattice_step(l) + h_.lattice_step(l - 1) + 2 * float_slack();
     const uint32_t cell[3] = {n.i, n.j, n.k}, parent_cell[3] = {pn.i, pn.j, pn.k};
     std::vector<uint32_t> parent_of(cube.vertex_count());
     for (uint32_t v = 0; v < cube.vertex_count(); ++v) {
@@ -183,7 +189,27 @@ void Verifier::check_against_parent(const LevelData& level, size_t c, const Leve
              std::to_string(expected.size()) + " of its part of " + describe_cube(pn));
 }
 
-// Every directed edge must be matched by its reverse (positions compared on the global lattice).
+// Every triangle of a parent came from a child that exists, and no parent is more exact than its children.
+void Verifier::check_parent_groups(const LevelData& children, const LevelData& parents) {
+    std::vector<uint8_t> has_child(parents.cubes.size(), 0);
+    for (size_t c = 0; c < children.cubes.size(); ++c) {
+        const HlodNode& n = *children.nodes[c];
+        size_t p = parents.index.at(CubeKey{n.i / 2, n.j / 2, n.k / 2});
+        has_child[p] |= uint8_t(1u << ((n.i & 1) | (n.j & 1) << 1 | (n.k & 1) << 2));
+        if (parents.nodes[p]->error < n.error)
+            fail(describe_cube(*parents.nodes[p]) + " has error " + fmt(parents.nodes[p]->error) + ", less than its child " +
+                 describe_cube(n) + "'s " + fmt(n.error));
+    }
+    for (size_t p = 0; p < parents.cubes.size(); ++p)
+        for (uint32_t o = 0; o < 8; ++o)
+            if (parents.cubes[p].child_triangle_counts[o] && !(has_child[p] >> o & 1))
+                fail(describe_cube(*parents.nodes[p]) + " has triangles from child octant " + std::to_string(o) +
+                     ", which has no cube");
+}
+
+// Closed and manifold: every edge carries exactly one face each way, and no two triangles share their
+// three vertices (which would be a fin or a face folded flat onto its twin). Positions are compared
+// on the global lattice, so a vertex shared by two cubes is one vertex.
 bool Verifier::check_watertight(const LevelData& level, bool required) {
     struct Hash {
         size_t operator()(const std::array<int32_t, 3>& q) const {
@@ -192,6 +218,7 @@ bool Verifier::check_watertight(const LevelData& level, bool required) {
     };
     std::unordered_map<std::array<int32_t, 3>, uint32_t, Hash> ids;
     std::vector<uint64_t> edges;
+    std::vector<std::array<uint32_t, 3>> faces;
     for (size_t c = 0; c < level.cubes.size(); ++c) {
         const CubeData& cube = level.cubes[c];
         const HlodNode& n = *level.nodes[c];
@@ -203,25 +230,27 @@ bool Verifier::check_watertight(const LevelData& level, bool required) {
                 q[a] = int32_t(cube.vertices.positions[3 * v + a]) + int32_t(cell[a] << kLatticeBits) - kLatticeBias;
             id[v] = ids.emplace(q, uint32_t(ids.size())).first->second;
         }
-        for (size_t t = 0; t < cube.indices.size(); t += 3)
-            for (int e = 0; e < 3; ++e) {
-                uint64_t a = id[cube.indices[t + e]], b = id[cube.indices[t + (e + 1) % 3]];
-                if (a != b) edges.push_back(a << 32 | b);
-            }
+        for (size_t t = 0; t < cube.indices.size(); t += 3) {
+            std::array<uint32_t, 3> f{id[cube.indices[t]], id[cube.indices[t + 1]], id[cube.indices[t + 2]]};
+            if (f[0] == f[1] || f[1] == f[2] || f[0] == f[2]) continue;
+            for (int e = 0; e < 3; ++e) edges.push_back(uint64_t(f[e]) << 32 | f[(e + 1) % 3]);
+            std::sort(f.begin(), f.end());
+            faces.push_back(f);
+        }
     }
+    auto open = [&](const std::string& what) {
+        if (required)
+            fail("level " + std::to_string(level.level) + " " + what + ", though the full-resolution level is closed");
+        return false;
+    };
     std::sort(edges.begin(), edges.end());
-    for (size_t i = 0, j; i < edges.size(); i = j) {
-        for (j = i; j < edges.size() && edges[j] == edges[i]; ++j) {
-        }
+    for (size_t i = 0; i < edges.size(); ++i) {
+        if (i + 1 < edges.size() && edges[i + 1] == edges[i]) return open("has an edge with two faces the same way");
         uint64_t reverse = (edges[i] & 0xFFFFFFFFu) << 32 | edges[i] >> 32;
-        auto range = std::equal_range(edges.begin(), edges.end(), reverse);
-        if (size_t(range.second - range.first) != j - i) {
-            if (required)
-                fail("level " + std::to_string(level.level) +
-                     " has a boundary edge, though the full-resolution level is closed");
-            return false;
-        }
+        if (!std::binary_search(edges.begin(), edges.end(), reverse)) return open("has a boundary edge");
     }
+    std::sort(faces.begin(), faces.end());
+    if (std::adjacent_find(faces.begin(), faces.end()) != faces.end()) return open("has two faces on the same three vertices");
     return true;
 }
 
@@ -249,6 +278,7 @@ VerifyReport Verifier::run() {
             if (l == 0) check_root(current.cubes[c], *current.nodes[c]);
             else check_against_parent(current, c, *parents);
         }
+        if (parents) check_parent_groups(current, *parents);
         if (report_.watertight) check_watertight(current, true);
         parents = &current;
     }

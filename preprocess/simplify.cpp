@@ -75,18 +75,23 @@ private:
             if (points_[c] == point) return c;
         return ~0u;
     }
-    // The corner at `to` of the triangle that holds half-edge to→from (the twin of from→to), or ~0u.
-    uint32_t twin_corner(uint32_t from, uint32_t to) const {
-        for (const uint32_t* c = adjacency_.begin(to); c != adjacency_.end(to); ++c)
-            if (points_[next_corner(*c)] == from) return *c;
-        return ~0u;
+    // u's corners keyed by the point that precedes u in each, sorted: the twin of half-edge u→x is the
+    // triangle whose corner at u is keyed x. Lookups take log time even around high-valence points.
+    void fan_by_prev(uint32_t u, std::vector<std::pair<uint32_t, uint32_t>>& fan) const {
+        fan.clear();
+        for (const uint32_t* c = adjacency_.begin(u); c != adjacency_.end(u); ++c)
+            fan.emplace_back(points_[prev_corner(*c)], *c);
+        std::sort(fan.begin(), fan.end());
     }
-    bool has_half_edge(uint32_t from, uint32_t to) const {
-        for (const uint32_t* c = adjacency_.begin(from); c != adjacency_.end(from); ++c)
-            if (points_[next_corner(*c)] == to) return true;
-        return false;
+    static uint32_t corner_after(const std::vector<std::pair<uint32_t, uint32_t>>& fan, uint32_t point) {
+        auto it = std::lower_bound(fan.begin(), fan.end(), std::make_pair(point, 0u));
+        return it != fan.end() && it->first == point ? it->second : ~0u;
     }
-    bool is_boundary_edge(uint32_t a, uint32_t b) const { return has_half_edge(a, b) != has_half_edge(b, a); }
+    void sorted_nexts(uint32_t u, std::vector<uint32_t>& nexts) const {
+        nexts.clear();
+        for (const uint32_t* c = adjacency_.begin(u); c != adjacency_.end(u); ++c) nexts.push_back(points_[next_corner(*c)]);
+        std::sort(nexts.begin(), nexts.end());
+    }
 
     void init_quadrics();
     void init_attributes();
@@ -123,6 +128,8 @@ private:
     Adjacency adjacency_;
     std::vector<Candidate> candidates_;
     std::vector<WedgePair> pairs_;          // scratch
+    std::vector<std::pair<uint32_t, uint32_t>> fan_;  // scratch: fan_by_prev
+    std::vector<uint32_t> nexts_;           // scratch: sorted_nexts
     std::vector<uint32_t> seen_;            // per point: stamp of the last link check that saw it
     uint32_t stamp_ = 0;
     std::vector<uint32_t> cost_bits_, order_;
@@ -141,25 +148,29 @@ void BlockSimplifier::init_quadrics() {
     // Boundary and seam edges: a plane through the edge, perpendicular to its face, so collapses along
     // them keep the outline (and a seam's two sides keep matching). Both endpoints of such an edge are
     // border, seam or locked points; an edge with a manifold end is neither.
-    for (uint32_t corner = 0; corner < wedges_.size(); ++corner) {
-        uint32_t a = points_[corner], b = points_[next_corner(corner)];
-        if (kind_[a] == Kind::manifold || kind_[b] == Kind::manifold) continue;
-        uint32_t twin = twin_corner(a, b);
-        float weight = kBoundaryWeight;
-        if (twin != ~0u) {
-            bool seam = wedges_[corner] != wedges_[next_corner(twin)] || wedges_[next_corner(corner)] != wedges_[twin];
-            if (!seam) continue;
-            weight = kSeamWeight;
+    for (uint32_t a = 0; a < mesh_.point_count(); ++a) {
+        if (kind_[a] == Kind::manifold) continue;
+        fan_by_prev(a, fan_);
+        for (const uint32_t* c = adjacency_.begin(a); c != adjacency_.end(a); ++c) {
+            uint32_t b = points_[next_corner(*c)];
+            if (kind_[b] == Kind::manifold) continue;
+            uint32_t twin = corner_after(fan_, b);  // a's corner in the triangle holding b→a
+            float weight = kBoundaryWeight;
+            if (twin != ~0u) {
+                bool seam = wedges_[*c] != wedges_[twin] || wedges_[next_corner(*c)] != wedges_[prev_corner(twin)];
+                if (!seam) continue;
+                weight = kSeamWeight;
+            }
+            Vec3 pa = position(a), pb = position(b), pc = position(points_[prev_corner(*c)]);
+            Vec3 edge = pb - pa;
+            Vec3 n = cross(edge, cross(edge, pc - pa));
+            float len = length(n);
+            if (len == 0) continue;
+            n = n * (1.0f / len);
+            float w = weight * dot(edge, edge);
+            quadrics_[a].add_plane(n, -dot(n, pa), w);
+            quadrics_[b].add_plane(n, -dot(n, pa), w);
         }
-        Vec3 pa = position(a), pb = position(b), pc = position(points_[prev_corner(corner)]);
-        Vec3 edge = pb - pa;
-        Vec3 n = cross(edge, cross(edge, pc - pa));
-        float len = length(n);
-        if (len == 0) continue;
-        n = n * (1.0f / len);
-        float w = weight * dot(edge, edge);
-        quadrics_[a].add_plane(n, -dot(n, pa), w);
-        quadrics_[b].add_plane(n, -dot(n, pa), w);
     }
 }
 
@@ -195,31 +206,35 @@ float BlockSimplifier::attribute_error(uint32_t from, uint32_t to) const {
 
 // Kinds are decided once, on the block as given: collapses that pass the link and boundary rules keep
 // interior points interior and boundary points on the boundary. Edge u→x has a twin x→u exactly when x
-// also precedes u in one of u's triangles, so u's own corners tell everything.
+// also precedes u in one of u's triangles, so u's own corners tell everything. A point whose
+// triangles do not form one fan (two surfaces touching at it) is locked.
 void BlockSimplifier::classify() {
     const uint32_t points = mesh_.point_count();
     kind_.assign(points, Kind::manifold);
     single_wedge_.assign(points, 1);
-    std::vector<uint32_t> nexts, prevs;
     for (uint32_t u = 0; u < points; ++u) {
-        nexts.clear(), prevs.clear();
         const uint32_t* first = adjacency_.begin(u);
-        for (const uint32_t* c = first; c != adjacency_.end(u); ++c) {
-            nexts.push_back(points_[next_corner(*c)]);
-            prevs.push_back(points_[prev_corner(*c)]);
+        if (first == adjacency_.end(u)) continue;
+        for (const uint32_t* c = first; c != adjacency_.end(u); ++c)
             if (wedges_[*c] != wedges_[*first]) single_wedge_[u] = 0;
-        }
+        fan_by_prev(u, fan_);
+        sorted_nexts(u, nexts_);
         bool complex = false;
+        for (size_t i = 1; i < fan_.size(); ++i) complex |= fan_[i].first == fan_[i - 1].first || nexts_[i] == nexts_[i - 1];
         int out_open = 0, in_open = 0;
-        for (size_t i = 0; i < nexts.size(); ++i) {
-            bool twin_out = false, twin_in = false;
-            for (size_t j = 0; j < nexts.size(); ++j) {
-                complex |= j != i && (nexts[j] == nexts[i] || prevs[j] == prevs[i]);
-                twin_out |= prevs[j] == nexts[i];
-                twin_in |= nexts[j] == prevs[i];
-            }
-            out_open += !twin_out;
-            in_open += !twin_in;
+        for (const uint32_t* c = first; c != adjacency_.end(u); ++c) {
+            out_open += corner_after(fan_, points_[next_corner(*c)]) == ~0u;
+            in_open += !std::binary_search(nexts_.begin(), nexts_.end(), points_[prev_corner(*c)]);
+        }
+        if (!complex && out_open == 0) {
+            // Walk the fan: each triangle leads to the one across its edge (u, next).
+            size_t steps = 0;
+            uint32_t c = *first;
+            do {
+                c = corner_after(fan_, points_[next_corner(c)]);
+                ++steps;
+            } while (c != ~0u && c != *first && steps <= fan_.size());
+            complex = c != *first || steps != fan_.size();
         }
         if (mesh_.point_locked[u] || complex || out_open > 1 || out_open != in_open) kind_[u] = Kind::locked;
         else if (out_open == 1) kind_[u] = Kind::border;
@@ -268,7 +283,6 @@ bool BlockSimplifier::best_candidate(uint32_t u, Candidate& best) {
     const float inverse_weight = 1.0f / (q.weight > 0 ? q.weight : 1.0f);
     bool found = false;
     auto consider = [&](uint32_t w, uint32_t from_wedge, uint32_t to_wedge) {
-        if (kind == Kind::border && !is_boundary_edge(u, w)) return;  // along the boundary only
         if (!within_travel(u, w)) return;
         float cost = q.evaluate(position(w));
         if (attribute_count_) {
@@ -283,34 +297,65 @@ bool BlockSimplifier::best_candidate(uint32_t u, Candidate& best) {
         if (!found || cost < best.cost || (cost == best.cost && w < best.to)) best = {cost, u, w};
         found = true;
     };
+    if (kind == Kind::border) {
+        // Along the boundary only: to the ends of u's two open edges.
+        fan_by_prev(u, fan_);
+        sorted_nexts(u, nexts_);
+        for (const uint32_t* c = adjacency_.begin(u); c != adjacency_.end(u); ++c) {
+            uint32_t next = next_corner(*c), prev = prev_corner(*c);
+            if (corner_after(fan_, points_[next]) == ~0u) consider(points_[next], wedges_[*c], wedges_[next]);
+            if (!std::binary_search(nexts_.begin(), nexts_.end(), points_[prev]))
+                consider(points_[prev], wedges_[*c], wedges_[prev]);
+        }
+        return found;
+    }
     for (const uint32_t* c = adjacency_.begin(u); c != adjacency_.end(u); ++c) {
         uint32_t next = next_corner(*c);
         consider(points_[next], wedges_[*c], wedges_[next]);
-        if (kind == Kind::border) consider(points_[prev_corner(*c)], wedges_[*c], wedges_[prev_corner(*c)]);
     }
     return found;
 }
 
-// Link condition: u and w may share no neighbour other than the apexes of the triangles on edge uw;
-// otherwise the collapse pinches the surface into a non-manifold edge. Neighbours of u are marked
-// with a fresh stamp, then w's marked neighbours are counted (each once, by re-stamping it).
+// Link condition, both parts: u and w may share no neighbour other than the apexes a, b of the
+// triangles on edge uw, and the edge ab may not be in both links: triangles uab and wab together make
+// a tetrahedron, which would fold flat into two coincident faces.
+// And the block-border rule: a collapse onto a border point may not give it a new edge to another
+// border point. Only such an edge can also exist in a neighbouring block, out of this block's sight;
+// with the rule, every block's local check is exact and blocks never build fins between them.
 bool BlockSimplifier::keeps_link(uint32_t u, uint32_t w) {
     const uint32_t mark = ++stamp_, counted = ++stamp_;
-    int apexes = 0;
-    for (const uint32_t* c = adjacency_.begin(u); c != adjacency_.end(u); ++c) {
-        apexes += corner_at(*c, w) != ~0u;
+    for (const uint32_t* c = adjacency_.begin(w); c != adjacency_.end(w); ++c) {
         seen_[point_remap_[points_[next_corner(*c)]]] = mark;
         seen_[point_remap_[points_[prev_corner(*c)]]] = mark;
     }
-    int shared = 0;
-    for (const uint32_t* c = adjacency_.begin(w); c != adjacency_.end(w); ++c)
-        for (uint32_t p : {points_[next_corner(*c)], points_[prev_corner(*c)]}) {
-            p = point_remap_[p];
-            if (p == u || p == w || seen_[p] != mark) continue;
-            seen_[p] = counted;
-            ++shared;
+    uint32_t apex[2] = {~0u, ~0u};
+    int apexes = 0, shared = 0;
+    for (const uint32_t* c = adjacency_.begin(u); c != adjacency_.end(u); ++c) {
+        uint32_t next = point_remap_[points_[next_corner(*c)]], prev = point_remap_[points_[prev_corner(*c)]];
+        if (next == w || prev == w) {
+            if (apexes < 2) apex[apexes] = next == w ? prev : next;
+            ++apexes;
         }
-    return shared == apexes;
+        for (uint32_t p : {next, prev}) {
+            if (p == w || seen_[p] == counted) continue;
+            if (seen_[p] == mark) {
+                seen_[p] = counted;
+                ++shared;
+            } else if (mesh_.point_locked[w] && mesh_.point_locked[p]) {
+                return false;
+            }
+        }
+    }
+    if (shared != apexes) return false;
+    if (apexes != 2) return true;
+    auto spans_apexes = [&](uint32_t x) {
+        for (const uint32_t* c = adjacency_.begin(x); c != adjacency_.end(x); ++c) {
+            uint32_t next = point_remap_[points_[next_corner(*c)]], prev = point_remap_[points_[prev_corner(*c)]];
+            if ((next == apex[0] && prev == apex[1]) || (next == apex[1] && prev == apex[0])) return true;
+        }
+        return false;
+    };
+    return !(spans_apexes(u) && spans_apexes(w));
 }
 
 // Would moving u onto w turn any of u's remaining triangles over (or flatten it to nothing)?

@@ -4,13 +4,13 @@
 
 #include "preprocess/mesh.h"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <map>
 #include <random>
 #include <string>
 #include <unistd.h>
-
 #include <utility>
 
 namespace strata::test {
