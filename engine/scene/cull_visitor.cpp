@@ -1,0 +1,89 @@
+#include "engine/scene/cull_visitor.h"
+
+#include <algorithm>
+
+#include "engine/scene/drawable.h"
+#include "engine/scene/light.h"
+
+namespace strata {
+
+void RenderList::sort() {
+    std::stable_sort(opaque.begin(), opaque.end(), [](const DrawItem& a, const DrawItem& b) { return a.depth < b.depth; });
+}
+
+CullVisitor::CullVisitor(const Camera& camera, const glm::dmat4& view, const glm::dmat4& projection, RenderList& out)
+    : camera_(camera), view_(view), eye_world_(glm::inverse(view)[3]), out_(out) {
+    state_.push_back({glm::dmat4(1.0), Frustum::from_matrix(projection * view), kAllPlanes});
+}
+
+bool CullVisitor::enter(Node& node, uint8_t& mask) {
+    if (!(node.mask() & traversal_mask_)) return false;
+    ++stats_.nodes_visited;
+    mask = state_.back().mask;
+    if (!culling_ || mask == 0) return true;
+    ++stats_.bound_tests;
+    if (intersects(state_.back().frustum, node.bound(), mask)) return true;
+    ++stats_.nodes_culled;
+    return false;
+}
+
+void CullVisitor::apply(Node& node) {
+    uint8_t mask;
+    if (enter(node, mask)) node.traverse(*this);
+}
+
+void CullVisitor::apply(Group& group) {
+    uint8_t mask;
+    if (!enter(group, mask)) return;
+    const uint8_t saved = state_.back().mask;
+    state_.back().mask = mask;
+    group.traverse(*this);
+    state_.back().mask = saved;
+}
+
+void CullVisitor::apply(Transform& transform) {
+    uint8_t mask;
+    if (!enter(transform, mask)) return;
+    const Frame& parent = state_.back();
+    state_.push_back({parent.model * transform.matrix(), parent.frustum.in_child_frame(transform.matrix()), mask});
+    transform.traverse(*this);
+    state_.pop_back();
+}
+
+void CullVisitor::apply(Drawable& drawable) {
+    uint8_t mask;
+    if (!enter(drawable, mask)) return;
+    const uint8_t saved = state_.back().mask;
+    state_.back().mask = mask;
+    drawable.cull(*this);
+    state_.back().mask = saved;
+}
+
+// Cameras in the graph are poses to look through, not things to draw.
+void CullVisitor::apply(Camera&) {}
+
+void CullVisitor::apply(DirectionalLight& light) {
+    if (!(light.mask() & traversal_mask_)) return;
+    const glm::dvec3 direction = glm::dmat3(model()) * light.direction;
+    const double length = glm::length(direction);
+    if (length == 0) return;
+    out_.lights.push_back({direction / length, light.color * light.intensity});
+}
+
+void CullVisitor::apply(AmbientLight& light) {
+    if (!(light.mask() & traversal_mask_)) return;
+    out_.ambient += light.color;
+    out_.has_ambient = true;
+}
+
+glm::dvec3 CullVisitor::local_eye() const { return glm::dvec3(glm::inverse(model()) * glm::dvec4(eye_world_, 1.0)); }
+
+void CullVisitor::add(Drawable& drawable, const uint32_t* data, uint32_t count) {
+    const uint32_t first = uint32_t(out_.item_data.size());
+    out_.item_data.insert(out_.item_data.end(), data, data + count);
+    const glm::dvec3 center = glm::dvec3(model() * glm::dvec4(drawable.bound().center(), 1.0));
+    const double depth = -(view_ * glm::dvec4(center, 1.0)).z;
+    out_.opaque.push_back({&drawable, model(), depth, first, count});
+}
+
+}  // namespace strata

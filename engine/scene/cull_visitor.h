@@ -1,0 +1,71 @@
+// CullVisitor: walks the graph for one view, accumulating transforms, dropping subtrees whose bound
+// is outside the frustum (tested in each node's own frame), and collecting draw items and lights.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "engine/scene/camera.h"
+#include "engine/scene/frustum.h"
+#include "engine/scene/render_list.h"
+#include "engine/scene/visitor.h"
+
+namespace strata {
+
+struct CullStats {
+    uint64_t nodes_visited = 0;
+    uint64_t nodes_culled = 0;  // subtrees dropped by the frustum
+    uint64_t bound_tests = 0;   // bounds tested against planes (none below a wholly visible node)
+};
+
+class CullVisitor : public NodeVisitor {
+public:
+    // `view` and `projection` as the renderer draws with them (the camera's, with its clip planes).
+    CullVisitor(const Camera& camera, const glm::dmat4& view, const glm::dmat4& projection, RenderList& out);
+
+    void set_traversal_mask(uint32_t mask) { traversal_mask_ = mask; }
+    // Off: everything in view or not is emitted (the crack check gathers whole models).
+    void set_frustum_culling(bool on) { culling_ = on; }
+    bool frustum_culling() const { return culling_; }
+
+    void apply(Node& node) override;
+    void apply(Group& group) override;
+    void apply(Transform& transform) override;
+    void apply(Drawable& drawable) override;
+    void apply(Camera& camera) override;
+    void apply(DirectionalLight& light) override;
+    void apply(AmbientLight& light) override;
+
+    // For drawables during their cull(): the current frame and what it sees.
+    const Camera& camera() const { return camera_; }
+    const glm::dmat4& model() const { return state_.back().model; }
+    const Frustum& local_frustum() const { return state_.back().frustum; }
+    uint8_t plane_mask() const { return state_.back().mask; }
+    glm::dvec3 local_eye() const;
+    // Adds a draw item for `drawable` in the current frame; `data` becomes its item_data range.
+    void add(Drawable& drawable, const uint32_t* data = nullptr, uint32_t count = 0);
+    RenderList& list() { return out_; }
+    const CullStats& stats() const { return stats_; }
+
+private:
+    struct Frame {
+        glm::dmat4 model;
+        Frustum frustum;
+        uint8_t mask;
+    };
+    // Frustum test of the node's bound in the current frame; false when the subtree is out.
+    bool enter(Node& node, uint8_t& mask);
+
+    const Camera& camera_;
+    glm::dmat4 view_;
+    glm::dvec3 eye_world_;
+    RenderList& out_;
+    uint32_t traversal_mask_ = ~0u;
+    bool culling_ = true;
+    std::vector<Frame> state_;
+    CullStats stats_;
+};
+
+}  // namespace strata
