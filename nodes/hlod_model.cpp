@@ -1,0 +1,185 @@
+#include "nodes/hlod_model.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <stdexcept>
+
+#include <glm/gtc/matrix_transform.hpp>
+
+#include "engine/scene/cull_visitor.h"
+
+namespace strata {
+
+namespace {
+
+uint32_t octant_of(const HlodNode& child) { return (child.i & 1) | (child.j & 1) << 1 | (child.k & 1) << 2; }
+
+// The lattice-frame coordinate of a stored value: q·h_l with q = stored + 2^15·cell − 2^14. The same
+// float operations as decode_coordinate, less the origin (kept in the node's matrix instead).
+float lattice_coordinate(const HlodHeader& h, uint32_t level, uint32_t cell, uint16_t stored) {
+    const int32_t q = int32_t(stored) + int32_t(cell << kLatticeBits) - kLatticeBias;
+    return float(q) * h.lattice_step(level);
+}
+
+// d∞ from a point to a box: 0 inside.
+double box_distance(const glm::dvec3& p, const Box& box) {
+    const glm::dvec3 outside = glm::max(glm::max(box.lo - p, p - box.hi), glm::dvec3(0.0));
+    return std::max({outside.x, outside.y, outside.z});
+}
+
+}  // namespace
+
+std::shared_ptr<HlodModel> HlodModel::load(const std::filesystem::path& path) {
+    HlodFile file(path);
+    std::shared_ptr<HlodModel> model(new HlodModel());
+    model->path_ = path;
+    model->header_ = file.header();
+    model->set_name(path.stem().string());
+    const auto& nodes = file.nodes();
+    if (nodes.empty()) throw std::runtime_error(path.string() + ": the model has no cubes");
+
+    // Octree links: each cube finds its children by (level, i, j, k).
+    std::map<std::array<uint32_t, 4>, uint32_t> index;
+    model->cubes_.resize(nodes.size());
+    for (uint32_t c = 0; c < nodes.size(); ++c) {
+        HlodCube& cube = model->cubes_[c];
+        cube.node = nodes[c];
+        cube.children.fill(kNoCube);
+        index[{nodes[c].level, nodes[c].i, nodes[c].j, nodes[c].k}] = c;
+    }
+    if (!index.count({0, 0, 0, 0})) throw std::runtime_error(path.string() + ": the model has no root cube");
+    for (uint32_t c = 0; c < nodes.size(); ++c) {
+        const HlodNode& n = nodes[c];
+        if (n.level == 0) continue;
+        auto parent = index.find({n.level - 1, n.i / 2, n.j / 2, n.k / 2});
+        if (parent == index.end())
+            throw std::runtime_error(path.string() + ": " + describe_cube(n) + " has no parent cube");
+        model->cubes_[parent->second].children[octant_of(n)] = c;
+    }
+    model->root_ = index[{0, 0, 0, 0}];
+
+    for (HlodCube& cube : model->cubes_) {
+        cube.data = file.read_cube(cube.node);
+        for (uint32_t v = 0; v < cube.data.vertex_count(); ++v) {
+            const glm::vec3 p = model->vertex_position(cube, v);
+            model->bound_.expand(glm::dvec3(p) + model->origin());
+        }
+    }
+    return model;
+}
+
+void HlodModel::set_kappa0(double kappa0) {
+    if (!(kappa0 > 0)) throw std::invalid_argument("κ0 must be positive");
+    kappa0_ = std::max(kappa0, min_kappa0());
+    pixel_error_ = 0;
+}
+
+void HlodModel::set_pixel_error(double pixels) {
+    if (!(pixels > 0)) throw std::invalid_argument("the pixel error must be positive");
+    pixel_error_ = pixels;
+}
+
+double HlodModel::kappa0_for(int width, double tan_half_fov_x) const {
+    if (pixel_error_ <= 0 || tan_half_fov_x <= 0) return kappa0_;
+    // Eq. 4.5 solved for κ0: ε_SSE ≲ ε_q·S_w/(κ0·tan(θ/2)).
+    const double kappa0 = header_.error_q * width / (pixel_error_ * tan_half_fov_x);
+    return std::max(kappa0, min_kappa0());
+}
+
+glm::dmat4 HlodModel::lattice_to_node() const { return glm::translate(glm::dmat4(1.0), origin()); }
+
+Box HlodModel::cell(const HlodNode& node) const {
+    const double s = header_.cube_size(node.level);
+    const glm::dvec3 lo = glm::dvec3(node.i, node.j, node.k) * s;
+    return Box::from(lo, lo + glm::dvec3(s));
+}
+
+void HlodModel::select(const HlodView& view, std::vector<uint32_t>& out) const {
+    out.clear();
+    select_from(root_, view, view.plane_mask, out);
+}
+
+void HlodModel::select_from(uint32_t c, const HlodView& view, uint8_t mask, std::vector<uint32_t>& out) const {
+    const HlodCube& cube = cubes_[c];
+    const Box cell_box = cell(cube.node);
+    if (view.frustum && mask) {
+        // Vertices overhang their cell by σ0·s_l and the morph moves them by up to σ0·s_l more.
+        const double s = header_.cube_size(cube.node.level);
+        const glm::dvec3 grow(1.5 * header_.sigma0 * s);
+        if (!intersects(*view.frustum, Box::from(cell_box.lo - grow, cell_box.hi + grow), mask)) return;
+    }
+    const bool finest = cube.node.level == header_.max_level;
+    if (finest || box_distance(view.eye, cell_box) >= view.kappa0 * header_.cube_size(cube.node.level)) {
+        out.push_back(c);
+        return;
+    }
+    // Front to back: the octant on the eye's side of the centre first, then the rest in an order in
+    // which no octant comes before one that could hide it.
+    const glm::dvec3 centre = cell_box.center();
+    const uint32_t near = (view.eye.x >= centre.x) | (view.eye.y >= centre.y) << 1 | (view.eye.z >= centre.z) << 2;
+    for (uint32_t k = 0; k < 8; ++k) {
+        const uint32_t child = cube.children[near ^ k];
+        if (child != kNoCube) select_from(child, view, mask, out);
+    }
+}
+
+glm::vec3 HlodModel::vertex_position(const HlodCube& cube, uint32_t v) const {
+    const uint16_t* q = &cube.data.vertices.positions[3 * size_t(v)];
+    const HlodNode& n = cube.node;
+    return {lattice_coordinate(header_, n.level, n.i, q[0]), lattice_coordinate(header_, n.level, n.j, q[1]),
+            lattice_coordinate(header_, n.level, n.k, q[2])};
+}
+
+glm::vec3 HlodModel::parent_position(const HlodCube& cube, uint32_t p) const {
+    const uint16_t* q = &cube.data.parents.positions[3 * size_t(p)];
+    const HlodNode& n = cube.node;
+    if (n.level == 0) return vertex_position(cube, p);  // P(w) = w at the root
+    return {lattice_coordinate(header_, n.level - 1, n.i / 2, q[0]),
+            lattice_coordinate(header_, n.level - 1, n.j / 2, q[1]),
+            lattice_coordinate(header_, n.level - 1, n.k / 2, q[2])};
+}
+
+std::pair<float, float> HlodModel::morph_band(uint32_t level, float kappa0) const {
+    const double s = header_.cube_size(level), sigma0 = header_.sigma0;
+    return {float((1.0 + kappa0 + sigma0) * s), float((kappa0 - sigma0) * 2.0 * s)};
+}
+
+void HlodModel::morphed_positions(uint32_t c, const glm::vec3& eye, float kappa0, std::vector<glm::vec3>& out) const {
+    const HlodCube& cube = cubes_[c];
+    const auto [start, end] = morph_band(cube.node.level, kappa0);
+    const float span = end - start;
+    out.resize(cube.data.vertex_count());
+    for (uint32_t v = 0; v < out.size(); ++v) {
+        const glm::vec3 w = vertex_position(cube, v);
+        if (!morph_) {
+            out[v] = w;
+            continue;
+        }
+        const glm::vec3 parent = parent_position(cube, cube.data.parent_of[v]);
+        const glm::vec3 offset = glm::abs(w - eye);
+        const float d = std::max(std::max(offset.x, offset.y), offset.z);
+        const float lambda = std::clamp((end - d) / span, 0.0f, 1.0f);
+        // The ends exactly (Lemma 2 needs λ = 0 to give P(w) and λ = 1 to give w), GLSL's mix between.
+        out[v] = lambda >= 1.0f ? w : lambda <= 0.0f ? parent : parent * (1.0f - lambda) + w * lambda;
+    }
+}
+
+void HlodModel::cull(CullVisitor& cull) {
+    const Camera& camera = cull.camera();
+    const glm::dmat4 to_node = lattice_to_node();
+    const Frustum frustum = cull.local_frustum().in_child_frame(to_node);
+    HlodView view{cull.local_eye() - origin(), kappa0_for(camera.width, camera.tan_half_fov_x())};
+    if (cull.frustum_culling()) {
+        view.frustum = &frustum;
+        view.plane_mask = cull.plane_mask();
+    }
+    select(view, selection_);
+    if (!selection_.empty()) cull.add(*this, selection_.data(), uint32_t(selection_.size()));
+}
+
+void HlodModel::draw(DrawContext&, const DrawItem&) {
+    // Not drawn yet: the GPU path (storage buffers and the morph shader) is the next step of issue 3.
+}
+
+}  // namespace strata

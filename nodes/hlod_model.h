@@ -1,0 +1,107 @@
+// The HLOD model as a scene-graph node (DESIGN.md §3): loads a .hlod, selects the coarsest suitable
+// cubes for the eye in the node's own frame, culls cubes against the frustum, and morphs each vertex
+// toward its parent. The CPU twin of the morph (morphed_positions) computes exactly what the shader
+// draws, for the crack check, picking and measurements.
+#pragma once
+
+#include <array>
+#include <filesystem>
+#include <memory>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "engine/scene/drawable.h"
+#include "engine/scene/frustum.h"
+#include "preprocess/hlod_format.h"
+
+namespace strata {
+
+// Colour-by-level and the like: what the shader shows instead of (or over) the shaded surface.
+enum class HlodDebugView { none, levels, wireframe };
+
+struct HlodCube {
+    HlodNode node;
+    CubeData data;
+    std::array<uint32_t, 8> children;  // cube index per octant, or kNoCube
+};
+
+inline constexpr uint32_t kNoCube = ~0u;
+
+// Where and how one selection looks, in the model's lattice frame (model units, origin at O).
+struct HlodView {
+    glm::dvec3 eye;
+    double kappa0;
+    const Frustum* frustum = nullptr;  // nullptr: no culling
+    uint8_t plane_mask = kAllPlanes;
+};
+
+class HlodModel : public Drawable {
+public:
+    // Reads and decodes every cube (checksums checked); throws std::runtime_error naming the file.
+    static std::shared_ptr<HlodModel> load(const std::filesystem::path& path);
+
+    const HlodHeader& header() const { return header_; }
+    const std::vector<HlodCube>& cubes() const { return cubes_; }
+    uint32_t root() const { return root_; }
+    const std::filesystem::path& path() const { return path_; }
+
+    // κ0, the distance factor of the selection, or a target screen-space error in pixels (which sets
+    // κ0 per view through Eq. 4.5). Either is clamped to κ0 ≥ 1 + 3σ0 + 0.25 (DESIGN.md §3).
+    void set_kappa0(double kappa0);
+    void set_pixel_error(double pixels);
+    double pixel_error() const { return pixel_error_; }
+    // κ0 for an image `width` pixels wide with horizontal half-angle tangent `tan_half_fov_x`.
+    double kappa0_for(int width, double tan_half_fov_x) const;
+    double min_kappa0() const { return 1.0 + 3.0 * header_.sigma0 + 0.25; }
+
+    bool morph() const { return morph_; }
+    void set_morph(bool on) { morph_ = on; }
+    HlodDebugView debug_view() const { return debug_view_; }
+    void set_debug_view(HlodDebugView view) { debug_view_ = view; }
+    bool show_cube_boxes() const { return show_boxes_; }
+    void set_show_cube_boxes(bool on) { show_boxes_ = on; }
+
+    // The node's frame is the scan's own coordinates; the lattice frame is those minus O, which keeps
+    // decoded floats small (survey coordinates would lose millimetres in float).
+    glm::dmat4 lattice_to_node() const;
+    glm::dvec3 origin() const { return {header_.origin[0], header_.origin[1], header_.origin[2]}; }
+
+    // The coarsest suitable cubes (DESIGN.md §3) that meet the frustum, front to back.
+    void select(const HlodView& view, std::vector<uint32_t>& out) const;
+    // A cube's cell in the lattice frame.
+    Box cell(const HlodNode& node) const;
+
+    // The CPU twin of the morph shader: the positions a cube's vertices are drawn at for an eye in the
+    // lattice frame (as the float the shader gets), bit-identical to the shader's arithmetic.
+    void morphed_positions(uint32_t cube, const glm::vec3& eye, float kappa0, std::vector<glm::vec3>& out) const;
+    // Decoded, unmorphed lattice-frame positions of a cube's vertices, and of its parent table.
+    glm::vec3 vertex_position(const HlodCube& cube, uint32_t v) const;
+    glm::vec3 parent_position(const HlodCube& cube, uint32_t p) const;
+    // The morph band of a level: λ = clamp((end − d)/(end − start), 0, 1).
+    std::pair<float, float> morph_band(uint32_t level, float kappa0) const;
+
+    void cull(CullVisitor& cull) override;
+    void draw(DrawContext& context, const DrawItem& item) override;
+
+protected:
+    Box compute_bound() const override { return bound_; }
+
+private:
+    HlodModel() = default;
+    void select_from(uint32_t cube, const HlodView& view, uint8_t mask, std::vector<uint32_t>& out) const;
+
+    std::filesystem::path path_;
+    HlodHeader header_;
+    std::vector<HlodCube> cubes_;
+    uint32_t root_ = 0;
+    Box bound_;  // of every level's vertices, in the node's frame
+    double kappa0_ = 2.0;
+    double pixel_error_ = 0;  // > 0: κ0 follows from it per view
+    bool morph_ = true;
+    HlodDebugView debug_view_ = HlodDebugView::none;
+    bool show_boxes_ = false;
+    std::vector<uint32_t> selection_;  // scratch for cull()
+};
+
+}  // namespace strata
