@@ -1,14 +1,60 @@
 #include "engine/scene/cull_visitor.h"
 
-#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <utility>
 
 #include "engine/scene/drawable.h"
 #include "engine/scene/light.h"
 
 namespace strata {
 
+namespace {
+
+// The depth as an unsigned integer in the same order (IEEE 754: negatives get all their bits flipped, the
+// rest their sign bit). −0 ties with +0, as the comparison does; a NaN sorts with +∞, last.
+uint64_t order_key(double depth) {
+    if (std::isnan(depth)) depth = std::numeric_limits<double>::infinity();
+    if (depth == 0) depth = 0;
+    uint64_t bits;
+    std::memcpy(&bits, &depth, sizeof bits);
+    return bits >> 63 ? ~bits : bits | (uint64_t(1) << 63);
+}
+
+}  // namespace
+
 void RenderList::sort() {
-    std::stable_sort(opaque.begin(), opaque.end(), [](const DrawItem& a, const DrawItem& b) { return a.depth < b.depth; });
+    // Items carry a 4×4 double matrix each, so they are not sorted themselves: their depths are, as
+    // integer keys, by a least-significant-digit-first radix sort of 11-bit digits (stable: ties keep the
+    // traversal order; a digit every key shares is skipped), and the items are then gathered once.
+    const size_t n = opaque.size();
+    if (n < 2) return;
+    constexpr int kBits = 11, kDigits = (64 + kBits - 1) / kBits;
+    constexpr uint64_t kMask = (1u << kBits) - 1;
+    struct Key {
+        uint64_t key;
+        uint32_t index;
+    };
+    std::vector<Key> keys(n), spare(n);
+    std::vector<uint32_t> counts(kDigits << kBits, 0);
+    for (size_t i = 0; i < n; ++i) {
+        keys[i] = {order_key(opaque[i].depth), uint32_t(i)};
+        for (int digit = 0; digit < kDigits; ++digit) ++counts[digit << kBits | (keys[i].key >> (kBits * digit) & kMask)];
+    }
+    for (int digit = 0; digit < kDigits; ++digit) {
+        uint32_t* count = &counts[digit << kBits];
+        const int shift = kBits * digit;
+        if (count[keys[0].key >> shift & kMask] == n) continue;
+        uint32_t offset = 0;
+        for (uint64_t d = 0; d <= kMask; ++d) offset += std::exchange(count[d], offset);
+        for (const Key& k : keys) spare[count[k.key >> shift & kMask]++] = k;
+        keys.swap(spare);
+    }
+    std::vector<DrawItem> sorted;
+    sorted.reserve(opaque.capacity());
+    for (const Key& k : keys) sorted.push_back(opaque[k.index]);
+    opaque.swap(sorted);
 }
 
 CullVisitor::CullVisitor(const Camera& camera, const glm::dmat4& view, const glm::dmat4& projection, RenderList& out)

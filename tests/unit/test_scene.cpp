@@ -2,6 +2,11 @@
 // CullVisitor's culling, transforms, lights and draw order.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <random>
+
 #include <glm/gtc/matrix_transform.hpp>
 
 #include "engine/scene/camera.h"
@@ -179,6 +184,31 @@ TEST(Frustum, BoxesInsideOutsideAndAcross) {
     EXPECT_TRUE(intersects(child, unit_box_at({-50, 0, -10}), mask));
     mask = kAllPlanes;
     EXPECT_FALSE(intersects(child, unit_box_at({0, 0, -10}), mask));
+}
+
+TEST(RenderList, SortIsStableFrontToBackOverAnyDepths) {
+    // Ties (many equal depths, −0 and +0), negatives (behind the eye), huge and tiny magnitudes and
+    // infinities, in a list long enough for every digit of the keys to matter.
+    std::mt19937 rng(3);
+    const double pool[] = {0.0, -0.0, 1.0, -1.0, 1e-300, -1e-300, 1e300, -1e300, 2.5, 1e4, -7.25,
+                           std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()};
+    RenderList list;
+    for (uint32_t i = 0; i < 5000; ++i) {
+        const double depth = i % 3 ? std::uniform_real_distribution<double>(-1e3, 1e3)(rng) : pool[rng() % std::size(pool)];
+        list.opaque.push_back({nullptr, glm::dmat4(double(i)), depth, i, 1});
+    }
+    std::vector<DrawItem> expected = list.opaque;
+    std::stable_sort(expected.begin(), expected.end(), [](const DrawItem& a, const DrawItem& b) { return a.depth < b.depth; });
+    list.sort();
+    ASSERT_EQ(list.opaque.size(), expected.size());
+    for (size_t i = 0; i < expected.size(); ++i) {
+        ASSERT_EQ(list.opaque[i].first, expected[i].first) << "at " << i;
+        EXPECT_EQ(list.opaque[i].model[0][0], double(expected[i].first));  // the item moved whole
+    }
+    RenderList one;
+    one.opaque.push_back({nullptr, glm::dmat4(1.0), std::nan(""), 0, 0});
+    one.sort();
+    EXPECT_EQ(one.opaque.size(), 1u);
 }
 
 struct CullFixture : ::testing::Test {
