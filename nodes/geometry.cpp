@@ -50,10 +50,6 @@ void Geometry::cull(CullVisitor& cull) {
     if (mesh_.triangle_count() > 0) cull.add(*this);
 }
 
-void Geometry::draw(DrawContext&, const DrawItem&) {
-    // Not drawn yet: the GPU path is the next step of issue 3.
-}
-
 void compute_vertex_normals(Mesh& mesh) {
     mesh.normals.assign(mesh.positions.size(), 0.0f);
     auto at = [&](uint32_t v) { return glm::vec3(mesh.positions[3 * v], mesh.positions[3 * v + 1], mesh.positions[3 * v + 2]); };

@@ -14,7 +14,6 @@ namespace strata {
 
 struct Material {
     glm::vec4 base_color{0.8f, 0.8f, 0.8f, 1.0f};  // linear; multiplies the vertex colours if any
-    float ambient = 1.0f;                          // how much of the ambient light it takes
 };
 
 class Geometry : public Drawable {

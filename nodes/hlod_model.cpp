@@ -140,15 +140,15 @@ glm::vec3 HlodModel::parent_position(const HlodCube& cube, uint32_t p) const {
             lattice_coordinate(header_, n.level - 1, n.k / 2, q[2])};
 }
 
-std::pair<float, float> HlodModel::morph_band(uint32_t level, float kappa0) const {
+HlodModel::MorphBand HlodModel::morph_band(uint32_t level, float kappa0) const {
     const double s = header_.cube_size(level), sigma0 = header_.sigma0;
-    return {float((1.0 + kappa0 + sigma0) * s), float((kappa0 - sigma0) * 2.0 * s)};
+    const float start = float((1.0 + kappa0 + sigma0) * s), end = float((kappa0 - sigma0) * 2.0 * s);
+    return {start, end, 1.0f / (end - start)};
 }
 
 void HlodModel::morphed_positions(uint32_t c, const glm::vec3& eye, float kappa0, std::vector<glm::vec3>& out) const {
     const HlodCube& cube = cubes_[c];
-    const auto [start, end] = morph_band(cube.node.level, kappa0);
-    const float span = end - start;
+    const MorphBand band = morph_band(cube.node.level, kappa0);
     out.resize(cube.data.vertex_count());
     for (uint32_t v = 0; v < out.size(); ++v) {
         const glm::vec3 w = vertex_position(cube, v);
@@ -159,7 +159,7 @@ void HlodModel::morphed_positions(uint32_t c, const glm::vec3& eye, float kappa0
         const glm::vec3 parent = parent_position(cube, cube.data.parent_of[v]);
         const glm::vec3 offset = glm::abs(w - eye);
         const float d = std::max(std::max(offset.x, offset.y), offset.z);
-        const float lambda = std::clamp((end - d) / span, 0.0f, 1.0f);
+        const float lambda = std::clamp((band.end - d) * band.inverse_span, 0.0f, 1.0f);
         // The ends exactly (Lemma 2 needs λ = 0 to give P(w) and λ = 1 to give w), GLSL's mix between.
         out[v] = lambda >= 1.0f ? w : lambda <= 0.0f ? parent : parent * (1.0f - lambda) + w * lambda;
     }
@@ -178,8 +178,5 @@ void HlodModel::cull(CullVisitor& cull) {
     if (!selection_.empty()) cull.add(*this, selection_.data(), uint32_t(selection_.size()));
 }
 
-void HlodModel::draw(DrawContext&, const DrawItem&) {
-    // Not drawn yet: the GPU path (storage buffers and the morph shader) is the next step of issue 3.
-}
 
 }  // namespace strata

@@ -78,8 +78,12 @@ public:
     // Decoded, unmorphed lattice-frame positions of a cube's vertices, and of its parent table.
     glm::vec3 vertex_position(const HlodCube& cube, uint32_t v) const;
     glm::vec3 parent_position(const HlodCube& cube, uint32_t p) const;
-    // The morph band of a level: λ = clamp((end − d)/(end − start), 0, 1).
-    std::pair<float, float> morph_band(uint32_t level, float kappa0) const;
+    // The morph band of a level: λ = clamp((end − d)·inverse_span, 0, 1), inverse_span = 1/(end − start).
+    // A multiplication by the reciprocal, because GLSL's division is not correctly rounded.
+    struct MorphBand {
+        float start, end, inverse_span;
+    };
+    MorphBand morph_band(uint32_t level, float kappa0) const;
 
     void cull(CullVisitor& cull) override;
     void draw(DrawContext& context, const DrawItem& item) override;

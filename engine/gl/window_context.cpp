@@ -75,6 +75,7 @@ void WindowContext::open(const std::string& title, int width, int height) {
     glfwWindowHint(GLFW_CONTEXT_VERSION_MINOR, 5);
     glfwWindowHint(GLFW_OPENGL_PROFILE, GLFW_OPENGL_CORE_PROFILE);
     glfwWindowHint(GLFW_OPENGL_DEBUG_CONTEXT, gl_debug_requested() ? GLFW_TRUE : GLFW_FALSE);
+    glfwWindowHint(GLFW_SRGB_CAPABLE, GLFW_TRUE);  // the viewer presents linear colour, encoded on the way
     window_ = glfwCreateWindow(width, height, title.c_str(), nullptr, nullptr);
     if (!window_)
         throw GlError("cannot create a window with an OpenGL 4.5 core context: " + glfw_error_description());

@@ -15,8 +15,7 @@
 #include "engine/scene/cull_visitor.h"
 #include "nodes/hlod_model.h"
 #include "preprocess/hlod_builder.h"
-#include "preprocess/mesh_io.h"
-#include "tests/support/test_meshes.h"
+#include "tests/support/bunny_model.h"
 
 namespace strata {
 namespace {
@@ -32,18 +31,9 @@ Position bits(const glm::vec3& p) {
 class HlodSelection : public ::testing::Test {
 protected:
     static void SetUpTestSuite() {
-        const auto scan = std::filesystem::path(STRATA_SOURCE_DIR) / "data" / "bunny.off";
-        if (!std::filesystem::exists(scan)) return;
-        dir_ = new test::TempDir;
-        BuildSettings settings;
-        settings.levels = 3;  // the most its longest edges allow (σ0 ≤ 0.45): four levels to mix
-        build_hlod(read_mesh(scan), *dir_ / "bunny.hlod", settings, "bunny.off");
-        model_ = HlodModel::load(*dir_ / "bunny.hlod");
+        if (!test::bunny_hlod().empty()) model_ = HlodModel::load(test::bunny_hlod());
     }
-    static void TearDownTestSuite() {
-        model_.reset();
-        delete dir_;
-    }
+    static void TearDownTestSuite() { model_.reset(); }
     void SetUp() override {
         if (!model_) GTEST_SKIP() << "data/bunny.off missing: run scripts/setup.sh";
     }
@@ -106,7 +96,6 @@ protected:
         return out;
     }
 
-    static inline test::TempDir* dir_ = nullptr;
     static inline std::shared_ptr<HlodModel> model_;
 };
 

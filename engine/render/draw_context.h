@@ -1,0 +1,43 @@
+// What a Drawable's draw() gets from the renderer: the view, the frame's statistics, the GPU cache,
+// and the shading code every program shares (lights in a uniform block, the fragment outputs).
+#pragma once
+
+#include <cstdint>
+
+#include <glm/glm.hpp>
+
+#include "engine/render/gpu_cache.h"
+#include "engine/scene/camera.h"
+#include "engine/scene/render_list.h"
+
+namespace strata {
+
+struct FrameStats {
+    uint64_t draw_items = 0;
+    uint64_t draw_calls = 0;
+    uint64_t triangles = 0;
+    uint64_t cubes = 0;          // HLOD cubes drawn
+    uint64_t nodes_culled = 0;
+    double cull_ms = 0;          // CPU: traversal, selection and sorting
+    double draw_ms = 0;          // CPU: issuing the draws (the GPU may still be working)
+};
+
+struct DrawContext {
+    const Camera& camera;
+    glm::dmat4 view;
+    glm::dmat4 projection;
+    glm::dvec3 eye;  // world frame
+    const RenderList& list;  // the draw items' data (an HLOD item's cubes)
+    GpuCache& cache;
+    FrameStats& stats;
+};
+
+// GLSL shared by every scene program's fragment stage: the lights block (binding 0, filled by the
+// renderer) and Lambert shading. The outputs are gl::fragment_outputs_glsl.
+extern const char* const kShadingGlsl;
+// GLSL: srgb_to_linear(), for 8-bit colours as scans store them.
+extern const char* const kSrgbGlsl;
+inline constexpr unsigned kLightsBinding = 0;
+inline constexpr int kMaxLights = 8;
+
+}  // namespace strata

@@ -1,0 +1,121 @@
+#include "engine/render/renderer.h"
+
+#include <chrono>
+#include <cmath>
+#include <limits>
+
+#include "engine/gl/depth_convention.h"
+#include "engine/scene/cull_visitor.h"
+#include "engine/scene/drawable.h"
+
+namespace strata {
+
+const char* const kShadingGlsl = R"(
+layout(std140, binding = 0) uniform Lights {
+    vec4 ambient;                 // rgb
+    vec4 light_direction[8];      // xyz: world direction the light travels
+    vec4 light_radiance[8];       // rgb
+    int light_count;
+};
+
+// `n`: the unit normal facing the viewer (scans are often open: back faces get light too).
+vec3 shade(vec3 base, vec3 n) {
+    vec3 c = ambient.rgb * base;
+    for (int i = 0; i < light_count; ++i)
+        c += base * light_radiance[i].rgb * max(dot(n, -light_direction[i].xyz), 0.0);
+    return c;
+}
+)";
+
+const char* const kSrgbGlsl = R"(
+vec3 srgb_to_linear(vec3 c) {
+    return mix(c / 12.92, pow((c + 0.055) / 1.055, vec3(2.4)), greaterThan(c, vec3(0.04045)));
+}
+)";
+
+namespace {
+
+struct LightsBlock {  // std140, as kShadingGlsl declares it
+    glm::vec4 ambient;
+    glm::vec4 direction[kMaxLights];
+    glm::vec4 radiance[kMaxLights];
+    int32_t count;
+    int32_t pad[3];
+};
+
+double milliseconds_since(std::chrono::steady_clock::time_point start) {
+    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+}
+
+}  // namespace
+
+Renderer::Renderer()
+    : lights_(sizeof(LightsBlock), GL_DYNAMIC_STORAGE_BIT), empty_vertex_array_(gl::VertexArray::create()) {}
+
+void Renderer::upload_lights(const RenderList& list, const Camera& camera) {
+    LightsBlock block{};
+    // A scene without lights gets a headlight from over the viewer's shoulder and some ambient.
+    block.ambient = glm::vec4(list.has_ambient ? list.ambient : glm::vec3(0.15f), 0.0f);
+    if (list.lights.empty()) {
+        const glm::dvec3 from_above = camera.orientation * glm::normalize(glm::dvec3(0.3, -0.5, -1.0));
+        block.direction[0] = glm::vec4(glm::vec3(from_above), 0.0f);
+        block.radiance[0] = glm::vec4(0.85f, 0.85f, 0.85f, 0.0f);
+        block.count = 1;
+    }
+    for (const LightItem& light : list.lights) {
+        if (block.count == kMaxLights) break;
+        block.direction[block.count] = glm::vec4(glm::vec3(light.direction), 0.0f);
+        block.radiance[block.count] = glm::vec4(light.radiance, 0.0f);
+        ++block.count;
+    }
+    lights_.upload(0, &block, sizeof block);
+    lights_.bind_base(GL_UNIFORM_BUFFER, kLightsBinding);
+}
+
+FrameStats Renderer::render(Node& scene, const Camera& camera, gl::Framebuffer& target, const RenderSettings& s) {
+    FrameStats stats;
+    const auto cull_start = std::chrono::steady_clock::now();
+    std::tie(near_, far_) = camera.clip_planes_for(scene.bound());
+    orthographic_ = camera.projection == ProjectionKind::orthographic;
+    const glm::dmat4 view = camera.view_matrix(), projection = camera.projection_matrix(near_, far_);
+    list_.clear();
+    CullVisitor cull(camera, view, projection, list_);
+    cull.set_frustum_culling(s.frustum_culling);
+    scene.accept(cull);
+    list_.sort();
+    stats.cull_ms = milliseconds_since(cull_start);
+    stats.nodes_culled = cull.stats().nodes_culled;
+
+    const auto draw_start = std::chrono::steady_clock::now();
+    target.bind();
+    target.clear(s.background);
+    upload_lights(list_, camera);
+    empty_vertex_array_.bind();
+    DrawContext context{camera, view, projection, glm::dvec3(glm::inverse(view)[3]), list_, cache_, stats};
+    for (const DrawItem& item : list_.opaque) item.drawable->draw(context, item);
+    stats.draw_items = list_.opaque.size();
+    stats.draw_ms = milliseconds_since(draw_start);
+    cache_.end_frame();
+    gl::check_gl("drawing the scene");
+    return stats;
+}
+
+Image Renderer::read_image(gl::Framebuffer& target) const {
+    const gl::FramebufferFormat& f = target.format();
+    Image image;
+    image.width = target.width();
+    image.height = target.height();
+    image.rgba = target.read_color();
+    image.depth = target.read_depth();
+    for (float& d : image.depth) {
+        if (d == gl::far_plane_depth) d = std::numeric_limits<float>::infinity();
+        else if (orthographic_) d = float(far_ - d * (far_ - near_));  // reversed depth is linear here
+        else d = float(gl::eye_distance_from_depth(d, near_, far_));
+    }
+    if (f.normals) image.normals = target.read_normals();
+    if (f.level) image.level = target.read_level();
+    if (f.node_id) image.node_id = target.read_node_id();
+    return image;
+}
+
+}  // namespace strata

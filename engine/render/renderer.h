@@ -1,0 +1,46 @@
+// The renderer: culls a scene for a camera, then draws its bins into a framebuffer, front to back,
+// and reads frames back as Images. Needs a current OpenGL 4.5 context (engine/gl/context.h).
+#pragma once
+
+#include <glm/glm.hpp>
+
+#include "engine/gl/buffer.h"
+#include "engine/gl/framebuffer.h"
+#include "engine/gl/vertex_array.h"
+#include "engine/io/image.h"
+#include "engine/render/draw_context.h"
+#include "engine/scene/node.h"
+#include "engine/scene/render_list.h"
+
+namespace strata {
+
+struct RenderSettings {
+    glm::vec4 background{0.0f, 0.0f, 0.0f, 0.0f};  // linear RGBA
+    bool frustum_culling = true;
+};
+
+class Renderer {
+public:
+    Renderer();
+
+    // Culls `scene` for `camera` (its clip planes, or ones fitted to the scene) and draws it into
+    // `target`, which is bound and cleared first.
+    FrameStats render(Node& scene, const Camera& camera, gl::Framebuffer& target, const RenderSettings& settings = {});
+    // The last frame's planes as an Image: colour, and whichever data channels `target` has, with
+    // depth as eye-space distance.
+    Image read_image(gl::Framebuffer& target) const;
+
+    RenderSettings settings;
+
+private:
+    void upload_lights(const RenderList& list, const Camera& camera);
+
+    RenderList list_;
+    GpuCache cache_;
+    gl::Buffer lights_;
+    gl::VertexArray empty_vertex_array_;
+    double near_ = 0, far_ = 0;  // of the last frame, for depth read-back
+    bool orthographic_ = false;
+};
+
+}  // namespace strata

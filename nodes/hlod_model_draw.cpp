@@ -1,0 +1,329 @@
+// The HLOD model on the GPU (DESIGN.md §3): cube vertices and parent tables in storage buffers,
+// pulled by gl_VertexID; one multi-draw per storage chunk with a command per selected cube; the morph
+// in the vertex shader, in the same float operations as HlodModel::morphed_positions.
+#include <algorithm>
+#include <array>
+#include <string>
+
+#include "engine/gl/buffer.h"
+#include "engine/gl/framebuffer.h"
+#include "engine/gl/program.h"
+#include "engine/gl/vertex_array.h"
+#include "engine/render/draw_context.h"
+#include "engine/scene/render_list.h"
+#include "nodes/hlod_model.h"
+
+namespace strata {
+
+namespace {
+
+constexpr int kMaxLevels = 16;  // the format allows levels 0 … 15
+
+const char* const kVertexGlsl = R"(
+// Per cube: level, cell i, j, k. Per vertex: x | y << 16, z, octahedral normal (u | v << 16), index
+// of its parent in the chunk's parent table. Per parent: the same, without the index.
+layout(std430, binding = 1) readonly buffer Cubes { uvec4 cubes[]; };
+layout(std430, binding = 2) readonly buffer Vertices { uvec4 vertices[]; };
+layout(std430, binding = 3) readonly buffer Parents { uvec4 parents[]; };
+layout(std430, binding = 4) readonly buffer VertexColors { uint vertex_colors[]; };
+layout(std430, binding = 5) readonly buffer ParentColors { uint parent_colors[]; };
+
+uniform mat4 clip_from_lattice;
+uniform mat3 world_from_lattice_normal;
+uniform vec3 eye;  // lattice frame
+uniform float lattice_step[16];
+uniform float parent_step[16];
+uniform float morph_end[16];
+uniform float morph_inverse_span[16];
+uniform bool morph;
+uniform bool has_colors;
+uniform bool color_by_level;
+uniform vec4 base_color;
+
+out vec3 v_normal;
+out vec4 v_color;
+flat out float v_level;
+
+vec3 lattice_position(uvec4 record, uvec3 cell, float step) {
+    ivec3 stored = ivec3(record.x & 0xffffu, record.x >> 16, record.y & 0xffffu);
+    ivec3 q = stored + ivec3(cell << 15) - 16384;
+    return vec3(q) * step;
+}
+
+vec3 octahedral_normal(uint bits) {
+    const float scale = 2047.0;
+    float x = max(float(bitfieldExtract(int(bits), 0, 16)) / scale, -1.0);
+    float y = max(float(bitfieldExtract(int(bits), 16, 16)) / scale, -1.0);
+    float z = 1.0 - abs(x) - abs(y);
+    if (z < 0.0) {
+        float ox = (1.0 - abs(y)) * (x >= 0.0 ? 1.0 : -1.0);
+        float oy = (1.0 - abs(x)) * (y >= 0.0 ? 1.0 : -1.0);
+        x = ox; y = oy;
+    }
+    return normalize(vec3(x, y, z));
+}
+
+const vec3 level_palette[8] = vec3[8](vec3(0.90, 0.25, 0.20), vec3(0.95, 0.60, 0.15), vec3(0.90, 0.85, 0.20),
+    vec3(0.35, 0.75, 0.30), vec3(0.20, 0.70, 0.75), vec3(0.25, 0.40, 0.85), vec3(0.55, 0.30, 0.80),
+    vec3(0.85, 0.35, 0.65));
+
+void main() {
+    uvec4 cube = cubes[gl_BaseInstanceARB];
+    uint level = cube.x;
+    uvec4 own = vertices[gl_VertexID];
+    uvec4 parent = parents[own.w];
+    precise vec3 w = lattice_position(own, cube.yzw, lattice_step[level]);
+    precise vec3 p = lattice_position(parent, cube.yzw >> 1, parent_step[level]);
+    vec3 offset = abs(w - eye);
+    float d = max(max(offset.x, offset.y), offset.z);
+    precise float lambda = morph ? clamp((morph_end[level] - d) * morph_inverse_span[level], 0.0, 1.0) : 1.0;
+    // The ends exactly (Lemma 2), the mix in between without fused multiply-adds, as on the CPU.
+    precise vec3 position = lambda >= 1.0 ? w : lambda <= 0.0 ? p : p * (1.0 - lambda) + w * lambda;
+    gl_Position = clip_from_lattice * vec4(position, 1.0);
+
+    vec3 n = mix(octahedral_normal(parent.z), octahedral_normal(own.z), lambda);
+    v_normal = world_from_lattice_normal * n;
+    vec4 color = base_color;
+    if (has_colors)
+        color *= mix(unpackUnorm4x8(parent_colors[own.w]), unpackUnorm4x8(vertex_colors[gl_VertexID]), lambda);
+    if (color_by_level) color = vec4(level_palette[level % 8u], 1.0);
+    v_color = vec4(srgb_to_linear(color.rgb), color.a);
+    v_level = float(level);
+}
+)";
+
+const char* const kFragmentGlsl = R"(
+in vec3 v_normal;
+in vec4 v_color;
+flat in float v_level;
+uniform uint node_id;
+
+void main() {
+    vec3 n = normalize(gl_FrontFacing ? v_normal : -v_normal);
+    out_color = vec4(shade(v_color.rgb, n), v_color.a);
+    out_normal = vec4(n, 0.0);
+    out_level = v_level;
+    out_node_id = node_id;
+}
+)";
+
+// The cube-boxes view: the 12 edges of each drawn cube's cell, one instance per cube, coloured by level.
+const char* const kBoxVertexGlsl = R"(
+#version 450
+layout(std430, binding = 1) readonly buffer Cubes { uvec4 cubes[]; };
+layout(std430, binding = 6) readonly buffer Drawn { uint drawn[]; };
+uniform mat4 clip_from_lattice;
+uniform float cube_size[16];
+flat out vec3 v_color;
+const vec3 level_palette[8] = vec3[8](vec3(0.90, 0.25, 0.20), vec3(0.95, 0.60, 0.15), vec3(0.90, 0.85, 0.20),
+    vec3(0.35, 0.75, 0.30), vec3(0.20, 0.70, 0.75), vec3(0.25, 0.40, 0.85), vec3(0.55, 0.30, 0.80),
+    vec3(0.85, 0.35, 0.65));
+void main() {
+    uvec4 cube = cubes[drawn[gl_InstanceID]];
+    // Edge e (0..11) runs along axis e / 4; the other two axes take the corner bits of e % 4.
+    int edge = gl_VertexID / 2, axis = edge / 4, bits = edge % 4;
+    vec3 corner;
+    corner[axis] = float(gl_VertexID % 2);
+    corner[(axis + 1) % 3] = float(bits & 1);
+    corner[(axis + 2) % 3] = float(bits >> 1);
+    gl_Position = clip_from_lattice * vec4((vec3(cube.yzw) + corner) * cube_size[cube.x], 1.0);
+    v_color = level_palette[cube.x % 8u];
+}
+)";
+
+const char* const kBoxFragmentGlsl = R"(
+flat in vec3 v_color;
+void main() {
+    out_color = vec4(v_color, 1.0);
+    out_normal = vec4(0.0);
+    out_level = -1.0;
+    out_node_id = 0u;
+}
+)";
+
+std::string vertex_source() {
+    return std::string("#version 450\n#extension GL_ARB_shader_draw_parameters : require\n") + kSrgbGlsl + kVertexGlsl;
+}
+
+std::string fragment_source() {
+    return std::string("#version 450\n") + gl::fragment_outputs_glsl + kShadingGlsl + kFragmentGlsl;
+}
+
+struct DrawCommand {  // glMultiDrawElementsIndirect's layout
+    uint32_t count;
+    uint32_t instance_count;
+    uint32_t first_index;
+    int32_t base_vertex;
+    uint32_t base_instance;
+};
+
+// Cubes are packed into chunks whose buffers each fit one storage-buffer binding.
+struct Chunk {
+    gl::Buffer vertices, parents, vertex_colors, parent_colors, indices;
+    gl::VertexArray vertex_array;  // holds the index buffer
+    gl::Buffer commands;
+    std::vector<DrawCommand> frame_commands;
+};
+
+struct HlodGpu : GpuCache::Entry {
+    gl::Program program, box_program;
+    gl::Buffer cubes;
+    gl::Buffer drawn;  // this frame's cubes, for the boxes view
+    std::vector<Chunk> chunks;
+    std::vector<uint32_t> chunk_of;         // per cube
+    std::vector<DrawCommand> command_of;    // per cube, within its chunk
+};
+
+struct ChunkData {
+    std::vector<std::array<uint32_t, 4>> vertices, parents;
+    std::vector<uint32_t> vertex_colors, parent_colors, indices;
+};
+
+uint32_t pack_pair(uint32_t low, uint32_t high) { return (low & 0xffffu) | high << 16; }
+
+void append_cube(const HlodCube& cube, uint32_t index, ChunkData& data, DrawCommand& command) {
+    const CubeData& c = cube.data;
+    const uint32_t parent_base = uint32_t(data.parents.size());
+    command = {uint32_t(c.indices.size()), 1, uint32_t(data.indices.size()), int32_t(data.vertices.size()), index};
+    for (uint32_t v = 0; v < c.vertex_count(); ++v) {
+        const uint16_t* q = &c.vertices.positions[3 * size_t(v)];
+        const int16_t* n = &c.vertices.normals[2 * size_t(v)];
+        data.vertices.push_back({pack_pair(q[0], q[1]), q[2], pack_pair(uint16_t(n[0]), uint16_t(n[1])), parent_base + c.parent_of[v]});
+    }
+    for (uint32_t p = 0; p < c.parents.size(); ++p) {
+        const uint16_t* q = &c.parents.positions[3 * size_t(p)];
+        const int16_t* n = &c.parents.normals[2 * size_t(p)];
+        data.parents.push_back({pack_pair(q[0], q[1]), q[2], pack_pair(uint16_t(n[0]), uint16_t(n[1])), 0});
+    }
+    auto append_colors = [](const std::vector<uint8_t>& rgba, std::vector<uint32_t>& out) {
+        for (size_t i = 0; i + 3 < rgba.size(); i += 4)
+            out.push_back(rgba[i] | rgba[i + 1] << 8 | rgba[i + 2] << 16 | uint32_t(rgba[i + 3]) << 24);
+    };
+    append_colors(c.vertices.colors, data.vertex_colors);
+    append_colors(c.parents.colors, data.parent_colors);
+    data.indices.insert(data.indices.end(), c.indices.begin(), c.indices.end());
+}
+
+Chunk upload_chunk(ChunkData& data) {
+    // A model without colours still binds colour buffers: one word each, never read.
+    if (data.vertex_colors.empty()) data.vertex_colors = data.parent_colors = {0xffffffffu};
+    if (data.indices.empty()) data.indices = {0};
+    Chunk chunk{gl::Buffer(data.vertices, 0),      gl::Buffer(data.parents, 0),
+                gl::Buffer(data.vertex_colors, 0), gl::Buffer(data.parent_colors, 0),
+                gl::Buffer(data.indices, 0),       gl::VertexArray::create(),
+                gl::Buffer(), {}};
+    glVertexArrayElementBuffer(chunk.vertex_array.id(), chunk.indices.id());
+    return chunk;
+}
+
+std::unique_ptr<HlodGpu> upload(const HlodModel& model) {
+    auto gpu = std::make_unique<HlodGpu>();
+    gpu->program = gl::Program::graphics("hlod", vertex_source(), fragment_source());
+    gpu->box_program = gl::Program::graphics("hlod cube boxes", kBoxVertexGlsl,
+                                             std::string("#version 450\n") + gl::fragment_outputs_glsl + kBoxFragmentGlsl);
+    const auto& cubes = model.cubes();
+    std::vector<std::array<uint32_t, 4>> records;
+    for (const HlodCube& c : cubes) records.push_back({c.node.level, c.node.i, c.node.j, c.node.k});
+    gpu->cubes = gl::Buffer(records, 0);
+
+    GLint max_block = 0;
+    glGetIntegerv(GL_MAX_SHADER_STORAGE_BLOCK_SIZE, &max_block);
+    const size_t limit = std::min<size_t>(size_t(max_block), size_t(256) << 20) / 16;  // records per binding
+    gpu->chunk_of.resize(cubes.size());
+    gpu->command_of.resize(cubes.size());
+    ChunkData data;
+    for (uint32_t c = 0; c < cubes.size(); ++c) {
+        const CubeData& cube = cubes[c].data;
+        if (!data.vertices.empty() && (data.vertices.size() + cube.vertex_count() > limit ||
+                                       data.parents.size() + cube.parents.size() > limit)) {
+            gpu->chunks.push_back(upload_chunk(data));
+            data = {};
+        }
+        gpu->chunk_of[c] = uint32_t(gpu->chunks.size());
+        append_cube(cubes[c], c, data, gpu->command_of[c]);
+    }
+    gpu->chunks.push_back(upload_chunk(data));
+    for (Chunk& chunk : gpu->chunks) chunk.commands = gl::Buffer(cubes.size() * sizeof(DrawCommand), GL_DYNAMIC_STORAGE_BIT);
+    gpu->drawn = gl::Buffer(cubes.size() * sizeof(uint32_t), GL_DYNAMIC_STORAGE_BIT);
+    gl::check_gl("uploading an HLOD model");
+    return gpu;
+}
+
+void set_view_uniforms(const HlodModel& model, const gl::Program& program, const DrawContext& context,
+                       const DrawItem& item, float kappa0) {
+    const glm::dmat4 node_from_lattice = model.lattice_to_node();
+    const glm::dmat4 world_from_lattice = item.model * node_from_lattice;
+    // Composed in double, then rounded once: survey-scale translations cancel before going to float.
+    program.set("clip_from_lattice", glm::mat4(context.projection * context.view * world_from_lattice));
+    program.set("world_from_lattice_normal", glm::mat3(glm::transpose(glm::inverse(glm::dmat3(world_from_lattice)))));
+    const glm::dvec3 eye = glm::dvec3(glm::inverse(world_from_lattice) * glm::dvec4(context.eye, 1.0));
+    program.set("eye", glm::vec3(eye));
+    const HlodHeader& h = model.header();
+    std::array<float, kMaxLevels> step{}, parent_step{}, end{}, inverse_span{};
+    for (uint32_t l = 0; l <= h.max_level && l < kMaxLevels; ++l) {
+        step[l] = h.lattice_step(l);
+        parent_step[l] = h.lattice_step(l == 0 ? 0 : l - 1);
+        const auto band = model.morph_band(l, kappa0);
+        end[l] = band.end;
+        inverse_span[l] = band.inverse_span;
+    }
+    glProgramUniform1fv(program.id(), program.uniform_location("lattice_step"), kMaxLevels, step.data());
+    glProgramUniform1fv(program.id(), program.uniform_location("parent_step"), kMaxLevels, parent_step.data());
+    glProgramUniform1fv(program.id(), program.uniform_location("morph_end"), kMaxLevels, end.data());
+    glProgramUniform1fv(program.id(), program.uniform_location("morph_inverse_span"), kMaxLevels, inverse_span.data());
+    program.set("morph", int(model.morph()));
+    program.set("has_colors", int(model.header().has_colors()));
+    program.set("color_by_level", int(model.debug_view() == HlodDebugView::levels));
+    program.set("base_color", glm::vec4(0.8f, 0.78f, 0.74f, 1.0f));
+    program.set("node_id", unsigned(model.id()));
+}
+
+void draw_boxes(const HlodModel& model, HlodGpu& gpu, DrawContext& context, const DrawItem& item) {
+    const HlodHeader& header = model.header();
+    gpu.drawn.upload(0, &context.list.item_data[item.first], item.count * sizeof(uint32_t));
+    gpu.drawn.bind_base(GL_SHADER_STORAGE_BUFFER, 6);
+    std::array<float, kMaxLevels> size{};
+    for (uint32_t l = 0; l <= header.max_level && l < kMaxLevels; ++l) size[l] = float(header.cube_size(l));
+    const gl::Program& p = gpu.box_program;
+    p.set("clip_from_lattice", glm::mat4(context.projection * context.view * item.model * model.lattice_to_node()));
+    glProgramUniform1fv(p.id(), p.uniform_location("cube_size"), kMaxLevels, size.data());
+    p.use();
+    glDrawArraysInstanced(GL_LINES, 0, 24, GLsizei(item.count));
+    ++context.stats.draw_calls;
+}
+
+}  // namespace
+
+void HlodModel::draw(DrawContext& context, const DrawItem& item) {
+    HlodGpu& gpu = context.cache.get<HlodGpu>(id(), [&] { return upload(*this); });
+    const float kappa0 = float(kappa0_for(context.camera.width, context.camera.tan_half_fov_x()));
+    set_view_uniforms(*this, gpu.program, context, item, kappa0);
+    gpu.program.use();
+    gpu.cubes.bind_base(GL_SHADER_STORAGE_BUFFER, 1);
+
+    for (Chunk& chunk : gpu.chunks) chunk.frame_commands.clear();
+    for (uint32_t k = 0; k < item.count; ++k) {
+        const uint32_t c = context.list.item_data[item.first + k];
+        gpu.chunks[gpu.chunk_of[c]].frame_commands.push_back(gpu.command_of[c]);
+        context.stats.triangles += gpu.command_of[c].count / 3;
+    }
+    context.stats.cubes += item.count;
+    if (debug_view_ == HlodDebugView::wireframe) glPolygonMode(GL_FRONT_AND_BACK, GL_LINE);
+    for (Chunk& chunk : gpu.chunks) {
+        if (chunk.frame_commands.empty()) continue;
+        chunk.vertices.bind_base(GL_SHADER_STORAGE_BUFFER, 2);
+        chunk.parents.bind_base(GL_SHADER_STORAGE_BUFFER, 3);
+        chunk.vertex_colors.bind_base(GL_SHADER_STORAGE_BUFFER, 4);
+        chunk.parent_colors.bind_base(GL_SHADER_STORAGE_BUFFER, 5);
+        chunk.commands.upload(chunk.frame_commands);
+        chunk.vertex_array.bind();
+        glBindBuffer(GL_DRAW_INDIRECT_BUFFER, chunk.commands.id());
+        glMultiDrawElementsIndirect(GL_TRIANGLES, GL_UNSIGNED_INT, nullptr, GLsizei(chunk.frame_commands.size()), 0);
+        ++context.stats.draw_calls;
+    }
+    glBindBuffer(GL_DRAW_INDIRECT_BUFFER, 0);
+    if (debug_view_ == HlodDebugView::wireframe) glPolygonMode(GL_FRONT_AND_BACK, GL_FILL);
+    if (show_boxes_) draw_boxes(*this, gpu, context, item);
+}
+
+}  // namespace strata

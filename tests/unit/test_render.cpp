@@ -1,0 +1,220 @@
+// Rendering with real OpenGL (Mesa llvmpipe through EGL, no display): a scene of three HLOD models under
+// different transforms and a Geometry floor against a golden image, its EXR channels read back with
+// OpenEXR, and the pop check (DESIGN.md §6): images just before and just after a cube is replaced by
+// its children match, and without the morph they do not.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <set>
+
+#include <stb_image.h>
+
+#include <glm/gtc/matrix_transform.hpp>
+
+#include "engine/gl/context.h"
+#include "engine/gl/framebuffer.h"
+#include "engine/io/image.h"
+#include "engine/render/renderer.h"
+#include "engine/scene/cull_visitor.h"
+#include "engine/scene/light.h"
+#include "nodes/geometry.h"
+#include "nodes/hlod_model.h"
+#include "tests/support/bunny_model.h"
+
+namespace strata {
+namespace {
+
+const std::filesystem::path kGolden = std::filesystem::path(STRATA_SOURCE_DIR) / "tests/data/golden/three_bunnies.png";
+
+class Render : public ::testing::Test {
+protected:
+    static void SetUpTestSuite() { context_ = gl::create_headless_context(); }
+    static void TearDownTestSuite() { context_.reset(); }
+    void SetUp() override {
+        if (test::bunny_hlod().empty()) GTEST_SKIP() << "data/bunny.off missing: run scripts/setup.sh";
+    }
+
+    // Share of pixels whose RGBA differ by more than `tolerance` in some channel.
+    static double differing(const std::vector<float>& a, const std::vector<float>& b, float tolerance) {
+        size_t differ = 0;
+        for (size_t p = 0; p < a.size(); p += 4)
+            for (int c = 0; c < 4; ++c)
+                if (std::abs(a[p + c] - b[p + c]) > tolerance) {
+                    ++differ;
+                    break;
+                }
+        return double(differ) / double(a.size() / 4);
+    }
+
+    static inline std::unique_ptr<gl::Context> context_;
+};
+
+struct ThreeBunnies {
+    std::shared_ptr<Group> root = std::make_shared<Group>();
+    std::vector<std::shared_ptr<HlodModel>> models;
+    std::shared_ptr<Geometry> floor;
+    Camera camera;
+
+    ThreeBunnies() {
+        const double size = HlodModel::load(test::bunny_hlod())->header().root_size;
+        const glm::dvec3 placements[3] = {{-1.2, 0, 0}, {0, 0, -0.6}, {1.2, 0, 0}};
+        for (int i = 0; i < 3; ++i) {
+            auto model = HlodModel::load(test::bunny_hlod());
+            model->set_pixel_error(1.0);
+            auto place = std::make_shared<Transform>();
+            // Each bunny centred on its spot, turned differently, the last one smaller.
+            glm::dmat4 m = glm::translate(glm::dmat4(1.0), placements[i] * size);
+            m = glm::rotate(m, glm::radians(60.0 * (i - 1)), {0, 1, 0});
+            m = glm::scale(m, glm::dvec3(i == 2 ? 0.7 : 1.0));
+            m = glm::translate(m, -model->bound().center() + glm::dvec3(0, 0.5 * (model->bound().hi.y - model->bound().lo.y), 0));
+            place->set_matrix(m);
+            place->add(model);
+            root->add(place);
+            models.push_back(model);
+        }
+        floor = Geometry::plane({0, 0, 0}, {0, 1, 0}, 5 * size, 4 * size);
+        floor->material.base_color = {0.45f, 0.42f, 0.38f, 1.0f};
+        root->add(floor);
+        auto sun = std::make_shared<DirectionalLight>();
+        sun->direction = {-0.4, -1.0, -0.5};
+        root->add(sun);
+        auto sky = std::make_shared<AmbientLight>();
+        sky->color = {0.2f, 0.2f, 0.22f};
+        root->add(sky);
+        camera.width = 320;
+        camera.height = 240;
+        camera.look_at(glm::dvec3(0.3, 1.2, 3.2) * size, glm::dvec3(0, 0.3, 0) * size);
+    }
+};
+
+TEST_F(Render, ThreeModelsAndAFloorMatchTheGoldenImage) {
+    ThreeBunnies scene;
+    gl::Framebuffer target({.width = 320, .height = 240, .samples = 4});
+    Renderer renderer;
+    const FrameStats stats = renderer.render(*scene.root, scene.camera, target);
+    EXPECT_EQ(stats.draw_items, 4u);
+    EXPECT_GT(stats.cubes, 3u);
+    const Image image = renderer.read_image(target);
+    if (std::getenv("STRATA_UPDATE_GOLDEN")) {
+        std::filesystem::create_directories(kGolden.parent_path());
+        write_png(image, kGolden);
+        GTEST_SKIP() << "wrote " << kGolden;
+    }
+    // The golden image is 8-bit sRGB; compare in the same encoding.
+    test::TempDir dir;
+    write_png(image, dir / "now.png");
+    int w = 0, h = 0, n = 0, gw = 0, gh = 0;
+    unsigned char* now = stbi_load((dir / "now.png").c_str(), &w, &h, &n, 4);
+    unsigned char* golden = stbi_load(kGolden.c_str(), &gw, &gh, &n, 4);
+    ASSERT_NE(golden, nullptr) << kGolden << " missing: run the test with STRATA_UPDATE_GOLDEN=1";
+    ASSERT_EQ(gw, w);
+    ASSERT_EQ(gh, h);
+    size_t differ = 0, covered = 0;
+    for (size_t p = 0; p < size_t(w) * h; ++p) {
+        bool off = false;
+        for (int c = 0; c < 4; ++c) off |= std::abs(int(now[4 * p + c]) - int(golden[4 * p + c])) > 3;
+        differ += off;
+        covered += golden[4 * p + 3] > 0;
+    }
+    stbi_image_free(now);
+    stbi_image_free(golden);
+    EXPECT_LT(double(differ) / (w * h), 0.005) << differ << " pixels differ from " << kGolden;
+    EXPECT_GT(double(covered) / (w * h), 0.3) << "the scene should cover much of the image";
+}
+
+TEST_F(Render, ExrChannelsHoldDepthNormalsLevelsAndIds) {
+    ThreeBunnies scene;
+    gl::Framebuffer target({.width = 160, .height = 120, .samples = 4, .normals = true, .level = true, .node_id = true});
+    scene.camera.width = 160;
+    scene.camera.height = 120;
+    Renderer renderer;
+    renderer.render(*scene.root, scene.camera, target);
+    test::TempDir dir;
+    write_exr(renderer.read_image(target), dir / "frame.exr", ImageChannels::all());
+    const Image back = read_exr(dir / "frame.exr");
+    ASSERT_EQ(back.width, 160);
+    ASSERT_EQ(back.planes(), ImageChannels::all());
+    std::set<uint32_t> model_ids;
+    for (const auto& m : scene.models) model_ids.insert(m->id());
+    size_t model_pixels = 0, floor_pixels = 0, background = 0;
+    const double far_enough = 20 * scene.models[0]->header().root_size;
+    for (size_t p = 0; p < back.pixel_count(); ++p) {
+        const uint32_t id = back.node_id[p];
+        const glm::vec3 n(back.normals[3 * p], back.normals[3 * p + 1], back.normals[3 * p + 2]);
+        if (id == 0) {
+            ++background;
+            EXPECT_TRUE(std::isinf(back.depth[p]));
+            EXPECT_EQ(back.level[p], -1.0f);
+            continue;
+        }
+        EXPECT_GT(back.depth[p], 0.0f);
+        EXPECT_LT(back.depth[p], far_enough);
+        EXPECT_NEAR(glm::length(n), 1.0f, 0.01f);
+        if (model_ids.count(id)) {
+            ++model_pixels;
+            EXPECT_GE(back.level[p], 0.0f);
+            EXPECT_LE(back.level[p], 3.0f);
+        } else {
+            EXPECT_EQ(id, scene.floor->id());
+            ++floor_pixels;
+            EXPECT_EQ(back.level[p], -1.0f);
+            EXPECT_GT(n.y, 0.99f);  // the floor faces up
+        }
+    }
+    EXPECT_GT(model_pixels, back.pixel_count() / 20);
+    EXPECT_GT(floor_pixels, back.pixel_count() / 20);
+    EXPECT_GT(background, 0u);
+}
+
+// Lemma 2 on the GPU: a cube drawn just outside its switch distance and its children drawn just
+// inside it give the same image; the morph is what makes it so.
+TEST_F(Render, NoPopWhenACubeIsReplacedByItsChildren) {
+    auto model = HlodModel::load(test::bunny_hlod());
+    const double kappa0 = std::max(2.5, model->min_kappa0());
+    model->set_kappa0(kappa0);
+    // The level-2 cube with the most triangles: a busy piece of surface.
+    uint32_t chosen = kNoCube;
+    for (uint32_t c = 0; c < model->cubes().size(); ++c) {
+        const HlodCube& cube = model->cubes()[c];
+        if (cube.node.level == 2 && (chosen == kNoCube || cube.data.triangle_count() > model->cubes()[chosen].data.triangle_count()))
+            chosen = c;
+    }
+    ASSERT_NE(chosen, kNoCube);
+    const Box cell = model->cell(model->cubes()[chosen].node);
+    const double s = model->header().cube_size(2);
+    auto root = std::make_shared<Group>();
+    root->add(model);  // the node's frame is the scan's: the lattice-frame cell sits at O + cell
+    const glm::dvec3 centre = cell.center() + model->origin();
+    auto render_from = [&](double factor, bool morph, bool& selected) {
+        model->set_morph(morph);
+        Camera camera;
+        camera.width = camera.height = 200;
+        camera.fov_y_degrees = 40;
+        const glm::dvec3 eye{centre.x, centre.y, cell.hi.z + model->origin().z + kappa0 * s * factor};
+        camera.look_at(eye, centre);
+        RenderList list;
+        auto [near, far] = camera.clip_planes_for(root->bound());
+        CullVisitor cull(camera, camera.view_matrix(), camera.projection_matrix(near, far), list);
+        root->accept(cull);
+        selected = false;
+        for (uint32_t c : list.item_data) selected |= c == chosen;
+        gl::Framebuffer target({.width = 200, .height = 200, .samples = 1});
+        Renderer renderer;
+        renderer.render(*root, camera, target);
+        return target.read_color();
+    };
+    bool before_selected = false, after_selected = true;
+    const auto before = render_from(1 + 1e-6, true, before_selected);
+    const auto after = render_from(1 - 1e-6, true, after_selected);
+    ASSERT_TRUE(before_selected) << "just outside the switch distance the cube itself is drawn";
+    ASSERT_FALSE(after_selected) << "just inside it its children are";
+    EXPECT_LE(differing(before, after, 1.0f / 255), 0.001);
+    // The control: without the morph the switch shows.
+    const auto before_plain = render_from(1 + 1e-6, false, before_selected);
+    const auto after_plain = render_from(1 - 1e-6, false, after_selected);
+    EXPECT_GT(differing(before_plain, after_plain, 1.0f / 255), 0.001);
+}
+
+}  // namespace
+}  // namespace strata
