@@ -1,10 +1,14 @@
 #!/usr/bin/env bash
-# Set-up, build, then the main job on the bundled sample: build its .hlod, check it, describe it.
+# Set-up, build, then the main job on the bundled sample: build its .hlod, check it, describe it, and
+# render it headless to a PNG and an OpenEXR image.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh
-dir=$(scripts/build.sh)
+strata="$(scripts/build.sh)/editor/strata"
 mkdir -p data
-"$dir/strata" build data/bunny.off -o data/bunny.hlod
-"$dir/strata" verify data/bunny.hlod
-"$dir/strata" info data/bunny.hlod
+"$strata" build data/bunny.off -o data/bunny.hlod
+"$strata" verify data/bunny.hlod
+"$strata" info data/bunny.hlod
+"$strata" render data/bunny.hlod -o data/bunny.png --size 1280x720
+"$strata" render data/bunny.hlod -o data/bunny.exr --size 1280x720 --channels RGBA,Z,N,level,id
+echo "demo: wrote data/bunny.hlod, data/bunny.png and data/bunny.exr"

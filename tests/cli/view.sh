@@ -1,0 +1,17 @@
+#!/usr/bin/env bash
+# strata view in a real GLFW window under Xvfb: opens a model beside a mesh, draws frames, quits by
+# itself and writes the last one; without a display it says so and fails cleanly.
+source "$(dirname "$0")/common.sh"
+sample=$2/data/bunny.off
+[ -s "$sample" ] || { echo "sample missing: run scripts/setup.sh"; exit 1; }
+command -v xvfb-run >/dev/null || { echo "xvfb-run missing: run scripts/setup.sh"; exit 1; }
+"$STRATA" build "$sample" -o "$WORK/bunny.hlod" -q || { echo "build failed"; exit 1; }
+write_octahedron "$WORK/octa.off"
+
+expect_success "window" xvfb-run -a -s "-screen 0 800x600x24" "$STRATA" view "$WORK/bunny.hlod" "$WORK/octa.off" \
+    --size 320x240 --frames 5 --screenshot "$WORK/shot.png"
+checks=$((checks + 1)); [ -s "$WORK/shot.png" ] || fail "no screenshot written"
+checks=$((checks + 1)); grep -q "wheel zooms" "$WORK/out.txt" || fail "no help on the controls printed"
+expect_failure "no display" "no display" env -u DISPLAY -u WAYLAND_DISPLAY "$STRATA" view "$WORK/bunny.hlod" --frames 1
+expect_failure "missing file" "missing.hlod" xvfb-run -a "$STRATA" view "$WORK/missing.hlod" --frames 1
+finish
