@@ -22,6 +22,7 @@ struct RenderOptions {
     std::string size = "1280x720";
     std::vector<double> eye, target, up{0, 1, 0};
     double fov = 50;
+    bool orthographic = false;
     int samples = 4;
     std::string channels = "RGBA,Z";
     std::string compression = "zip";
@@ -31,18 +32,9 @@ struct RenderOptions {
     bool quiet = false;
 };
 
-std::pair<int, int> parse_size(const std::string& size) {
-    int width = 0, height = 0;
-    char x = 0, rest = 0;
-    if (std::sscanf(size.c_str(), "%d%c%d%c", &width, &x, &height, &rest) != 3 || (x != 'x' && x != 'X') ||
-        width <= 0 || height <= 0 || width > 16384 || height > 16384)
-        throw std::invalid_argument("--size takes WIDTHxHEIGHT (each 1 to 16384), not '" + size + "'");
-    return {width, height};
-}
-
 glm::dvec3 vec3_of(const std::vector<double>& v) { return {v[0], v[1], v[2]}; }
 
-// Without --eye: the whole scene framed from the front, a little above and to the right.
+// Without --eye: the whole scene framed, looking at --target (the scene's centre by default).
 void place_camera(Camera& camera, const RenderOptions& o, const Box& bounds) {
     const glm::dvec3 up = vec3_of(o.up);
     const glm::dvec3 target = o.target.empty() ? bounds.center() : vec3_of(o.target);
@@ -50,9 +42,11 @@ void place_camera(Camera& camera, const RenderOptions& o, const Box& bounds) {
         camera.look_at(vec3_of(o.eye), target, up);
         return;
     }
+    // Framed from the front, a little above and to the right, then moved to look at the target.
     const glm::dvec3 front = std::abs(up.z) > 0.9 ? glm::dvec3(0.4, -1, 0.3) : glm::dvec3(0.4, 0.3, 1);
-    camera.look_at(target + front, target, up);
+    camera.look_at(bounds.center() + front, bounds.center(), up);
     camera.frame(bounds);
+    camera.position += target - bounds.center();
 }
 
 int run_render(const RenderOptions& o) {
@@ -85,6 +79,7 @@ int run_render(const RenderOptions& o) {
     camera.width = width;
     camera.height = height;
     camera.fov_y_degrees = o.fov;
+    if (o.orthographic) camera.projection = ProjectionKind::orthographic;
     place_camera(camera, o, scene->bound());
 
     gl::Framebuffer target({.width = width, .height = height, .samples = o.samples,
@@ -118,6 +113,7 @@ Command add_render(CLI::App& app) {
     sub->add_option("--target", o->target, "Point looked at x,y,z (default: the scene's centre)")->delimiter(',')->expected(3);
     sub->add_option("--up", o->up, "Up direction x,y,z")->delimiter(',')->expected(3)->capture_default_str();
     sub->add_option("--fov", o->fov, "Vertical field of view, degrees")->check(CLI::Range(1.0, 170.0))->capture_default_str();
+    sub->add_flag("--ortho", o->orthographic, "Orthographic projection (elevations, orthophotos): framed to the scene");
     sub->add_option("--pixel-error", o->scene.pixel_error, "Screen-space error the HLOD models may show, in pixels")
         ->check(CLI::PositiveNumber)->capture_default_str();
     sub->add_option("--channels", o->channels, "EXR channels: RGBA, Z (eye-space depth), N (world normals), level, id")

@@ -145,9 +145,10 @@ void present(gl::Framebuffer& target, gl::Context& context) {
 
 int run_view(const ViewOptions& o) {
     int width = 0, height = 0;
-    char x = 0;
-    if (std::sscanf(o.size.c_str(), "%d%c%d", &width, &x, &height) != 3 || x != 'x' || width <= 0 || height <= 0) {
-        std::fprintf(stderr, "strata view: --size takes WIDTHxHEIGHT, not '%s'\n", o.size.c_str());
+    try {
+        std::tie(width, height) = parse_size(o.size);
+    } catch (const std::invalid_argument& e) {
+        std::fprintf(stderr, "strata view: %s\n", e.what());
         return kUsage;
     }
     auto context = gl::create_window_context("strata view", width, height);
@@ -176,7 +177,10 @@ int run_view(const ViewOptions& o) {
         fps = fps == 0 ? 1 / std::max(seconds, 1e-6) : 0.9 * fps + 0.1 / std::max(seconds, 1e-6);
         if (navigator.flying()) navigator.fly(fly_direction(window), seconds);
         const glm::ivec2 size = context->framebuffer_size();
-        if (size.x == 0 || size.y == 0) continue;  // minimized
+        if (size.x == 0 || size.y == 0) {  // minimized: sleep until something happens
+            glfwWaitEvents();
+            continue;
+        }
         if (!target || target->width() != size.x || target->height() != size.y)
             target = std::make_unique<gl::Framebuffer>(gl::FramebufferFormat{.width = size.x, .height = size.y, .samples = 4});
         camera.width = size.x;

@@ -1,5 +1,6 @@
 #include "editor/scene_files.h"
 
+#include <cstdio>
 #include <filesystem>
 #include <stdexcept>
 
@@ -36,6 +37,15 @@ std::shared_ptr<Group> load_scene_files(const std::vector<std::string>& files, c
         }
     }
     return scene;
+}
+
+std::pair<int, int> parse_size(const std::string& size) {
+    int width = 0, height = 0;
+    char x = 0, rest = 0;
+    if (std::sscanf(size.c_str(), "%d%c%d%c", &width, &x, &height, &rest) != 3 || (x != 'x' && x != 'X') ||
+        width <= 0 || height <= 0 || width > 16384 || height > 16384)
+        throw std::invalid_argument("--size takes WIDTHxHEIGHT (each 1 to 16384), not '" + size + "'");
+    return {width, height};
 }
 
 }  // namespace strata::cli

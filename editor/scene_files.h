@@ -4,6 +4,7 @@
 
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "engine/scene/node.h"
@@ -19,5 +20,8 @@ struct SceneOptions {
 
 // Throws std::runtime_error naming the file that could not be loaded.
 std::shared_ptr<Group> load_scene_files(const std::vector<std::string>& files, const SceneOptions& options);
+
+// "WIDTHxHEIGHT" (each 1 to 16384); throws std::invalid_argument quoting `size` otherwise.
+std::pair<int, int> parse_size(const std::string& size);
 
 }  // namespace strata::cli

@@ -1,5 +1,6 @@
 // Geometry on the GPU: positions, normals and colours in storage buffers pulled by gl_VertexID, one
 // indexed draw per item, shaded like the scans beside it.
+#include <stdexcept>
 #include <string>
 
 #include "engine/gl/buffer.h"
@@ -68,7 +69,14 @@ struct GeometryGpu : GpuCache::Entry {
     gl::VertexArray vertex_array;
 };
 
-std::unique_ptr<GeometryGpu> upload(const Mesh& mesh) {
+std::unique_ptr<GeometryGpu> upload(const Mesh& mesh, const std::string& name) {
+    // One storage buffer per attribute: a mesh past the driver's binding size cannot be drawn whole.
+    GLint max_block = 0;
+    glGetIntegerv(GL_MAX_SHADER_STORAGE_BLOCK_SIZE, &max_block);
+    if (mesh.positions.size() * sizeof(float) > size_t(max_block))
+        throw std::runtime_error("mesh '" + name + "' has " + std::to_string(mesh.vertex_count()) +
+                                 " vertices, more than this OpenGL driver binds at once (" +
+                                 std::to_string(max_block / 12) + "): build it into a .hlod model instead");
     auto gpu = std::make_unique<GeometryGpu>();
     gpu->positions = gl::Buffer(mesh.positions, 0);
     gpu->normals = gl::Buffer(mesh.normals, 0);
@@ -91,7 +99,7 @@ std::unique_ptr<GeometryGpu> upload(const Mesh& mesh) {
 void Geometry::draw(DrawContext& context, const DrawItem& item) {
     const gl::Program& program =
         context.cache.get<GeometryProgram>(kProgramKey, [] { return std::make_unique<GeometryProgram>(); }).program;
-    GeometryGpu& gpu = context.cache.get<GeometryGpu>(id(), [&] { return upload(mesh_); });
+    GeometryGpu& gpu = context.cache.get<GeometryGpu>(id(), [&] { return upload(mesh_, name()); });
     program.set("clip_from_local", glm::mat4(context.projection * context.view * item.model));
     program.set("world_from_local_normal", glm::mat3(glm::transpose(glm::inverse(glm::dmat3(item.model)))));
     program.set("has_colors", int(mesh_.has_colors()));

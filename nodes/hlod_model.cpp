@@ -110,7 +110,10 @@ void HlodModel::select_from(uint32_t c, const HlodView& view, uint8_t mask, std:
         if (!intersects(*view.frustum, Box::from(cell_box.lo - grow, cell_box.hi + grow), mask)) return;
     }
     const bool finest = cube.node.level == header_.max_level;
-    if (finest || box_distance(view.eye, cell_box) >= view.kappa0 * header_.cube_size(cube.node.level)) {
+    const bool suitable = view.fixed_level >= 0
+                              ? int(cube.node.level) >= view.fixed_level
+                              : box_distance(view.eye, cell_box) >= view.kappa0 * header_.cube_size(cube.node.level);
+    if (finest || suitable) {
         out.push_back(c);
         return;
     }
@@ -134,10 +137,10 @@ glm::vec3 HlodModel::vertex_position(const HlodCube& cube, uint32_t v) const {
 glm::vec3 HlodModel::parent_position(const HlodCube& cube, uint32_t p) const {
     const uint16_t* q = &cube.data.parents.positions[3 * size_t(p)];
     const HlodNode& n = cube.node;
-    if (n.level == 0) return vertex_position(cube, p);  // P(w) = w at the root
-    return {lattice_coordinate(header_, n.level - 1, n.i / 2, q[0]),
-            lattice_coordinate(header_, n.level - 1, n.j / 2, q[1]),
-            lattice_coordinate(header_, n.level - 1, n.k / 2, q[2])};
+    // At level 0 the table is the root's own vertices: decode it on the root's lattice (cell 0 / 2 = 0).
+    const uint32_t level = n.level == 0 ? 0 : n.level - 1;
+    return {lattice_coordinate(header_, level, n.i / 2, q[0]), lattice_coordinate(header_, level, n.j / 2, q[1]),
+            lattice_coordinate(header_, level, n.k / 2, q[2])};
 }
 
 HlodModel::MorphBand HlodModel::morph_band(uint32_t level, float kappa0) const {
@@ -159,10 +162,35 @@ void HlodModel::morphed_positions(uint32_t c, const glm::vec3& eye, float kappa0
         const glm::vec3 parent = parent_position(cube, cube.data.parent_of[v]);
         const glm::vec3 offset = glm::abs(w - eye);
         const float d = std::max(std::max(offset.x, offset.y), offset.z);
-        const float lambda = std::clamp((band.end - d) * band.inverse_span, 0.0f, 1.0f);
+        const float lambda = std::clamp((band.end - d) * band.inverse_span, 0.0f, 1.0f);  // as the shader
         // The ends exactly (Lemma 2 needs λ = 0 to give P(w) and λ = 1 to give w), GLSL's mix between.
         out[v] = lambda >= 1.0f ? w : lambda <= 0.0f ? parent : parent * (1.0f - lambda) + w * lambda;
     }
+}
+
+glm::vec3 HlodModel::shader_eye(const glm::dmat4& world_from_node, const glm::dvec3& eye_world) const {
+    return glm::vec3(glm::inverse(world_from_node * lattice_to_node()) * glm::dvec4(eye_world, 1.0));
+}
+
+float HlodModel::shader_kappa0(const Camera& camera) const {
+    return float(kappa0_for(camera.width, camera.tan_half_fov_x()));
+}
+
+bool HlodModel::morphs_for(const Camera& camera) const {
+    return morph_ && camera.projection == ProjectionKind::perspective;
+}
+
+int HlodModel::orthographic_level(const Camera& camera) const {
+    const double pixel = camera.ortho_height / camera.height;  // model units per pixel
+    const double allowed = (pixel_error_ > 0 ? pixel_error_ : 1.0) * pixel;
+    int level = 0;
+    while (level < int(header_.max_level) && header_.error_q * header_.cube_size(level) > allowed) ++level;
+    return level;
+}
+
+const std::vector<glm::vec4>* HlodModel::captured_morph(uint32_t cube) const {
+    auto it = captured_.find(cube);
+    return it == captured_.end() ? nullptr : &it->second;
 }
 
 void HlodModel::cull(CullVisitor& cull) {
@@ -170,6 +198,7 @@ void HlodModel::cull(CullVisitor& cull) {
     const glm::dmat4 to_node = lattice_to_node();
     const Frustum frustum = cull.local_frustum().in_child_frame(to_node);
     HlodView view{cull.local_eye() - origin(), kappa0_for(camera.width, camera.tan_half_fov_x())};
+    if (camera.projection == ProjectionKind::orthographic) view.fixed_level = orthographic_level(camera);
     if (cull.frustum_culling()) {
         view.frustum = &frustum;
         view.plane_mask = cull.plane_mask();
@@ -177,6 +206,5 @@ void HlodModel::cull(CullVisitor& cull) {
     select(view, selection_);
     if (!selection_.empty()) cull.add(*this, selection_.data(), uint32_t(selection_.size()));
 }
-
 
 }  // namespace strata

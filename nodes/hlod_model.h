@@ -7,10 +7,12 @@
 #include <array>
 #include <filesystem>
 #include <memory>
+#include <unordered_map>
 #include <vector>
 
 #include <glm/glm.hpp>
 
+#include "engine/scene/camera.h"
 #include "engine/scene/drawable.h"
 #include "engine/scene/frustum.h"
 #include "preprocess/hlod_format.h"
@@ -34,6 +36,9 @@ struct HlodView {
     double kappa0;
     const Frustum* frustum = nullptr;  // nullptr: no culling
     uint8_t plane_mask = kAllPlanes;
+    // ≥ 0: every cube of this level (or the finest there is) instead of the distance rule: what an
+    // orthographic view needs, whose pixels have one size at any distance.
+    int fixed_level = -1;
 };
 
 class HlodModel : public Drawable {
@@ -72,8 +77,8 @@ public:
     // A cube's cell in the lattice frame.
     Box cell(const HlodNode& node) const;
 
-    // The CPU twin of the morph shader: the positions a cube's vertices are drawn at for an eye in the
-    // lattice frame (as the float the shader gets), bit-identical to the shader's arithmetic.
+    // The CPU twin of the morph shader: the positions a cube's vertices are drawn at in a perspective
+    // view, for shader_eye() and shader_kappa0(), bit-identical to the shader's arithmetic.
     void morphed_positions(uint32_t cube, const glm::vec3& eye, float kappa0, std::vector<glm::vec3>& out) const;
     // Decoded, unmorphed lattice-frame positions of a cube's vertices, and of its parent table.
     glm::vec3 vertex_position(const HlodCube& cube, uint32_t v) const;
@@ -84,6 +89,21 @@ public:
         float start, end, inverse_span;
     };
     MorphBand morph_band(uint32_t level, float kappa0) const;
+    // What the shader gets for a view, so that the CPU twin can be fed exactly the same: the eye in
+    // the lattice frame as a float, κ0 as a float, and whether it morphs at all (an orthographic view
+    // draws one level everywhere: nothing to morph).
+    glm::vec3 shader_eye(const glm::dmat4& world_from_node, const glm::dvec3& eye_world) const;
+    float shader_kappa0(const Camera& camera) const;
+    bool morphs_for(const Camera& camera) const;
+    // The level an orthographic camera draws: the coarsest whose error stays within the pixel error
+    // (1 pixel when κ0 was set instead).
+    int orthographic_level(const Camera& camera) const;
+
+    // Verification of the GPU path: while on, each draw also copies every drawn vertex's morphed
+    // lattice-frame position and λ back from the shader, per cube (in the cube's vertex order).
+    void set_capture_morph(bool on) { capture_morph_ = on; }
+    bool capture_morph() const { return capture_morph_; }
+    const std::vector<glm::vec4>* captured_morph(uint32_t cube) const;
 
     void cull(CullVisitor& cull) override;
     void draw(DrawContext& context, const DrawItem& item) override;
@@ -106,6 +126,8 @@ private:
     HlodDebugView debug_view_ = HlodDebugView::none;
     bool show_boxes_ = false;
     std::vector<uint32_t> selection_;  // scratch for cull()
+    bool capture_morph_ = false;
+    std::unordered_map<uint32_t, std::vector<glm::vec4>> captured_;  // filled by draw() while capturing
 };
 
 }  // namespace strata

@@ -17,7 +17,14 @@ namespace strata {
 
 namespace {
 
-constexpr int kMaxLevels = 16;  // the format allows levels 0 … 15
+constexpr int kMaxLevels = 16;  // the uniform arrays' size: the format allows levels 0 … 15
+
+// Colour-by-level, for the levels view and the cube boxes (linear).
+const char* const kLevelPaletteGlsl = R"(
+const vec3 level_palette[8] = vec3[8](vec3(0.90, 0.25, 0.20), vec3(0.95, 0.60, 0.15), vec3(0.90, 0.85, 0.20),
+    vec3(0.35, 0.75, 0.30), vec3(0.20, 0.70, 0.75), vec3(0.25, 0.40, 0.85), vec3(0.55, 0.30, 0.80),
+    vec3(0.85, 0.35, 0.65));
+)";
 
 const char* const kVertexGlsl = R"(
 // Per cube: level, cell i, j, k. Per vertex: x | y << 16, z, octahedral normal (u | v << 16), index
@@ -27,6 +34,7 @@ layout(std430, binding = 2) readonly buffer Vertices { uvec4 vertices[]; };
 layout(std430, binding = 3) readonly buffer Parents { uvec4 parents[]; };
 layout(std430, binding = 4) readonly buffer VertexColors { uint vertex_colors[]; };
 layout(std430, binding = 5) readonly buffer ParentColors { uint parent_colors[]; };
+layout(std430, binding = 7) writeonly buffer Capture { vec4 captured[]; };  // HlodModel::set_capture_morph
 
 uniform mat4 clip_from_lattice;
 uniform mat3 world_from_lattice_normal;
@@ -38,7 +46,8 @@ uniform float morph_inverse_span[16];
 uniform bool morph;
 uniform bool has_colors;
 uniform bool color_by_level;
-uniform vec4 base_color;
+uniform vec4 base_color;  // linear
+uniform bool capture;
 
 out vec3 v_normal;
 out vec4 v_color;
@@ -63,9 +72,6 @@ vec3 octahedral_normal(uint bits) {
     return normalize(vec3(x, y, z));
 }
 
-const vec3 level_palette[8] = vec3[8](vec3(0.90, 0.25, 0.20), vec3(0.95, 0.60, 0.15), vec3(0.90, 0.85, 0.20),
-    vec3(0.35, 0.75, 0.30), vec3(0.20, 0.70, 0.75), vec3(0.25, 0.40, 0.85), vec3(0.55, 0.30, 0.80),
-    vec3(0.85, 0.35, 0.65));
 
 void main() {
     uvec4 cube = cubes[gl_BaseInstanceARB];
@@ -80,14 +86,17 @@ void main() {
     // The ends exactly (Lemma 2), the mix in between without fused multiply-adds, as on the CPU.
     precise vec3 position = lambda >= 1.0 ? w : lambda <= 0.0 ? p : p * (1.0 - lambda) + w * lambda;
     gl_Position = clip_from_lattice * vec4(position, 1.0);
+    if (capture) captured[gl_VertexID] = vec4(position, lambda);
 
     vec3 n = mix(octahedral_normal(parent.z), octahedral_normal(own.z), lambda);
     v_normal = world_from_lattice_normal * n;
     vec4 color = base_color;
-    if (has_colors)
-        color *= mix(unpackUnorm4x8(parent_colors[own.w]), unpackUnorm4x8(vertex_colors[gl_VertexID]), lambda);
+    if (has_colors) {  // scans store sRGB-encoded 8-bit colours
+        vec4 c = mix(unpackUnorm4x8(parent_colors[own.w]), unpackUnorm4x8(vertex_colors[gl_VertexID]), lambda);
+        color *= vec4(srgb_to_linear(c.rgb), c.a);
+    }
     if (color_by_level) color = vec4(level_palette[level % 8u], 1.0);
-    v_color = vec4(srgb_to_linear(color.rgb), color.a);
+    v_color = color;
     v_level = float(level);
 }
 )";
@@ -109,15 +118,11 @@ void main() {
 
 // The cube-boxes view: the 12 edges of each drawn cube's cell, one instance per cube, coloured by level.
 const char* const kBoxVertexGlsl = R"(
-#version 450
 layout(std430, binding = 1) readonly buffer Cubes { uvec4 cubes[]; };
 layout(std430, binding = 6) readonly buffer Drawn { uint drawn[]; };
 uniform mat4 clip_from_lattice;
 uniform float cube_size[16];
 flat out vec3 v_color;
-const vec3 level_palette[8] = vec3[8](vec3(0.90, 0.25, 0.20), vec3(0.95, 0.60, 0.15), vec3(0.90, 0.85, 0.20),
-    vec3(0.35, 0.75, 0.30), vec3(0.20, 0.70, 0.75), vec3(0.25, 0.40, 0.85), vec3(0.55, 0.30, 0.80),
-    vec3(0.85, 0.35, 0.65));
 void main() {
     uvec4 cube = cubes[drawn[gl_InstanceID]];
     // Edge e (0..11) runs along axis e / 4; the other two axes take the corner bits of e % 4.
@@ -142,7 +147,8 @@ void main() {
 )";
 
 std::string vertex_source() {
-    return std::string("#version 450\n#extension GL_ARB_shader_draw_parameters : require\n") + kSrgbGlsl + kVertexGlsl;
+    return std::string("#version 450\n#extension GL_ARB_shader_draw_parameters : require\n") + kSrgbGlsl +
+           kLevelPaletteGlsl + kVertexGlsl;
 }
 
 std::string fragment_source() {
@@ -165,8 +171,15 @@ struct Chunk {
     std::vector<DrawCommand> frame_commands;
 };
 
+// The programs every HLOD model shares, kept in the GPU cache under one key.
+constexpr uint32_t kProgramsKey = ~0u - 2;
+struct HlodPrograms : GpuCache::Entry {
+    gl::Program surface = gl::Program::graphics("hlod", vertex_source(), fragment_source());
+    gl::Program boxes = gl::Program::graphics("hlod cube boxes", std::string("#version 450\n") + kLevelPaletteGlsl + kBoxVertexGlsl,
+                                              std::string("#version 450\n") + gl::fragment_outputs_glsl + kBoxFragmentGlsl);
+};
+
 struct HlodGpu : GpuCache::Entry {
-    gl::Program program, box_program;
     gl::Buffer cubes;
     gl::Buffer drawn;  // this frame's cubes, for the boxes view
     std::vector<Chunk> chunks;
@@ -218,9 +231,6 @@ Chunk upload_chunk(ChunkData& data) {
 
 std::unique_ptr<HlodGpu> upload(const HlodModel& model) {
     auto gpu = std::make_unique<HlodGpu>();
-    gpu->program = gl::Program::graphics("hlod", vertex_source(), fragment_source());
-    gpu->box_program = gl::Program::graphics("hlod cube boxes", kBoxVertexGlsl,
-                                             std::string("#version 450\n") + gl::fragment_outputs_glsl + kBoxFragmentGlsl);
     const auto& cubes = model.cubes();
     std::vector<std::array<uint32_t, 4>> records;
     for (const HlodCube& c : cubes) records.push_back({c.node.level, c.node.i, c.node.j, c.node.k});
@@ -250,17 +260,16 @@ std::unique_ptr<HlodGpu> upload(const HlodModel& model) {
 }
 
 void set_view_uniforms(const HlodModel& model, const gl::Program& program, const DrawContext& context,
-                       const DrawItem& item, float kappa0) {
-    const glm::dmat4 node_from_lattice = model.lattice_to_node();
-    const glm::dmat4 world_from_lattice = item.model * node_from_lattice;
+                       const DrawItem& item) {
+    const glm::dmat4 world_from_lattice = item.model * model.lattice_to_node();
     // Composed in double, then rounded once: survey-scale translations cancel before going to float.
     program.set("clip_from_lattice", glm::mat4(context.projection * context.view * world_from_lattice));
     program.set("world_from_lattice_normal", glm::mat3(glm::transpose(glm::inverse(glm::dmat3(world_from_lattice)))));
-    const glm::dvec3 eye = glm::dvec3(glm::inverse(world_from_lattice) * glm::dvec4(context.eye, 1.0));
-    program.set("eye", glm::vec3(eye));
+    program.set("eye", model.shader_eye(item.model, context.eye));
+    const float kappa0 = model.shader_kappa0(context.camera);
     const HlodHeader& h = model.header();
     std::array<float, kMaxLevels> step{}, parent_step{}, end{}, inverse_span{};
-    for (uint32_t l = 0; l <= h.max_level && l < kMaxLevels; ++l) {
+    for (uint32_t l = 0; l <= h.max_level; ++l) {
         step[l] = h.lattice_step(l);
         parent_step[l] = h.lattice_step(l == 0 ? 0 : l - 1);
         const auto band = model.morph_band(l, kappa0);
@@ -271,20 +280,20 @@ void set_view_uniforms(const HlodModel& model, const gl::Program& program, const
     glProgramUniform1fv(program.id(), program.uniform_location("parent_step"), kMaxLevels, parent_step.data());
     glProgramUniform1fv(program.id(), program.uniform_location("morph_end"), kMaxLevels, end.data());
     glProgramUniform1fv(program.id(), program.uniform_location("morph_inverse_span"), kMaxLevels, inverse_span.data());
-    program.set("morph", int(model.morph()));
-    program.set("has_colors", int(model.header().has_colors()));
+    program.set("morph", int(model.morphs_for(context.camera)));
+    program.set("has_colors", int(h.has_colors()));
     program.set("color_by_level", int(model.debug_view() == HlodDebugView::levels));
-    program.set("base_color", glm::vec4(0.8f, 0.78f, 0.74f, 1.0f));
+    program.set("base_color", glm::vec4(0.6f, 0.57f, 0.52f, 1.0f));  // linear: a warm stone grey
     program.set("node_id", unsigned(model.id()));
+    program.set("capture", int(model.capture_morph()));
 }
 
-void draw_boxes(const HlodModel& model, HlodGpu& gpu, DrawContext& context, const DrawItem& item) {
+void draw_boxes(const HlodModel& model, const gl::Program& p, HlodGpu& gpu, DrawContext& context, const DrawItem& item) {
     const HlodHeader& header = model.header();
     gpu.drawn.upload(0, &context.list.item_data[item.first], item.count * sizeof(uint32_t));
     gpu.drawn.bind_base(GL_SHADER_STORAGE_BUFFER, 6);
     std::array<float, kMaxLevels> size{};
-    for (uint32_t l = 0; l <= header.max_level && l < kMaxLevels; ++l) size[l] = float(header.cube_size(l));
-    const gl::Program& p = gpu.box_program;
+    for (uint32_t l = 0; l <= header.max_level; ++l) size[l] = float(header.cube_size(l));
     p.set("clip_from_lattice", glm::mat4(context.projection * context.view * item.model * model.lattice_to_node()));
     glProgramUniform1fv(p.id(), p.uniform_location("cube_size"), kMaxLevels, size.data());
     p.use();
@@ -295,10 +304,10 @@ void draw_boxes(const HlodModel& model, HlodGpu& gpu, DrawContext& context, cons
 }  // namespace
 
 void HlodModel::draw(DrawContext& context, const DrawItem& item) {
+    const HlodPrograms& programs = context.cache.get<HlodPrograms>(kProgramsKey, [] { return std::make_unique<HlodPrograms>(); });
     HlodGpu& gpu = context.cache.get<HlodGpu>(id(), [&] { return upload(*this); });
-    const float kappa0 = float(kappa0_for(context.camera.width, context.camera.tan_half_fov_x()));
-    set_view_uniforms(*this, gpu.program, context, item, kappa0);
-    gpu.program.use();
+    set_view_uniforms(*this, programs.surface, context, item);
+    programs.surface.use();
     gpu.cubes.bind_base(GL_SHADER_STORAGE_BUFFER, 1);
 
     for (Chunk& chunk : gpu.chunks) chunk.frame_commands.clear();
@@ -308,6 +317,7 @@ void HlodModel::draw(DrawContext& context, const DrawItem& item) {
         context.stats.triangles += gpu.command_of[c].count / 3;
     }
     context.stats.cubes += item.count;
+    if (capture_morph_) captured_.clear();
     if (debug_view_ == HlodDebugView::wireframe) glPolygonMode(GL_FRONT_AND_BACK, GL_LINE);
     for (Chunk& chunk : gpu.chunks) {
         if (chunk.frame_commands.empty()) continue;
@@ -315,15 +325,28 @@ void HlodModel::draw(DrawContext& context, const DrawItem& item) {
         chunk.parents.bind_base(GL_SHADER_STORAGE_BUFFER, 3);
         chunk.vertex_colors.bind_base(GL_SHADER_STORAGE_BUFFER, 4);
         chunk.parent_colors.bind_base(GL_SHADER_STORAGE_BUFFER, 5);
+        gl::Buffer capture;
+        if (capture_morph_) {
+            capture = gl::Buffer(chunk.vertices.size(), GL_DYNAMIC_STORAGE_BIT);  // a vec4 per 16-byte vertex record
+            capture.bind_base(GL_SHADER_STORAGE_BUFFER, 7);
+        }
         chunk.commands.upload(chunk.frame_commands);
         chunk.vertex_array.bind();
         glBindBuffer(GL_DRAW_INDIRECT_BUFFER, chunk.commands.id());
         glMultiDrawElementsIndirect(GL_TRIANGLES, GL_UNSIGNED_INT, nullptr, GLsizei(chunk.frame_commands.size()), 0);
         ++context.stats.draw_calls;
+        if (capture_morph_) {
+            glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
+            const auto values = capture.download<glm::vec4>(capture.size() / sizeof(glm::vec4));
+            for (const DrawCommand& command : chunk.frame_commands) {
+                const auto first = values.begin() + command.base_vertex;
+                captured_[command.base_instance].assign(first, first + cubes_[command.base_instance].data.vertex_count());
+            }
+        }
     }
     glBindBuffer(GL_DRAW_INDIRECT_BUFFER, 0);
     if (debug_view_ == HlodDebugView::wireframe) glPolygonMode(GL_FRONT_AND_BACK, GL_FILL);
-    if (show_boxes_) draw_boxes(*this, gpu, context, item);
+    if (show_boxes_) draw_boxes(*this, programs.boxes, gpu, context, item);
 }
 
 }  // namespace strata

@@ -91,8 +91,10 @@ FrameStats Renderer::render(Node& scene, const Camera& camera, gl::Framebuffer& 
     target.clear(s.background);
     upload_lights(list_, camera);
     empty_vertex_array_.bind();
+    glPolygonMode(GL_FRONT_AND_BACK, GL_FILL);  // drawables that change state put it back; start clean anyway
     DrawContext context{camera, view, projection, glm::dvec3(glm::inverse(view)[3]), list_, cache_, stats};
     for (const DrawItem& item : list_.opaque) item.drawable->draw(context, item);
+    empty_vertex_array_.bind();
     stats.draw_items = list_.opaque.size();
     stats.draw_ms = milliseconds_since(draw_start);
     cache_.end_frame();

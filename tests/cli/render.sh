@@ -19,10 +19,18 @@ if command -v exrheader >/dev/null; then
         grep -q "^ *$channel," "$WORK/header.txt" || fail "exrheader lists no channel $channel"
     done
 fi
-expect_success "levels view" "$STRATA" render "$WORK/bunny.hlod" -o "$WORK/levels.png" --size 64x48 --debug levels -q
+# Each view option changes the picture.
+expect_success "shaded" "$STRATA" render "$WORK/bunny.hlod" -o "$WORK/shaded.png" --size 64x48 -q
 checks=$((checks + 1)); [ ! -s "$WORK/out.txt" ] || fail "-q printed something"
+expect_success "levels view" "$STRATA" render "$WORK/bunny.hlod" -o "$WORK/levels.png" --size 64x48 --debug levels -q
 expect_success "cube boxes" "$STRATA" render "$WORK/bunny.hlod" -o "$WORK/boxes.png" --size 64x48 --boxes -q
 expect_success "wireframe without morph" "$STRATA" render "$WORK/bunny.hlod" -o "$WORK/wire.png" --size 64x48 --debug wireframe --no-morph -q
+expect_success "another target" "$STRATA" render "$WORK/bunny.hlod" -o "$WORK/target.png" --size 64x48 --target 0,0.15,0 -q
+expect_success "orthographic" "$STRATA" render "$WORK/bunny.hlod" -o "$WORK/ortho.png" --size 64x48 --ortho -q
+for view in levels boxes wire target ortho; do
+    checks=$((checks + 1))
+    cmp -s "$WORK/shaded.png" "$WORK/$view.png" && fail "$view.png is the same picture as shaded.png"
+done
 
 expect_failure "missing file" "missing.hlod" "$STRATA" render "$WORK/missing.hlod" -o "$WORK/x.png"
 expect_failure "bad extension" ".png or .exr" "$STRATA" render "$WORK/bunny.hlod" -o "$WORK/x.jpg"

@@ -201,35 +201,41 @@ TEST_F(HlodSelection, CubesOutsideTheFrustumAreNotSelected) {
     for (uint32_t c : cubes) EXPECT_NE(std::find(all.begin(), all.end(), c), all.end());
 }
 
-TEST_F(HlodSelection, TheNodeCullsInItsOwnFrameUnderATransform) {
-    // Two copies of the model side by side: each is selected in its own frame and emits one item.
+TEST_F(HlodSelection, TheNodeSelectsInItsOwnFrameUnderATransform) {
+    // Two copies of the model under different transforms, the eye close to one of them: each copy's
+    // cubes are the selection for the eye carried into its own frame, and they differ.
     auto root = std::make_shared<Group>();
-    auto left = std::make_shared<Transform>(), right = std::make_shared<Transform>();
+    auto near = std::make_shared<Transform>(), far = std::make_shared<Transform>();
     const double size = model_->header().root_size;
-    left->set_matrix(glm::translate(glm::dmat4(1.0), glm::dvec3(-size, 0, 0)));
-    right->set_matrix(glm::translate(glm::dmat4(1.0), glm::dvec3(size, 0, 0)));
-    left->add(model_);
-    right->add(model_);
-    root->add(left);
-    root->add(right);
+    near->set_matrix(glm::scale(glm::rotate(glm::dmat4(1.0), glm::radians(40.0), {0, 1, 0}), glm::dvec3(1.5)));
+    far->set_matrix(glm::translate(glm::dmat4(1.0), glm::dvec3(3 * size, 0, 0)));
+    near->add(model_);
+    far->add(model_);
+    root->add(near);
+    root->add(far);
     Camera camera;
-    camera.look_at(root->bound().center() + glm::dvec3(0, 0, 4 * size), root->bound().center());
-    auto [near, far] = camera.clip_planes_for(root->bound());
+    const glm::dvec3 centre = near->bound().center();
+    camera.look_at(centre + glm::dvec3(0.1, 0.2, 0.9) * size, centre + glm::dvec3(size, 0, 0));
+    const double kappa0 = model_->kappa0_for(camera.width, camera.tan_half_fov_x());
+    auto [near_plane, far_plane] = camera.clip_planes_for(root->bound());
     RenderList list;
-    CullVisitor cull(camera, camera.view_matrix(), camera.projection_matrix(near, far), list);
+    CullVisitor cull(camera, camera.view_matrix(), camera.projection_matrix(near_plane, far_plane), list);
+    cull.set_frustum_culling(false);
     root->accept(cull);
     ASSERT_EQ(list.opaque.size(), 2u);
-    EXPECT_GT(list.opaque[0].count, 0u);
-    // The right copy seen from its own frame is the left copy shifted: the same distance, the same cubes.
-    std::vector<uint32_t> a(list.item_data.begin() + list.opaque[0].first,
-                            list.item_data.begin() + list.opaque[0].first + list.opaque[0].count);
-    std::vector<uint32_t> b(list.item_data.begin() + list.opaque[1].first,
-                            list.item_data.begin() + list.opaque[1].first + list.opaque[1].count);
-    std::sort(a.begin(), a.end());
-    std::sort(b.begin(), b.end());
-    EXPECT_EQ(a.size(), b.size());
-    left->remove(model_.get());
-    right->remove(model_.get());
+    std::vector<std::vector<uint32_t>> drawn;
+    for (const DrawItem& item : list.opaque) {
+        std::vector<uint32_t> cubes(list.item_data.begin() + item.first, list.item_data.begin() + item.first + item.count);
+        const glm::dvec3 eye = glm::dvec3(glm::inverse(item.model) * glm::dvec4(camera.position, 1.0)) - model_->origin();
+        std::vector<uint32_t> expected;
+        model_->select({eye, kappa0}, expected);
+        EXPECT_EQ(cubes, expected);
+        drawn.push_back(cubes);
+    }
+    EXPECT_NE(drawn[0], drawn[1]);
+    EXPECT_GT(level_spread(drawn[0]), 0u) << "the near copy, seen from close by, mixes levels";
+    near->remove(model_.get());
+    far->remove(model_.get());
 }
 
 TEST_F(HlodSelection, PixelErrorSetsKappa0) {

@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <set>
 
 #include <stb_image.h>
@@ -90,7 +91,8 @@ struct ThreeBunnies {
 
 TEST_F(Render, ThreeModelsAndAFloorMatchTheGoldenImage) {
     ThreeBunnies scene;
-    gl::Framebuffer target({.width = 320, .height = 240, .samples = 4});
+    // One sample per pixel: multisample patterns differ between drivers, single samples much less.
+    gl::Framebuffer target({.width = 320, .height = 240, .samples = 1});
     Renderer renderer;
     const FrameStats stats = renderer.render(*scene.root, scene.camera, target);
     EXPECT_EQ(stats.draw_items, 4u);
@@ -110,16 +112,28 @@ TEST_F(Render, ThreeModelsAndAFloorMatchTheGoldenImage) {
     ASSERT_NE(golden, nullptr) << kGolden << " missing: run the test with STRATA_UPDATE_GOLDEN=1";
     ASSERT_EQ(gw, w);
     ASSERT_EQ(gh, h);
+    // A pixel matches when the golden pixel or one of its eight neighbours is within 3/255 in every
+    // channel: an edge a rasterizer puts one pixel over still matches, a wrong surface does not.
+    auto close = [&](int x, int y, const unsigned char* pixel) {
+        if (x < 0 || y < 0 || x >= w || y >= h) return false;
+        const unsigned char* g = golden + 4 * (size_t(y) * w + x);
+        for (int c = 0; c < 4; ++c)
+            if (std::abs(int(pixel[c]) - int(g[c])) > 3) return false;
+        return true;
+    };
     size_t differ = 0, covered = 0;
-    for (size_t p = 0; p < size_t(w) * h; ++p) {
-        bool off = false;
-        for (int c = 0; c < 4; ++c) off |= std::abs(int(now[4 * p + c]) - int(golden[4 * p + c])) > 3;
-        differ += off;
-        covered += golden[4 * p + 3] > 0;
-    }
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            const unsigned char* pixel = now + 4 * (size_t(y) * w + x);
+            bool matched = false;
+            for (int dy = -1; dy <= 1 && !matched; ++dy)
+                for (int dx = -1; dx <= 1 && !matched; ++dx) matched = close(x + dx, y + dy, pixel);
+            differ += !matched;
+            covered += golden[4 * (size_t(y) * w + x) + 3] > 0;
+        }
     stbi_image_free(now);
     stbi_image_free(golden);
-    EXPECT_LT(double(differ) / (w * h), 0.005) << differ << " pixels differ from " << kGolden;
+    EXPECT_LT(double(differ) / (w * h), 0.002) << differ << " pixels differ from " << kGolden;
     EXPECT_GT(double(covered) / (w * h), 0.3) << "the scene should cover much of the image";
 }
 
@@ -138,30 +152,31 @@ TEST_F(Render, ExrChannelsHoldDepthNormalsLevelsAndIds) {
     std::set<uint32_t> model_ids;
     for (const auto& m : scene.models) model_ids.insert(m->id());
     size_t model_pixels = 0, floor_pixels = 0, background = 0;
+    size_t bad_background = 0, bad_depth = 0, bad_normal = 0, bad_level = 0, bad_floor = 0;
     const double far_enough = 20 * scene.models[0]->header().root_size;
     for (size_t p = 0; p < back.pixel_count(); ++p) {
         const uint32_t id = back.node_id[p];
         const glm::vec3 n(back.normals[3 * p], back.normals[3 * p + 1], back.normals[3 * p + 2]);
         if (id == 0) {
             ++background;
-            EXPECT_TRUE(std::isinf(back.depth[p]));
-            EXPECT_EQ(back.level[p], -1.0f);
+            bad_background += !std::isinf(back.depth[p]) || back.level[p] != -1.0f;
             continue;
         }
-        EXPECT_GT(back.depth[p], 0.0f);
-        EXPECT_LT(back.depth[p], far_enough);
-        EXPECT_NEAR(glm::length(n), 1.0f, 0.01f);
+        bad_depth += !(back.depth[p] > 0.0f && back.depth[p] < far_enough);
+        bad_normal += std::abs(glm::length(n) - 1.0f) > 0.01f;
         if (model_ids.count(id)) {
             ++model_pixels;
-            EXPECT_GE(back.level[p], 0.0f);
-            EXPECT_LE(back.level[p], 3.0f);
+            bad_level += !(back.level[p] >= 0.0f && back.level[p] <= 3.0f);
         } else {
-            EXPECT_EQ(id, scene.floor->id());
             ++floor_pixels;
-            EXPECT_EQ(back.level[p], -1.0f);
-            EXPECT_GT(n.y, 0.99f);  // the floor faces up
+            bad_floor += id != scene.floor->id() || back.level[p] != -1.0f || n.y < 0.99f;  // the floor faces up
         }
     }
+    EXPECT_EQ(bad_background, 0u) << "background pixels with a depth or a level";
+    EXPECT_EQ(bad_depth, 0u) << "drawn pixels without a depth in range";
+    EXPECT_EQ(bad_normal, 0u) << "drawn pixels without a unit normal";
+    EXPECT_EQ(bad_level, 0u) << "model pixels without a level in 0 … 3";
+    EXPECT_EQ(bad_floor, 0u) << "floor pixels with another id, a level, or a normal not facing up";
     EXPECT_GT(model_pixels, back.pixel_count() / 20);
     EXPECT_GT(floor_pixels, back.pixel_count() / 20);
     EXPECT_GT(background, 0u);
@@ -214,6 +229,85 @@ TEST_F(Render, NoPopWhenACubeIsReplacedByItsChildren) {
     const auto before_plain = render_from(1 + 1e-6, false, before_selected);
     const auto after_plain = render_from(1 - 1e-6, false, after_selected);
     EXPECT_GT(differing(before_plain, after_plain, 1.0f / 255), 0.001);
+}
+
+// The GPU draws exactly what the CPU twin computes: every drawn vertex's morphed position, bit for
+// bit, in a view close to the surface (mixed levels, vertices mid-morph) under a rotated, scaled and
+// translated Transform.
+TEST_F(Render, TheShaderMorphsBitForBitLikeTheCpuTwin) {
+    auto model = HlodModel::load(test::bunny_hlod());
+    model->set_kappa0(std::max(2.0, model->min_kappa0()));
+    model->set_capture_morph(true);
+    auto root = std::make_shared<Group>();
+    auto place = std::make_shared<Transform>();
+    const glm::dmat4 world_from_node = glm::scale(
+        glm::rotate(glm::translate(glm::dmat4(1.0), {1000.25, -3.5, 20.0}), glm::radians(33.0), glm::normalize(glm::dvec3(1, 2, 3))),
+        glm::dvec3(1.7));
+    place->set_matrix(world_from_node);
+    place->add(model);
+    root->add(place);
+    Camera camera;
+    camera.width = camera.height = 160;
+    const Box bound = root->bound();
+    // Just off the surface, at a vertex of the finest level, looking in at the middle.
+    const HlodCube* finest = nullptr;
+    for (const HlodCube& c : model->cubes())
+        if (c.node.level == model->header().max_level && (!finest || c.data.vertex_count() > finest->data.vertex_count())) finest = &c;
+    ASSERT_NE(finest, nullptr);
+    const glm::dvec3 on_surface = world_from_node * model->lattice_to_node() * glm::dvec4(model->vertex_position(*finest, 0), 1.0);
+    camera.look_at(on_surface + 0.3 * (on_surface - bound.center()), bound.center());
+    gl::Framebuffer target({.width = 160, .height = 160});
+    Renderer renderer;
+    renderer.render(*root, camera, target);
+
+    const glm::vec3 eye = model->shader_eye(world_from_node, camera.position);
+    const float kappa0 = model->shader_kappa0(camera);
+    std::vector<glm::vec3> cpu;
+    size_t cubes = 0, vertices = 0, mid_morph = 0, mismatches = 0;
+    std::set<uint32_t> levels;
+    for (uint32_t c = 0; c < model->cubes().size(); ++c) {
+        const std::vector<glm::vec4>* gpu = model->captured_morph(c);
+        if (!gpu) continue;
+        model->morphed_positions(c, eye, kappa0, cpu);
+        ASSERT_EQ(gpu->size(), cpu.size());
+        // Only vertices a triangle uses go through the shader.
+        const auto& indices = model->cubes()[c].data.indices;
+        for (const uint32_t v : std::set<uint32_t>(indices.begin(), indices.end())) {
+            const glm::vec3 drawn((*gpu)[v]);
+            mismatches += std::memcmp(&drawn, &cpu[v], sizeof drawn) != 0;
+            const float lambda = (*gpu)[v].w;
+            mid_morph += lambda > 0 && lambda < 1;
+        }
+        ++cubes;
+        vertices += std::set<uint32_t>(indices.begin(), indices.end()).size();
+        levels.insert(model->cubes()[c].node.level);
+    }
+    EXPECT_EQ(mismatches, 0u) << "of " << vertices << " vertices in " << cubes << " cubes";
+    EXPECT_GE(levels.size(), 2u) << "the view should mix levels";
+    EXPECT_GT(mid_morph, 100u) << "the view should catch vertices mid-morph";
+}
+
+// An orthographic view (elevations, orthophotos) draws one level everywhere: the coarsest whose error
+// fits the pixel error, unmorphed.
+TEST_F(Render, OrthographicViewsDrawOneLevelChosenByPixelSize) {
+    auto model = HlodModel::load(test::bunny_hlod());
+    auto root = std::make_shared<Group>();
+    root->add(model);
+    Camera camera;
+    camera.projection = ProjectionKind::orthographic;
+    camera.width = camera.height = 200;
+    camera.look_at(model->bound().center() + glm::dvec3(0, 0, 1), model->bound().center());
+    camera.frame(model->bound());
+    gl::Framebuffer target({.width = 200, .height = 200, .level = true});
+    Renderer renderer;
+    model->set_pixel_error(1.0);
+    const FrameStats fine = renderer.render(*root, camera, target);
+    const int level = model->orthographic_level(camera);
+    for (float l : target.read_level()) EXPECT_TRUE(l == -1.0f || l == float(level));
+    model->set_pixel_error(50.0);
+    const FrameStats coarse = renderer.render(*root, camera, target);
+    EXPECT_LT(model->orthographic_level(camera), level);
+    EXPECT_LT(coarse.triangles, fine.triangles);
 }
 
 }  // namespace
