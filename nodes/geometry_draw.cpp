@@ -56,7 +56,7 @@ void main() {
 }
 )";
 
-constexpr uint32_t kProgramKey = ~0u - 1;  // the program all Geometry nodes share, in the GPU cache
+constexpr uint32_t kProgramKey = 1;  // the program all Geometry nodes share, in the GPU cache
 
 struct GeometryProgram : GpuCache::Entry {
     gl::Program program = gl::Program::graphics(
@@ -98,8 +98,8 @@ std::unique_ptr<GeometryGpu> upload(const Mesh& mesh, const std::string& name) {
 
 void Geometry::draw(DrawContext& context, const DrawItem& item) {
     const gl::Program& program =
-        context.cache.get<GeometryProgram>(kProgramKey, [] { return std::make_unique<GeometryProgram>(); }).program;
-    GeometryGpu& gpu = context.cache.get<GeometryGpu>(id(), [&] { return upload(mesh_, name()); });
+        context.cache.get_shared<GeometryProgram>(kProgramKey, [] { return std::make_unique<GeometryProgram>(); }).program;
+    GeometryGpu& gpu = context.cache.get<GeometryGpu>(*this, [&] { return upload(mesh_, name()); });
     program.set("clip_from_local", glm::mat4(context.projection * context.view * item.model));
     program.set("world_from_local_normal", glm::mat3(glm::transpose(glm::inverse(glm::dmat3(item.model)))));
     program.set("has_colors", int(mesh_.has_colors()));

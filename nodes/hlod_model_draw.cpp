@@ -172,7 +172,7 @@ struct Chunk {
 };
 
 // The programs every HLOD model shares, kept in the GPU cache under one key.
-constexpr uint32_t kProgramsKey = ~0u - 2;
+constexpr uint32_t kProgramsKey = 2;
 struct HlodPrograms : GpuCache::Entry {
     gl::Program surface = gl::Program::graphics("hlod", vertex_source(), fragment_source());
     gl::Program boxes = gl::Program::graphics("hlod cube boxes", std::string("#version 450\n") + kLevelPaletteGlsl + kBoxVertexGlsl,
@@ -304,8 +304,8 @@ void draw_boxes(const HlodModel& model, const gl::Program& p, HlodGpu& gpu, Draw
 }  // namespace
 
 void HlodModel::draw(DrawContext& context, const DrawItem& item) {
-    const HlodPrograms& programs = context.cache.get<HlodPrograms>(kProgramsKey, [] { return std::make_unique<HlodPrograms>(); });
-    HlodGpu& gpu = context.cache.get<HlodGpu>(id(), [&] { return upload(*this); });
+    const HlodPrograms& programs = context.cache.get_shared<HlodPrograms>(kProgramsKey, [] { return std::make_unique<HlodPrograms>(); });
+    HlodGpu& gpu = context.cache.get<HlodGpu>(*this, [&] { return upload(*this); });
     set_view_uniforms(*this, programs.surface, context, item);
     programs.surface.use();
     gpu.cubes.bind_base(GL_SHADER_STORAGE_BUFFER, 1);

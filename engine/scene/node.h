@@ -57,6 +57,12 @@ public:
 
     const std::vector<Group*>& parents() const { return parents_; }
 
+    // Expires when the node is destroyed: caches keyed by node (GPU resources) watch it.
+    std::weak_ptr<const void> lifetime() const {
+        if (!alive_) alive_ = std::make_shared<char>();
+        return alive_;
+    }
+
 protected:
     virtual Box compute_bound() const { return {}; }
 
@@ -69,6 +75,7 @@ private:
     std::vector<Group*> parents_;
     mutable Box bound_;
     mutable bool bound_dirty_ = true;
+    mutable std::shared_ptr<char> alive_;  // made on the first lifetime() call
 };
 
 using NodePtr = std::shared_ptr<Node>;

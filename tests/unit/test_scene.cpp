@@ -9,6 +9,7 @@
 
 #include <glm/gtc/matrix_transform.hpp>
 
+#include "engine/render/gpu_cache.h"
 #include "engine/scene/camera.h"
 #include "engine/scene/cull_visitor.h"
 #include "engine/scene/drawable.h"
@@ -310,6 +311,40 @@ TEST_F(CullFixture, FrontToBackOrderAndLights) {
     EXPECT_FLOAT_EQ(list.lights[0].radiance.g, 1.0f);
     EXPECT_TRUE(list.has_ambient);
     EXPECT_FLOAT_EQ(list.ambient.b, 0.3f);
+}
+
+}  // namespace
+}  // namespace strata
+
+namespace strata {
+namespace {
+
+struct CountedEntry : GpuCache::Entry {
+    explicit CountedEntry(int& live) : live(live) { ++live; }
+    ~CountedEntry() override { --live; }
+    int& live;
+};
+
+TEST(GpuCache, EntriesGoWithTheirNodesOrWhenUnused) {
+    GpuCache cache;
+    int live = 0;
+    auto make = [&] { return std::make_unique<CountedEntry>(live); };
+    auto kept = std::make_shared<Group>(), dropped = std::make_shared<Group>(), idle = std::make_shared<Group>();
+    cache.get<CountedEntry>(*kept, make);
+    cache.get<CountedEntry>(*dropped, make);
+    cache.get<CountedEntry>(*idle, make);
+    cache.get_shared<CountedEntry>(1, make);
+    cache.get<CountedEntry>(*kept, make);  // the same entry again
+    EXPECT_EQ(live, 4);
+    dropped.reset();
+    cache.end_frame(2);
+    EXPECT_EQ(live, 3) << "a destroyed node's entry goes at the end of the frame";
+    for (int frame = 0; frame < 3; ++frame) {
+        cache.get<CountedEntry>(*kept, make);
+        cache.end_frame(2);
+    }
+    EXPECT_EQ(live, 2) << "an entry unused for longer than the limit goes; the shared one stays";
+    EXPECT_EQ(cache.size(), 1u);
 }
 
 }  // namespace
