@@ -16,6 +16,7 @@
 #include "engine/gl/context.h"
 #include "engine/gl/framebuffer.h"
 #include "engine/io/image.h"
+#include "engine/render/present.h"
 #include "engine/render/renderer.h"
 #include "engine/scene/camera.h"
 #include "nodes/hlod_model.h"
@@ -130,17 +131,6 @@ glm::dvec3 fly_direction(GLFWwindow* window) {
     auto down = [&](int key) { return glfwGetKey(window, key) == GLFW_PRESS ? 1.0 : 0.0; };
     glm::dvec3 d{down(GLFW_KEY_D) - down(GLFW_KEY_A), down(GLFW_KEY_E) - down(GLFW_KEY_Q), down(GLFW_KEY_S) - down(GLFW_KEY_W)};
     return d * (down(GLFW_KEY_LEFT_SHIFT) ? 4.0 : 1.0);
-}
-
-// Draws `target`'s colour into the window, encoding linear to sRGB on the way.
-void present(gl::Framebuffer& target, gl::Context& context) {
-    const glm::ivec2 size = context.framebuffer_size();
-    glEnable(GL_FRAMEBUFFER_SRGB);
-    glNamedFramebufferReadBuffer(target.id(), GL_COLOR_ATTACHMENT0);
-    glBlitNamedFramebuffer(target.id(), 0, 0, 0, target.width(), target.height(), 0, 0, size.x, size.y,
-                           GL_COLOR_BUFFER_BIT, GL_NEAREST);
-    glDisable(GL_FRAMEBUFFER_SRGB);
-    context.swap_buffers();
 }
 
 int run_view(const ViewOptions& o) {

@@ -22,5 +22,6 @@ Command add_info(CLI::App& app);
 Command add_verify(CLI::App& app);
 Command add_render(CLI::App& app);
 Command add_view(CLI::App& app);
+Command add_run(CLI::App& app);
 
 }  // namespace strata::cli

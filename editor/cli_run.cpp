@@ -1,0 +1,31 @@
+// strata run: a Lua script with the `strata` module, headless unless --window.
+#include <memory>
+
+#include "editor/commands.h"
+#include "scripting/runtime.h"
+
+namespace strata::cli {
+
+namespace {
+
+struct RunOptions {
+    std::string script;
+    bool window = false;
+};
+
+}  // namespace
+
+Command add_run(CLI::App& app) {
+    auto o = std::make_shared<RunOptions>();
+    CLI::App* sub = app.add_subcommand("run", "Run a Lua script (the strata module: scenes, cameras, rendering).");
+    sub->add_option("script", o->script, "The .lua file")->required();
+    sub->add_flag("--window", o->window, "Show each rendered frame in a window while the script runs");
+    sub->footer("Everything after SCRIPT goes to the script, options included: in its `arg` table and `...`.");
+    sub->prefix_command();
+    return {sub, [o, sub] {
+                Runtime runtime({.window = o->window});
+                return runtime.run_file(o->script, sub->remaining());
+            }};
+}
+
+}  // namespace strata::cli

@@ -1,0 +1,12 @@
+// Shows a frame in a window: the framebuffer's linear colour blitted to the window, encoded to sRGB
+// on the way, then the buffers swapped.
+#pragma once
+
+#include "engine/gl/context.h"
+#include "engine/gl/framebuffer.h"
+
+namespace strata {
+
+void present(gl::Framebuffer& frame, gl::Context& window);
+
+}  // namespace strata

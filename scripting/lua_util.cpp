@@ -1,0 +1,129 @@
+#include "scripting/lua_util.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+
+namespace strata::lua {
+
+namespace {
+
+bool table_of_numbers(lua_State* L, int index, int count, double* out) {
+    if (!lua_istable(L, index) || lua_rawlen(L, index) != size_t(count)) return false;
+    for (int i = 0; i < count; ++i) {
+        lua_rawgeti(L, index, i + 1);
+        int is_number = 0;
+        out[i] = lua_tonumberx(L, -1, &is_number);
+        lua_pop(L, 1);
+        if (!is_number || !std::isfinite(out[i])) return false;
+    }
+    return true;
+}
+
+bool absent(lua_State* L, int index) { return lua_isnoneornil(L, index); }
+
+[[noreturn]] void option_error(lua_State* L, const char* key, const char* expected) {
+    luaL_error(L, "option '%s' must be %s, got %s", key, expected, luaL_typename(L, -1));
+    std::abort();  // luaL_error does not return
+}
+
+}  // namespace
+
+// "{x, y, z} expected, got a table of 2 values" (or "got nil", …).
+[[noreturn]] void shape_error(lua_State* L, int index, const char* expected) {
+    const char* got = lua_istable(L, index) ? lua_pushfstring(L, "a table of %d values", int(lua_rawlen(L, index)))
+                                            : luaL_typename(L, index);
+    luaL_argerror(L, index, lua_pushfstring(L, "%s expected, got %s", expected, got));
+    std::abort();  // luaL_argerror does not return
+}
+
+glm::dvec3 check_vec3(lua_State* L, int index) {
+    double v[3];
+    if (!table_of_numbers(L, index, 3, v)) shape_error(L, index, "{x, y, z} (3 finite numbers)");
+    return {v[0], v[1], v[2]};
+}
+
+glm::dquat check_quat(lua_State* L, int index) {
+    double v[4];
+    if (!table_of_numbers(L, index, 4, v)) shape_error(L, index, "quaternion {w, x, y, z}");
+    const glm::dquat q(v[0], v[1], v[2], v[3]);
+    if (glm::length(q) == 0) luaL_argerror(L, index, "the quaternion has length 0");
+    return glm::normalize(q);
+}
+
+void push_vec3(lua_State* L, const glm::dvec3& v) {
+    lua_createtable(L, 3, 0);
+    for (int i = 0; i < 3; ++i) {
+        lua_pushnumber(L, v[i]);
+        lua_rawseti(L, -2, i + 1);
+    }
+}
+
+void push_quat(lua_State* L, const glm::dquat& q) {
+    lua_createtable(L, 4, 0);
+    const double values[4] = {q.w, q.x, q.y, q.z};
+    for (int i = 0; i < 4; ++i) {
+        lua_pushnumber(L, values[i]);
+        lua_rawseti(L, -2, i + 1);
+    }
+}
+
+bool get_option(lua_State* L, int index, const char* key) {
+    if (absent(L, index)) {
+        lua_pushnil(L);
+        return false;
+    }
+    luaL_checktype(L, index, LUA_TTABLE);
+    lua_getfield(L, index, key);
+    return !lua_isnil(L, -1);
+}
+
+double opt_number(lua_State* L, int index, const char* key, double fallback) {
+    if (!get_option(L, index, key)) {
+        lua_pop(L, 1);
+        return fallback;
+    }
+    if (lua_type(L, -1) != LUA_TNUMBER) option_error(L, key, "a number");
+    const double value = lua_tonumber(L, -1);
+    lua_pop(L, 1);
+    return value;
+}
+
+bool opt_boolean(lua_State* L, int index, const char* key, bool fallback) {
+    if (!get_option(L, index, key)) {
+        lua_pop(L, 1);
+        return fallback;
+    }
+    if (lua_type(L, -1) != LUA_TBOOLEAN) option_error(L, key, "a boolean");
+    const bool value = lua_toboolean(L, -1);
+    lua_pop(L, 1);
+    return value;
+}
+
+std::string opt_string(lua_State* L, int index, const char* key, const std::string& fallback) {
+    if (!get_option(L, index, key)) {
+        lua_pop(L, 1);
+        return fallback;
+    }
+    if (lua_type(L, -1) != LUA_TSTRING) option_error(L, key, "a string");
+    std::string value = lua_tostring(L, -1);
+    lua_pop(L, 1);
+    return value;
+}
+
+void check_keys(lua_State* L, int index, std::initializer_list<const char*> keys) {
+    if (absent(L, index)) return;
+    luaL_checktype(L, index, LUA_TTABLE);
+    lua_pushnil(L);
+    while (lua_next(L, index)) {
+        lua_pop(L, 1);  // the value; the key stays for lua_next
+        const char* key = lua_type(L, -1) == LUA_TSTRING ? lua_tostring(L, -1) : nullptr;
+        if (!key || std::none_of(keys.begin(), keys.end(), [&](const char* k) { return std::strcmp(k, key) == 0; })) {
+            std::string valid;
+            for (const char* k : keys) valid += std::string(valid.empty() ? "" : ", ") + k;
+            luaL_argerror(L, index, lua_pushfstring(L, "unknown option '%s' (valid: %s)", key ? key : "?", valid.c_str()));
+        }
+    }
+}
+
+}  // namespace strata::lua

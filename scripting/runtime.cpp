@@ -1,0 +1,111 @@
+#include "scripting/runtime.h"
+
+#include <cstdio>
+#include <cstring>
+
+#include <lua.hpp>
+
+#include "engine/gl/context.h"
+#include "engine/render/renderer.h"
+
+namespace strata {
+
+namespace {
+
+int open_strata(lua_State* L) {
+    lua_newtable(L);
+    register_scene(L);
+    register_camera(L);
+    register_render(L);
+    return 1;
+}
+
+// The message handler: the error with a traceback from where it was raised.
+int traceback(lua_State* L) {
+    const char* message = lua_tostring(L, 1);
+    if (!message) message = lua_pushfstring(L, "(error object is a %s value)", luaL_typename(L, 1));
+    luaL_traceback(L, L, message, 1);
+    return 1;
+}
+
+}  // namespace
+
+Runtime::Runtime(RuntimeOptions options) : options_(options), L_(luaL_newstate()) {
+    if (!L_) throw std::runtime_error("cannot create a Lua state: out of memory");
+    *static_cast<Runtime**>(lua_getextraspace(L_)) = this;
+    luaL_openlibs(L_);
+    luaL_requiref(L_, "strata", open_strata, 1);  // package.loaded.strata, and the global
+    lua_pop(L_, 1);
+}
+
+Runtime::~Runtime() {
+    lua_close(L_);  // first: userdata finalizers may still need the renderer and its context
+    renderer_.reset();
+    context_.reset();
+}
+
+Runtime& Runtime::of(lua_State* L) { return **static_cast<Runtime**>(lua_getextraspace(L)); }
+
+gl::Context& Runtime::context() {
+    if (!context_)
+        context_ = options_.window ? gl::create_window_context("strata run", 1280, 720) : gl::create_headless_context();
+    return *context_;
+}
+
+Renderer& Runtime::renderer() {
+    context();
+    if (!renderer_) renderer_ = std::make_unique<Renderer>();
+    return *renderer_;
+}
+
+int Runtime::call(int arguments) {
+    const int handler = lua_gettop(L_) - arguments;
+    lua_pushcfunction(L_, traceback);
+    lua_insert(L_, handler);
+    const int status = lua_pcall(L_, arguments, 0, handler);
+    if (status != LUA_OK) {
+        std::fprintf(stderr, "%s\n", lua_tostring(L_, -1));
+        lua_pop(L_, 1);
+    }
+    lua_remove(L_, handler);
+    return status == LUA_OK ? 0 : 1;
+}
+
+int Runtime::run_file(const std::filesystem::path& script, const std::vector<std::string>& args) {
+    // `require` finds modules beside the script, wherever the script is started from.
+    const std::string folder = script.parent_path().empty() ? "." : script.parent_path().string();
+    lua_getglobal(L_, "package");
+    lua_pushfstring(L_, "%s/?.lua;%s/?/init.lua;", folder.c_str(), folder.c_str());
+    lua_getfield(L_, -2, "path");
+    lua_concat(L_, 2);
+    lua_setfield(L_, -2, "path");
+    lua_pop(L_, 1);
+
+    lua_createtable(L_, int(args.size()), 1);
+    lua_pushstring(L_, script.c_str());
+    lua_rawseti(L_, -2, 0);
+    for (size_t i = 0; i < args.size(); ++i) {
+        lua_pushstring(L_, args[i].c_str());
+        lua_rawseti(L_, -2, lua_Integer(i + 1));
+    }
+    lua_setglobal(L_, "arg");
+
+    if (luaL_loadfile(L_, script.c_str()) != LUA_OK) {
+        std::fprintf(stderr, "%s\n", lua_tostring(L_, -1));  // "cannot open x.lua" or "x.lua:3: syntax error"
+        lua_pop(L_, 1);
+        return 1;
+    }
+    for (const std::string& a : args) lua_pushstring(L_, a.c_str());  // also as `...`
+    return call(int(args.size()));
+}
+
+int Runtime::run_string(const std::string& source, const std::string& name) {
+    if (luaL_loadbuffer(L_, source.data(), source.size(), ("=" + name).c_str()) != LUA_OK) {
+        std::fprintf(stderr, "%s\n", lua_tostring(L_, -1));
+        lua_pop(L_, 1);
+        return 1;
+    }
+    return call(0);
+}
+
+}  // namespace strata

@@ -1,0 +1,60 @@
+// Runs Lua scripts with the `strata` module: a Lua 5.4 state, the module registered for `require`
+// (and as the global `strata`), the script's arguments in `arg`, its folder on package.path, errors
+// reported with a traceback. Renders go to a headless context, or to a window when asked.
+#pragma once
+
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+struct lua_State;
+
+namespace strata {
+
+namespace gl {
+class Context;
+}
+class Renderer;
+
+struct RuntimeOptions {
+    bool window = false;  // show each rendered frame in a window while the script runs
+};
+
+class Runtime {
+public:
+    explicit Runtime(RuntimeOptions options = {});
+    ~Runtime();
+    Runtime(const Runtime&) = delete;
+    Runtime& operator=(const Runtime&) = delete;
+
+    // Runs `script` with `args` (arg[0] is the script's path, arg[1…] the arguments). On an error
+    // prints the message with file:line and a traceback to stderr and returns 1; else 0.
+    int run_file(const std::filesystem::path& script, const std::vector<std::string>& args);
+    // Runs a chunk of Lua source (tests, the REPL later); the same error handling. `name` names it.
+    int run_string(const std::string& source, const std::string& name);
+
+    lua_State* state() const { return L_; }
+    const RuntimeOptions& options() const { return options_; }
+    // The GL context and renderer, made on first use (a script that renders nothing needs no GL).
+    gl::Context& context();
+    Renderer& renderer();
+
+    // The runtime that owns `L`.
+    static Runtime& of(lua_State* L);
+
+private:
+    int call(int arguments);
+
+    RuntimeOptions options_;
+    lua_State* L_;
+    std::unique_ptr<gl::Context> context_;
+    std::unique_ptr<Renderer> renderer_;
+};
+
+// Registers the `strata` module's functions (wrap_*.cpp, one per area) into the table on top of the stack.
+void register_scene(lua_State* L);
+void register_camera(lua_State* L);
+void register_render(lua_State* L);
+
+}  // namespace strata

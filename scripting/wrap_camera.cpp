@@ -1,0 +1,141 @@
+// strata.camera{…} and its methods: pose (position, orientation, fov), look-at, framing a node,
+// perspective or orthographic projection, clip planes (fitted to the scene unless set), image size.
+#include <lua.hpp>
+
+#include "engine/scene/camera.h"
+#include "scripting/lua_util.h"
+#include "scripting/runtime.h"
+#include "scripting/wrap_camera.h"
+#include "scripting/wrap_scene.h"
+
+namespace strata {
+
+namespace {
+
+using lua::check_keys;
+using lua::check_vec3;
+
+// Applies the projection and size options of a table at `index` (those present).
+void apply_settings(lua_State* L, int index, Camera& c) {
+    c.fov_y_degrees = lua::opt_number(L, index, "fov", c.fov_y_degrees);
+    if (!(c.fov_y_degrees > 0 && c.fov_y_degrees < 180)) luaL_error(L, "option 'fov' must be between 0 and 180 degrees");
+    c.width = int(lua::opt_number(L, index, "width", c.width));
+    c.height = int(lua::opt_number(L, index, "height", c.height));
+    if (c.width <= 0 || c.height <= 0 || c.width > 16384 || c.height > 16384)
+        luaL_error(L, "options 'width' and 'height' must be 1 to 16384 pixels");
+    const bool ortho = lua::opt_boolean(L, index, "orthographic", c.projection == ProjectionKind::orthographic);
+    c.projection = ortho ? ProjectionKind::orthographic : ProjectionKind::perspective;
+    c.ortho_height = lua::opt_number(L, index, "ortho_height", c.ortho_height);
+    c.near_clip = lua::opt_number(L, index, "near", c.near_clip);
+    c.far_clip = lua::opt_number(L, index, "far", c.far_clip);
+}
+
+// {position=…, orientation={w,x,y,z} | target=…, up=…, fov=…}: the pose parts present.
+void apply_pose(lua_State* L, int index, Camera& c) {
+    if (lua::get_option(L, index, "position")) c.position = check_vec3(L, lua_gettop(L));
+    lua_pop(L, 1);
+    if (lua::get_option(L, index, "orientation")) c.orientation = lua::check_quat(L, lua_gettop(L));
+    lua_pop(L, 1);
+    glm::dvec3 up{0, 1, 0};
+    if (lua::get_option(L, index, "up")) up = check_vec3(L, lua_gettop(L));
+    lua_pop(L, 1);
+    if (lua::get_option(L, index, "target")) c.look_at(c.position, check_vec3(L, lua_gettop(L)), up);
+    lua_pop(L, 1);
+    c.fov_y_degrees = lua::opt_number(L, index, "fov", c.fov_y_degrees);
+}
+
+int new_camera(lua_State* L) {
+    check_keys(L, 1, {"fov", "width", "height", "orthographic", "ortho_height", "near", "far", "position",
+                      "orientation", "target", "up"});
+    auto camera = std::make_shared<Camera>();
+    camera->set_name("camera");
+    apply_settings(L, 1, *camera);
+    if (!lua_isnoneornil(L, 1)) apply_pose(L, 1, *camera);
+    push_camera(L, camera);
+    return 1;
+}
+
+int camera_look_at(lua_State* L) {
+    Camera& c = *check_camera(L, 1);
+    c.look_at(check_vec3(L, 2), check_vec3(L, 3), lua_isnoneornil(L, 4) ? glm::dvec3(0, 1, 0) : check_vec3(L, 4));
+    lua_settop(L, 1);
+    return 1;
+}
+
+int camera_frame(lua_State* L) {  // camera:frame(node): moves back along the view until the node fits
+    Camera& c = *check_camera(L, 1);
+    const Box& box = check_node(L, 2)->bound();
+    if (!box.valid()) return luaL_argerror(L, 2, "the node has no bounds (nothing in it)");
+    c.frame(box);
+    lua_settop(L, 1);
+    return 1;
+}
+
+int camera_pose(lua_State* L) {
+    const Camera& c = *check_camera(L, 1);
+    lua_createtable(L, 0, 3);
+    lua::push_vec3(L, c.position);
+    lua_setfield(L, -2, "position");
+    lua::push_quat(L, c.orientation);
+    lua_setfield(L, -2, "orientation");
+    lua_pushnumber(L, c.fov_y_degrees);
+    lua_setfield(L, -2, "fov");
+    return 1;
+}
+
+int camera_set_pose(lua_State* L) {
+    Camera& c = *check_camera(L, 1);
+    luaL_checktype(L, 2, LUA_TTABLE);
+    check_keys(L, 2, {"position", "orientation", "target", "up", "fov"});
+    apply_pose(L, 2, c);
+    lua_settop(L, 1);
+    return 1;
+}
+
+int camera_set(lua_State* L) {
+    Camera& c = *check_camera(L, 1);
+    luaL_checktype(L, 2, LUA_TTABLE);
+    check_keys(L, 2, {"fov", "width", "height", "orthographic", "ortho_height", "near", "far"});
+    apply_settings(L, 2, c);
+    lua_settop(L, 1);
+    return 1;
+}
+
+int camera_forward(lua_State* L) {
+    lua::push_vec3(L, check_camera(L, 1)->forward());
+    return 1;
+}
+
+int camera_tostring(lua_State* L) {
+    const Camera& c = *check_camera(L, 1);
+    lua_pushfstring(L, "strata camera at (%f, %f, %f)", c.position.x, c.position.y, c.position.z);
+    return 1;
+}
+
+const luaL_Reg kMethods[] = {{"look_at", camera_look_at}, {"frame", camera_frame}, {"pose", camera_pose},
+                             {"set_pose", camera_set_pose}, {"set", camera_set},   {"forward", camera_forward},
+                             {nullptr, nullptr}};
+
+}  // namespace
+
+void push_camera(lua_State* L, std::shared_ptr<Camera> camera) { lua::push_shared(L, std::move(camera), kCameraType); }
+
+const std::shared_ptr<Camera>& check_camera(lua_State* L, int index) {
+    return lua::check_shared<Camera>(L, index, kCameraType);
+}
+
+void register_camera(lua_State* L) {
+    if (luaL_newmetatable(L, kCameraType)) {
+        luaL_newlib(L, kMethods);
+        lua_setfield(L, -2, "__index");
+        lua_pushcfunction(L, lua::collect_shared<Camera>);
+        lua_setfield(L, -2, "__gc");
+        lua_pushcfunction(L, camera_tostring);
+        lua_setfield(L, -2, "__tostring");
+    }
+    lua_pop(L, 1);
+    lua_pushcfunction(L, new_camera);
+    lua_setfield(L, -2, "camera");
+}
+
+}  // namespace strata

@@ -1,0 +1,170 @@
+// strata.render(scene, camera, {…}) → a frame (type "strata.Frame"): its pixels, its statistics, and
+// frame:write(path, {…}) to PNG or OpenEXR. With `strata run --window` each render is also shown.
+#include <cmath>
+#include <string>
+
+#include <lua.hpp>
+
+#include "engine/gl/framebuffer.h"
+#include "engine/io/image.h"
+#include "engine/render/present.h"
+#include "engine/render/renderer.h"
+#include "scripting/lua_util.h"
+#include "scripting/runtime.h"
+#include "scripting/wrap_camera.h"
+#include "scripting/wrap_scene.h"
+
+namespace strata {
+
+namespace {
+
+constexpr const char* kFrameType = "strata.Frame";
+
+struct Frame {
+    Image image;
+    FrameStats stats;
+};
+
+// Channel names from a string ("RGBA,Z") or a list ({"RGBA", "Z"}) at the top of the stack.
+ImageChannels channels_at_top(lua_State* L, const char* option) {
+    std::string names;
+    if (lua_type(L, -1) == LUA_TSTRING) {
+        names = lua_tostring(L, -1);
+    } else if (lua_istable(L, -1)) {
+        for (lua_Integer i = 1; i <= lua_Integer(lua_rawlen(L, -1)); ++i) {
+            lua_rawgeti(L, -1, i);
+            if (lua_type(L, -1) != LUA_TSTRING) luaL_error(L, "option '%s' must list channel names", option);
+            names += std::string(names.empty() ? "" : ",") + lua_tostring(L, -1);
+            lua_pop(L, 1);
+        }
+    } else {
+        luaL_error(L, "option '%s' must be a string or a list of channel names, got %s", option, luaL_typename(L, -1));
+    }
+    try {
+        return parse_channels(names);
+    } catch (const std::exception& e) {
+        luaL_error(L, "option '%s': %s", option, e.what());
+    }
+    return {};
+}
+
+int render(lua_State* L) {
+    const NodePtr& scene = check_node(L, 1);
+    const std::shared_ptr<Camera>& camera = check_camera(L, 2);
+    lua::check_keys(L, 3, {"samples", "channels", "background", "culling"});
+    ImageChannels channels = ImageChannel::rgba;
+    if (lua::get_option(L, 3, "channels")) channels = channels_at_top(L, "channels");
+    lua_pop(L, 1);
+    RenderSettings settings;
+    if (lua::get_option(L, 3, "background")) {
+        luaL_checktype(L, -1, LUA_TTABLE);
+        for (int i = 0; i < 4; ++i) {
+            lua_rawgeti(L, -1, i + 1);
+            settings.background[i] = float(lua_isnil(L, -1) ? (i == 3 ? 1.0 : 0.0) : luaL_checknumber(L, -1));
+            lua_pop(L, 1);
+        }
+    }
+    lua_pop(L, 1);
+    settings.frustum_culling = lua::opt_boolean(L, 3, "culling", true);
+    const int samples = int(lua::opt_number(L, 3, "samples", 4));
+    if (samples != 1 && samples != 2 && samples != 4 && samples != 8) return luaL_error(L, "option 'samples' must be 1, 2, 4 or 8");
+
+    Runtime& runtime = Runtime::of(L);
+    auto frame = std::make_shared<Frame>();
+    try {
+        Renderer& renderer = runtime.renderer();
+        gl::Framebuffer target({.width = camera->width, .height = camera->height, .samples = samples,
+                                .normals = channels.contains(ImageChannel::normals),
+                                .level = channels.contains(ImageChannel::level),
+                                .node_id = channels.contains(ImageChannel::node_id)});
+        frame->stats = renderer.render(*scene, *camera, target, settings);
+        frame->image = renderer.read_image(target);
+        if (runtime.options().window) {
+            present(target, runtime.context());
+            runtime.context().poll_events();
+        }
+    } catch (const std::exception& e) {
+        return luaL_error(L, "%s", e.what());
+    }
+    lua::push_shared(L, frame, kFrameType);
+    return 1;
+}
+
+Frame& check_frame(lua_State* L, int index) { return *lua::check_shared<Frame>(L, index, kFrameType); }
+
+int frame_write(lua_State* L) {
+    const Frame& frame = check_frame(L, 1);
+    const std::string path = luaL_checkstring(L, 2);
+    lua::check_keys(L, 3, {"channels", "compression"});
+    try {
+        if (path.size() > 4 && path.substr(path.size() - 4) == ".png") {
+            write_png(frame.image, path);
+        } else if (path.size() > 4 && path.substr(path.size() - 4) == ".exr") {
+            ImageChannels channels = frame.image.planes();
+            if (lua::get_option(L, 3, "channels")) channels = channels_at_top(L, "channels");
+            lua_pop(L, 1);
+            ExrOptions options;
+            options.compression = parse_exr_compression(lua::opt_string(L, 3, "compression", "zip"));
+            write_exr(frame.image, path, channels, options);
+        } else {
+            return luaL_argerror(L, 2, "the file name must end in .png or .exr");
+        }
+    } catch (const std::exception& e) {
+        return luaL_error(L, "%s", e.what());
+    }
+    lua_settop(L, 1);
+    return 1;
+}
+
+int frame_size(lua_State* L) {
+    const Frame& frame = check_frame(L, 1);
+    lua_pushinteger(L, frame.image.width);
+    lua_pushinteger(L, frame.image.height);
+    return 2;
+}
+
+// frame:pixel(x, y) → r, g, b, a (linear), depth, node id; x, y from 0 at the top left.
+int frame_pixel(lua_State* L) {
+    const Frame& frame = check_frame(L, 1);
+    const lua_Integer x = luaL_checkinteger(L, 2), y = luaL_checkinteger(L, 3);
+    luaL_argcheck(L, x >= 0 && x < frame.image.width, 2, "outside the image");
+    luaL_argcheck(L, y >= 0 && y < frame.image.height, 3, "outside the image");
+    const size_t p = size_t(y) * frame.image.width + size_t(x);
+    for (int c = 0; c < 4; ++c) lua_pushnumber(L, frame.image.rgba[4 * p + c]);
+    lua_pushnumber(L, frame.image.depth.empty() ? HUGE_VAL : frame.image.depth[p]);
+    lua_pushinteger(L, frame.image.node_id.empty() ? 0 : frame.image.node_id[p]);
+    return 6;
+}
+
+int frame_stats(lua_State* L) {
+    const FrameStats& s = check_frame(L, 1).stats;
+    lua_createtable(L, 0, 7);
+    const std::pair<const char*, double> fields[] = {
+        {"triangles", double(s.triangles)}, {"cubes", double(s.cubes)}, {"draw_calls", double(s.draw_calls)},
+        {"draw_items", double(s.draw_items)}, {"nodes_culled", double(s.nodes_culled)}, {"cull_ms", s.cull_ms},
+        {"draw_ms", s.draw_ms}};
+    for (const auto& [name, value] : fields) {
+        lua_pushnumber(L, value);
+        lua_setfield(L, -2, name);
+    }
+    return 1;
+}
+
+const luaL_Reg kMethods[] = {{"write", frame_write}, {"size", frame_size}, {"pixel", frame_pixel},
+                             {"stats", frame_stats}, {nullptr, nullptr}};
+
+}  // namespace
+
+void register_render(lua_State* L) {
+    if (luaL_newmetatable(L, kFrameType)) {
+        luaL_newlib(L, kMethods);
+        lua_setfield(L, -2, "__index");
+        lua_pushcfunction(L, lua::collect_shared<Frame>);
+        lua_setfield(L, -2, "__gc");
+    }
+    lua_pop(L, 1);
+    lua_pushcfunction(L, render);
+    lua_setfield(L, -2, "render");
+}
+
+}  // namespace strata
