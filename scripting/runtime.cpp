@@ -17,6 +17,7 @@ int open_strata(lua_State* L) {
     register_scene(L);
     register_camera(L);
     register_render(L);
+    register_build(L);
     return 1;
 }
 

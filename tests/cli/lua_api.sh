@@ -8,7 +8,7 @@ root=$2
 "$STRATA" build "$root/data/bunny.off" -o "$WORK/bunny.hlod" -q || { echo "build failed"; exit 1; }
 cd "$WORK"
 for script in "$root"/tests/lua/*.lua; do
-    expect_success "$(basename "$script")" "$STRATA" run "$script" "$WORK/bunny.hlod" "$WORK"
+    expect_success "$(basename "$script")" "$STRATA" run "$script" "$WORK/bunny.hlod" "$WORK" "$root/data/bunny.off"
     checks=$((checks + 1)); grep -q ": ok$" "$WORK/out.txt" || fail "$(basename "$script") did not finish"
 done
 

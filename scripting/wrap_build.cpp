@@ -1,0 +1,177 @@
+// strata.build{…}: `strata build` from Lua, with every option, a progress callback, and the
+// statistics returned; strata.build_folder{…} builds every scan of a folder whose model is missing or
+// older than the scan.
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <filesystem>
+#include <mutex>
+#include <string>
+#include <thread>
+
+#include <lua.hpp>
+
+#include "preprocess/hlod_builder.h"
+#include "preprocess/mesh_io.h"
+#include "scripting/lua_util.h"
+#include "scripting/runtime.h"
+
+namespace strata {
+
+namespace {
+
+struct BuildJob {
+    std::string input, output;
+    BuildSettings settings;
+};
+
+BuildJob check_job(lua_State* L, int index) {
+    luaL_checktype(L, index, LUA_TTABLE);
+    lua::check_keys(L, index, {"input", "output", "levels", "block", "ratio", "sigma0", "error", "threads", "on_progress"});
+    BuildJob job;
+    job.input = lua::opt_string(L, index, "input", "");
+    job.output = lua::opt_string(L, index, "output", "");
+    if (job.input.empty()) luaL_error(L, "option 'input' (the scan to build) is required");
+    if (job.output.empty()) job.output = std::filesystem::path(job.input).replace_extension(".hlod").string();
+    job.settings.levels = int(lua::opt_number(L, index, "levels", -1));
+    job.settings.block = int(lua::opt_number(L, index, "block", job.settings.block));
+    job.settings.ratio = float(lua::opt_number(L, index, "ratio", job.settings.ratio));
+    job.settings.sigma0 = float(lua::opt_number(L, index, "sigma0", job.settings.sigma0));
+    job.settings.error = float(lua::opt_number(L, index, "error", job.settings.error));
+    job.settings.threads = int(lua::opt_number(L, index, "threads", 0));
+    return job;
+}
+
+// What the build's worker reports, for the Lua thread to pass on.
+struct Shared {
+    std::mutex mutex;
+    std::condition_variable changed;
+    std::string stage, unit;
+    double done = 0, total = 0;
+    bool fresh = false, finished = false;
+    bool first_report = true;  // the first report wakes the Lua thread at once: a callback can cancel early
+    bool wake = false;
+};
+
+// Runs the build on a worker thread while this one (the only one that may touch Lua) calls
+// on_progress with the latest figures, ten times a second at most. on_progress returning false, or
+// raising an error, cancels the build, which then leaves no output.
+int build(lua_State* L) {
+    const BuildJob job = check_job(L, 1);
+    const bool has_callback = lua::get_option(L, 1, "on_progress");
+    if (has_callback) luaL_checktype(L, -1, LUA_TFUNCTION);
+    const int callback = lua_gettop(L);
+
+    Shared shared;
+    std::atomic<bool> cancel{false};
+    Progress progress{[&](std::string_view stage, double done, double total, std::string_view unit) {
+                          std::lock_guard lock(shared.mutex);
+                          shared.stage = stage, shared.unit = unit, shared.done = done, shared.total = total;
+                          shared.fresh = true;
+                          if (shared.first_report) {
+                              shared.first_report = false;
+                              shared.wake = true;
+                              shared.changed.notify_all();
+                          }
+                      },
+                      &cancel};
+    BuildReport report;
+    std::string error;
+    bool cancelled = false;
+    const auto start = std::chrono::steady_clock::now();
+    size_t triangles = 0;
+    std::thread worker([&] {
+        try {
+            Mesh mesh = read_mesh(job.input, progress);
+            triangles = mesh.triangle_count();
+            report = build_hlod(std::move(mesh), job.output, job.settings,
+                                std::filesystem::path(job.input).filename().string(), progress);
+        } catch (const Cancelled&) {
+            cancelled = true;
+        } catch (const std::exception& e) {
+            error = e.what();
+        }
+        std::lock_guard lock(shared.mutex);
+        shared.finished = true;
+        shared.changed.notify_all();
+    });
+
+    // Passes the latest figures to on_progress; called with the mutex held, released around the call.
+    std::string callback_error;
+    auto deliver = [&](std::unique_lock<std::mutex>& lock) {
+        if (!has_callback || !shared.fresh || !callback_error.empty()) return;
+        shared.fresh = false;
+        const std::string stage = shared.stage, unit = shared.unit;
+        const double done = shared.done, total = shared.total;
+        lock.unlock();
+        lua_pushvalue(L, callback);
+        lua_pushstring(L, stage.c_str());
+        lua_pushnumber(L, done);
+        lua_pushnumber(L, total);
+        lua_pushstring(L, unit.c_str());
+        if (lua_pcall(L, 4, 1, 0) != LUA_OK) {
+            callback_error = lua_tostring(L, -1);
+            cancel = true;
+        } else if (lua_isboolean(L, -1) && !lua_toboolean(L, -1)) {
+            cancel = true;
+        }
+        lua_pop(L, 1);
+        lock.lock();
+    };
+    {
+        std::unique_lock lock(shared.mutex);
+        while (!shared.finished) {
+            shared.changed.wait_for(lock, std::chrono::milliseconds(100), [&] { return shared.finished || shared.wake; });
+            shared.wake = false;
+            deliver(lock);
+        }
+        deliver(lock);  // the last report, also for builds quicker than one interval
+    }
+    worker.join();
+    if (!callback_error.empty()) return luaL_error(L, "on_progress: %s", callback_error.c_str());
+    if (!error.empty()) return luaL_error(L, "%s", error.c_str());
+    if (cancelled) return luaL_error(L, "build of %s cancelled; %s was not written", job.input.c_str(), job.output.c_str());
+
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    lua_createtable(L, 0, 8);
+    lua_pushstring(L, job.output.c_str());
+    lua_setfield(L, -2, "output");
+    lua_pushinteger(L, report.max_level + 1);
+    lua_setfield(L, -2, "levels");
+    lua_pushinteger(L, lua_Integer(triangles));
+    lua_setfield(L, -2, "triangles");
+    lua_pushnumber(L, report.sigma0);
+    lua_setfield(L, -2, "sigma0");
+    lua_pushnumber(L, report.error_q);
+    lua_setfield(L, -2, "error_q");
+    lua_pushinteger(L, lua_Integer(report.output_bytes));
+    lua_setfield(L, -2, "bytes");
+    lua_pushnumber(L, seconds);
+    lua_setfield(L, -2, "seconds");
+    lua_createtable(L, int(report.levels.size()), 0);
+    for (size_t i = 0; i < report.levels.size(); ++i) {
+        const LevelStats& l = report.levels[i];
+        lua_createtable(L, 0, 4);
+        lua_pushinteger(L, l.level);
+        lua_setfield(L, -2, "level");
+        lua_pushinteger(L, lua_Integer(l.cubes));
+        lua_setfield(L, -2, "cubes");
+        lua_pushinteger(L, lua_Integer(l.triangles));
+        lua_setfield(L, -2, "triangles");
+        lua_pushinteger(L, lua_Integer(l.bytes));
+        lua_setfield(L, -2, "bytes");
+        lua_rawseti(L, -2, lua_Integer(i + 1));
+    }
+    lua_setfield(L, -2, "per_level");
+    for (const std::string& note : report.notes) std::fprintf(stderr, "strata.build: note: %s\n", note.c_str());
+    return 1;
+}
+
+}  // namespace
+
+void register_build(lua_State* L) {
+    lua_pushcfunction(L, build);
+    lua_setfield(L, -2, "build");
+}
+
+}  // namespace strata

@@ -1,0 +1,42 @@
+-- strata.build from Lua: options, the progress callback, the returned statistics, cancelling from the
+-- callback, and bad input. arg[2] is a folder to write in, arg[3] the bundled sample scan.
+local strata = require "strata"
+local out = assert(arg[2])
+local scan = assert(arg[3], "usage: build_api.lua MODEL.hlod OUT_DIR SCAN")
+
+local calls, stages = 0, {}
+local stats = strata.build{
+    input = scan, output = out .. "/built.hlod", levels = 2, threads = 1,
+    on_progress = function(stage, done, total, unit)
+        calls = calls + 1
+        stages[stage:match("^%a+")] = true
+        assert(type(done) == "number" and type(total) == "number" and type(unit) == "string")
+    end,
+}
+assert(stats.output == out .. "/built.hlod" and stats.levels == 3 and stats.triangles == 75408, stats.triangles)
+assert(stats.bytes > 0 and stats.seconds > 0 and stats.sigma0 > 0 and #stats.per_level == 3)
+assert(stats.per_level[1].triangles == 75408 and stats.per_level[3].cubes == 1)
+assert(calls > 0, "on_progress was never called")
+local model = strata.load(stats.output)
+assert(model:info().levels == 3)
+
+-- Returning false cancels: an error, and no file.
+local ok, err = pcall(strata.build, { input = scan, output = out .. "/cancelled.hlod",
+                                      on_progress = function() return false end })
+assert(not ok and err:find("cancelled"), err)
+assert(io.open(out .. "/cancelled.hlod") == nil, "a cancelled build left its output")
+
+-- An error in the callback cancels too, and names the callback.
+ok, err = pcall(strata.build, { input = scan, output = out .. "/failed.hlod",
+                                on_progress = function() error("stop here") end })
+assert(not ok and err:find("on_progress") and err:find("stop here"), err)
+assert(io.open(out .. "/failed.hlod") == nil)
+
+-- Bad input names the file; bad options name the option.
+ok, err = pcall(strata.build, { input = out .. "/missing.ply" })
+assert(not ok and err:find("missing.ply"), err)
+ok, err = pcall(strata.build, { input = scan, levles = 3 })
+assert(not ok and err:find("levles"), err)
+ok, err = pcall(strata.build, { output = "x.hlod" })
+assert(not ok and err:find("input"), err)
+print("build_api: ok")
