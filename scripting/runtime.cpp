@@ -18,6 +18,7 @@ int open_strata(lua_State* L) {
     register_camera(L);
     register_render(L);
     register_build(L);
+    register_video(L);
     return 1;
 }
 

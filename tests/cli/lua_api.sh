@@ -33,4 +33,8 @@ expect_failure "missing model" "missing.lua:2:.*missing.hlod" "$STRATA" run "$WO
 printf 'local strata = require "strata"\nstrata.transform{ translat = {1, 2, 3} }\n' >"$WORK/typo.lua"
 expect_failure "unknown option" "unknown option 'translat'" "$STRATA" run "$WORK/typo.lua"
 expect_failure "missing script" "cannot open" "$STRATA" run "$WORK/nothing.lua"
+# ffmpeg out of reach: the video call says what to install (video_api.lua left its frames in $WORK).
+printf 'require("strata").video{ frames = "%s/f%%03d.png", output = "%s/no.mp4" }\n' "$WORK" "$WORK" >"$WORK/noffmpeg.lua"
+expect_failure "ffmpeg missing" "install Debian's ffmpeg package" env PATH=/nonexistent "$STRATA" run "$WORK/noffmpeg.lua"
+checks=$((checks + 1)); [ ! -e "$WORK/no.mp4" ] || fail "a failed video left its file"
 finish
