@@ -113,6 +113,7 @@ void Geometry::draw(DrawContext& context, const DrawItem& item) {
     glDrawElements(GL_TRIANGLES, GLsizei(mesh_.indices.size()), GL_UNSIGNED_INT, nullptr);
     ++context.stats.draw_calls;
     context.stats.triangles += mesh_.triangle_count();
+    context.stats.bytes_resident += gpu.positions.size() + gpu.normals.size() + gpu.colors.size() + gpu.indices.size();
 }
 
 }  // namespace strata

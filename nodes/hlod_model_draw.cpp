@@ -180,6 +180,7 @@ struct HlodPrograms : GpuCache::Entry {
 };
 
 struct HlodGpu : GpuCache::Entry {
+    uint64_t bytes = 0;  // every buffer below
     gl::Buffer cubes;
     gl::Buffer drawn;  // this frame's cubes, for the boxes view
     std::vector<Chunk> chunks;
@@ -255,6 +256,10 @@ std::unique_ptr<HlodGpu> upload(const HlodModel& model) {
     gpu->chunks.push_back(upload_chunk(data));
     for (Chunk& chunk : gpu->chunks) chunk.commands = gl::Buffer(cubes.size() * sizeof(DrawCommand), GL_DYNAMIC_STORAGE_BIT);
     gpu->drawn = gl::Buffer(cubes.size() * sizeof(uint32_t), GL_DYNAMIC_STORAGE_BIT);
+    gpu->bytes = gpu->cubes.size() + gpu->drawn.size();
+    for (const Chunk& c : gpu->chunks)
+        gpu->bytes += c.vertices.size() + c.parents.size() + c.vertex_colors.size() + c.parent_colors.size() +
+                      c.indices.size() + c.commands.size();
     gl::check_gl("uploading an HLOD model");
     return gpu;
 }
@@ -317,6 +322,7 @@ void HlodModel::draw(DrawContext& context, const DrawItem& item) {
         context.stats.triangles += gpu.command_of[c].count / 3;
     }
     context.stats.cubes += item.count;
+    context.stats.bytes_resident += gpu.bytes;
     if (capture_morph_) captured_.clear();
     if (debug_view_ == HlodDebugView::wireframe) glPolygonMode(GL_FRONT_AND_BACK, GL_LINE);
     for (Chunk& chunk : gpu.chunks) {

@@ -19,6 +19,7 @@ int open_strata(lua_State* L) {
     register_render(L);
     register_build(L);
     register_video(L);
+    register_measure(L);
     return 1;
 }
 

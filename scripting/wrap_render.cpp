@@ -51,7 +51,7 @@ ImageChannels channels_at_top(lua_State* L, const char* option) {
 int render(lua_State* L) {
     const NodePtr& scene = check_node(L, 1);
     const std::shared_ptr<Camera>& camera = check_camera(L, 2);
-    lua::check_keys(L, 3, {"samples", "channels", "background", "culling"});
+    lua::check_keys(L, 3, {"samples", "channels", "background", "culling", "gpu_time"});
     ImageChannels channels = ImageChannel::rgba;
     if (lua::get_option(L, 3, "channels")) channels = channels_at_top(L, "channels");
     lua_pop(L, 1);
@@ -66,6 +66,7 @@ int render(lua_State* L) {
     }
     lua_pop(L, 1);
     settings.frustum_culling = lua::opt_boolean(L, 3, "culling", true);
+    settings.measure_gpu_time = lua::opt_boolean(L, 3, "gpu_time", false);
     const int samples = int(lua::opt_number(L, 3, "samples", 4));
     if (samples != 1 && samples != 2 && samples != 4 && samples != 8) return luaL_error(L, "option 'samples' must be 1, 2, 4 or 8");
 
@@ -138,11 +139,11 @@ int frame_pixel(lua_State* L) {
 
 int frame_stats(lua_State* L) {
     const FrameStats& s = check_frame(L, 1).stats;
-    lua_createtable(L, 0, 7);
+    lua_createtable(L, 0, 9);
     const std::pair<const char*, double> fields[] = {
         {"triangles", double(s.triangles)}, {"cubes", double(s.cubes)}, {"draw_calls", double(s.draw_calls)},
         {"draw_items", double(s.draw_items)}, {"nodes_culled", double(s.nodes_culled)}, {"cull_ms", s.cull_ms},
-        {"draw_ms", s.draw_ms}};
+        {"draw_ms", s.draw_ms}, {"gpu_ms", s.gpu_ms}, {"bytes_resident", double(s.bytes_resident)}};
     for (const auto& [name, value] : fields) {
         lua_pushnumber(L, value);
         lua_setfield(L, -2, name);

@@ -20,6 +20,8 @@ struct FrameStats {
     uint64_t nodes_culled = 0;
     double cull_ms = 0;          // CPU: traversal, selection and sorting
     double draw_ms = 0;          // CPU: issuing the draws (the GPU may still be working)
+    double gpu_ms = -1;          // GPU: the draws, from a timer query; −1 unless asked for
+    uint64_t bytes_resident = 0; // GPU memory of the drawables drawn
 };
 
 struct DrawContext {

@@ -17,6 +17,8 @@ namespace strata {
 struct RenderSettings {
     glm::vec4 background{0.0f, 0.0f, 0.0f, 0.0f};  // linear RGBA
     bool frustum_culling = true;
+    // Time the draws on the GPU (a timer query; waits for the GPU to finish the frame).
+    bool measure_gpu_time = false;
 };
 
 class Renderer {

@@ -1,0 +1,124 @@
+// Measurements from Lua: strata.summary(values) → count, min, max, mean, median, p95; and
+// strata.write_csv(path, rows[, columns]) for per-frame statistics (frame:stats() tables).
+#include <algorithm>
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include <lua.hpp>
+
+#include "engine/io/atomic_file.h"
+#include "scripting/lua_util.h"
+#include "scripting/runtime.h"
+
+namespace strata {
+
+namespace {
+
+// The value at quantile q of sorted `v`, interpolating between neighbours.
+double quantile(const std::vector<double>& v, double q) {
+    const double position = q * double(v.size() - 1);
+    const size_t below = size_t(std::floor(position));
+    const size_t above = std::min(below + 1, v.size() - 1);
+    return v[below] + (v[above] - v[below]) * (position - double(below));
+}
+
+int summary(lua_State* L) {
+    luaL_checktype(L, 1, LUA_TTABLE);
+    std::vector<double> values;
+    for (lua_Integer i = 1; i <= lua_Integer(lua_rawlen(L, 1)); ++i) {
+        lua_rawgeti(L, 1, i);
+        int is_number = 0;
+        const double v = lua_tonumberx(L, -1, &is_number);
+        lua_pop(L, 1);
+        if (!is_number) return luaL_argerror(L, 1, lua_pushfstring(L, "value %d is not a number", int(i)));
+        values.push_back(v);
+    }
+    if (values.empty()) return luaL_argerror(L, 1, "no values");
+    std::sort(values.begin(), values.end());
+    double sum = 0;
+    for (double v : values) sum += v;
+    const std::pair<const char*, double> fields[] = {{"count", double(values.size())}, {"min", values.front()},
+                                                     {"max", values.back()},           {"mean", sum / double(values.size())},
+                                                     {"median", quantile(values, 0.5)}, {"p95", quantile(values, 0.95)}};
+    lua_createtable(L, 0, 6);
+    for (const auto& [name, value] : fields) {
+        lua_pushnumber(L, value);
+        lua_setfield(L, -2, name);
+    }
+    return 1;
+}
+
+std::string csv_field(lua_State* L, int index) {
+    if (lua_isnil(L, index)) return "";
+    if (lua_type(L, index) == LUA_TNUMBER) {
+        if (lua_isinteger(L, index)) return std::to_string(lua_tointeger(L, index));
+        char text[32];
+        std::snprintf(text, sizeof text, "%.9g", lua_tonumber(L, index));
+        return text;
+    }
+    std::string s = luaL_tolstring(L, index, nullptr);
+    lua_pop(L, 1);
+    if (s.find_first_of(",\"\n") == std::string::npos) return s;
+    std::string quoted = "\"";
+    for (char c : s) quoted += c == '"' ? std::string("\"\"") : std::string(1, c);
+    return quoted + "\"";
+}
+
+int write_csv(lua_State* L) {
+    const std::string path = luaL_checkstring(L, 1);
+    luaL_checktype(L, 2, LUA_TTABLE);
+    const lua_Integer rows = lua_Integer(lua_rawlen(L, 2));
+    std::vector<std::string> columns;
+    if (!lua_isnoneornil(L, 3)) {
+        luaL_checktype(L, 3, LUA_TTABLE);
+        for (lua_Integer i = 1; i <= lua_Integer(lua_rawlen(L, 3)); ++i) {
+            lua_rawgeti(L, 3, i);
+            columns.push_back(luaL_checkstring(L, -1));
+            lua_pop(L, 1);
+        }
+    } else if (rows > 0) {  // the first row's keys, sorted
+        lua_rawgeti(L, 2, 1);
+        luaL_checktype(L, -1, LUA_TTABLE);
+        lua_pushnil(L);
+        while (lua_next(L, -2)) {
+            lua_pop(L, 1);
+            if (lua_type(L, -1) == LUA_TSTRING) columns.push_back(lua_tostring(L, -1));
+        }
+        lua_pop(L, 1);
+        std::sort(columns.begin(), columns.end());
+    }
+    std::string text;
+    for (size_t c = 0; c < columns.size(); ++c) text += (c ? "," : "") + columns[c];
+    text += "\n";
+    for (lua_Integer r = 1; r <= rows; ++r) {
+        lua_rawgeti(L, 2, r);
+        if (!lua_istable(L, -1)) return luaL_argerror(L, 2, lua_pushfstring(L, "row %d is not a table", int(r)));
+        for (size_t c = 0; c < columns.size(); ++c) {
+            lua_getfield(L, -1, columns[c].c_str());
+            text += (c ? "," : "") + csv_field(L, -1);
+            lua_pop(L, 1);
+        }
+        text += "\n";
+        lua_pop(L, 1);
+    }
+    try {
+        AtomicOutputFile file(path);
+        file.write(text.data(), text.size());
+        file.commit();
+    } catch (const std::exception& e) {
+        return luaL_error(L, "%s", e.what());
+    }
+    return 0;
+}
+
+}  // namespace
+
+void register_measure(lua_State* L) {
+    lua_pushcfunction(L, summary);
+    lua_setfield(L, -2, "summary");
+    lua_pushcfunction(L, write_csv);
+    lua_setfield(L, -2, "write_csv");
+}
+
+}  // namespace strata
