@@ -20,6 +20,7 @@ int open_strata(lua_State* L) {
     register_build(L);
     register_video(L);
     register_measure(L);
+    register_files(L);
     return 1;
 }
 

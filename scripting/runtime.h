@@ -59,5 +59,6 @@ void register_render(lua_State* L);
 void register_build(lua_State* L);
 void register_video(lua_State* L);
 void register_measure(lua_State* L);
+void register_files(lua_State* L);
 
 }  // namespace strata
