@@ -1,6 +1,7 @@
-// Measurements from Lua: strata.summary(values) → count, min, max, mean, median, p95; and
-// strata.write_csv(path, rows[, columns]) for per-frame statistics (frame:stats() tables).
+// Measurements from Lua: strata.summary(values) → count, min, max, mean, median, p95;
+// strata.write_csv(path, rows[, columns]) for per-frame statistics (frame:stats() tables); strata.now().
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <string>
 #include <vector>
@@ -112,9 +113,16 @@ int write_csv(lua_State* L) {
     return 0;
 }
 
+int now(lua_State* L) {  // seconds on a steady clock, for timing parts of a script
+    lua_pushnumber(L, std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count());
+    return 1;
+}
+
 }  // namespace
 
 void register_measure(lua_State* L) {
+    lua_pushcfunction(L, now);
+    lua_setfield(L, -2, "now");
     lua_pushcfunction(L, summary);
     lua_setfield(L, -2, "summary");
     lua_pushcfunction(L, write_csv);

@@ -1,7 +1,9 @@
 // strata.render(scene, camera, {…}) → a frame (type "strata.Frame"): its pixels, its statistics, and
 // frame:write(path, {…}) to PNG or OpenEXR. With `strata run --window` each render is also shown.
 #include <cmath>
+#include <algorithm>
 #include <string>
+#include <thread>
 
 #include <lua.hpp>
 
@@ -96,7 +98,7 @@ Frame& check_frame(lua_State* L, int index) { return *lua::check_shared<Frame>(L
 int frame_write(lua_State* L) {
     const Frame& frame = check_frame(L, 1);
     const std::string path = luaL_checkstring(L, 2);
-    lua::check_keys(L, 3, {"channels", "compression"});
+    lua::check_keys(L, 3, {"channels", "compression", "threads"});
     try {
         if (path.size() > 4 && path.substr(path.size() - 4) == ".png") {
             write_png(frame.image, path);
@@ -106,6 +108,8 @@ int frame_write(lua_State* L) {
             lua_pop(L, 1);
             ExrOptions options;
             options.compression = parse_exr_compression(lua::opt_string(L, 3, "compression", "zip"));
+            // Compression on OpenEXR's worker threads, one per core unless told otherwise.
+            options.worker_threads = int(lua::opt_number(L, 3, "threads", std::max(1u, std::thread::hardware_concurrency())));
             write_exr(frame.image, path, channels, options);
         } else {
             return luaL_argerror(L, 2, "the file name must end in .png or .exr");
