@@ -21,6 +21,7 @@ int open_strata(lua_State* L) {
     register_video(L);
     register_measure(L);
     register_files(L);
+    register_path(L);
     return 1;
 }
 

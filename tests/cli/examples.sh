@@ -16,4 +16,8 @@ checks=$((checks + 1)); [ "$(wc -l <"$WORK/sweep.csv")" -eq 7 ] || fail "lod_swe
 
 expect_success "orbit_capture" "$STRATA" run "$root/scripts/orbit_capture.lua" "$WORK/models/bunny.hlod" "$WORK/orbit" 8 96x64 8
 checks=$((checks + 1)); [ -s "$WORK/orbit/orbit00007.exr" ] && [ -s "$WORK/orbit/orbit.mp4" ] || fail "orbit_capture wrote no frames or video"
+expect_success "museum_flythrough" "$STRATA" run "$root/scripts/museum_flythrough.lua" "$WORK/models/bunny.hlod" \
+    "$WORK/models/octa.hlod" "$WORK/museum" 1 96x54 8
+checks=$((checks + 1)); [ -s "$WORK/museum/frame00008.exr" ] && [ -s "$WORK/museum/flythrough.mp4" ] && [ -s "$WORK/museum/tour.json" ] \
+    || fail "museum_flythrough wrote no frames, video or path"
 finish

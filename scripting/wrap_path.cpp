@@ -1,0 +1,236 @@
+// strata.path{…}: camera flythrough paths (engine/path) as Lua values of type "strata.Path": sampled by
+// time or frame by frame at a frame rate, saved and loaded as JSON, imported from and exported to
+// OpenSceneGraph .path files. Poses are tables {position=, orientation=, fov=} that camera:set_pose takes.
+#include <lua.hpp>
+
+#include "engine/path/camera_path.h"
+#include "engine/path/osg_path.h"
+#include "scripting/lua_util.h"
+#include "scripting/runtime.h"
+
+namespace strata {
+
+namespace {
+
+constexpr const char* kPathType = "strata.Path";
+
+void push_path(lua_State* L, CameraPath path) {
+    lua::push_shared(L, std::make_shared<CameraPath>(std::move(path)), kPathType);
+}
+
+const CameraPath& check_path(lua_State* L, int index) { return *lua::check_shared<CameraPath>(L, index, kPathType); }
+
+void push_pose(lua_State* L, const Pose& pose) {
+    lua_createtable(L, 0, 3);
+    lua::push_vec3(L, pose.position);
+    lua_setfield(L, -2, "position");
+    lua::push_quat(L, pose.orientation);
+    lua_setfield(L, -2, "orientation");
+    lua_pushnumber(L, pose.fov_degrees);
+    lua_setfield(L, -2, "fov");
+}
+
+// A vec3 option of the table at `index`, if present.
+std::optional<glm::dvec3> opt_vec3(lua_State* L, int index, const char* key) {
+    std::optional<glm::dvec3> value;
+    if (lua::get_option(L, index, key)) value = lua::check_vec3(L, lua_gettop(L));
+    lua_pop(L, 1);
+    return value;
+}
+
+Keyframe check_key(lua_State* L, int index) {
+    lua::check_keys(L, index, {"position", "orientation", "target", "fov", "duration", "handle_in", "handle_out"});
+    Keyframe key;
+    const auto position = opt_vec3(L, index, "position");
+    if (!position) luaL_error(L, "a key needs a 'position'");
+    key.position = *position;
+    if (lua::get_option(L, index, "orientation")) key.orientation = lua::check_quat(L, lua_gettop(L));
+    lua_pop(L, 1);
+    key.target = opt_vec3(L, index, "target");
+    key.fov_degrees = lua::opt_number(L, index, "fov", key.fov_degrees);
+    if (lua::get_option(L, index, "duration")) key.duration = lua::opt_number(L, index, "duration", 0);
+    lua_pop(L, 1);
+    key.handles.in = opt_vec3(L, index, "handle_in");
+    key.handles.out = opt_vec3(L, index, "handle_out");
+    return key;
+}
+
+// The options shared by strata.path and strata.import_osg_path.
+PathOptions check_options(lua_State* L, int index) {
+    PathOptions o;
+    const std::string spline = lua::opt_string(L, index, "spline", std::string(to_string(o.positions)));
+    const std::string orientation = lua::opt_string(L, index, "orientation", std::string(to_string(o.orientations)));
+    const std::string easing = lua::opt_string(L, index, "easing", std::string(to_string(o.easing)));
+    const std::string speed = lua::opt_string(L, index, "speed", "constant");
+    const auto positions = parse_interpolation(spline);
+    const auto orientations = parse_orientation_interpolation(orientation);
+    const auto ease = parse_easing(easing);
+    if (!positions) luaL_error(L, "option 'spline' must be catmull-rom, bezier or linear, not '%s'", spline.c_str());
+    if (!orientations) luaL_error(L, "option 'orientation' must be squad, slerp or look-at, not '%s'", orientation.c_str());
+    if (!ease) luaL_error(L, "option 'easing' must be none, ease-in, ease-out or ease-in-out, not '%s'", easing.c_str());
+    if (speed != "constant" && speed != "natural") luaL_error(L, "option 'speed' must be constant or natural, not '%s'", speed.c_str());
+    o.positions = *positions;
+    o.orientations = *orientations;
+    o.easing = *ease;
+    o.constant_speed = speed == "constant";
+    if (lua::get_option(L, index, "duration")) o.total_duration = lua::opt_number(L, index, "duration", 0);
+    lua_pop(L, 1);
+    if (lua::get_option(L, index, "ease_seconds")) o.ease_seconds = lua::opt_number(L, index, "ease_seconds", 0);
+    lua_pop(L, 1);
+    if (const auto up = opt_vec3(L, index, "up")) o.up = *up;
+    return o;
+}
+
+int new_path(lua_State* L) {
+    luaL_checktype(L, 1, LUA_TTABLE);
+    lua::check_keys(L, 1, {"keys", "spline", "orientation", "easing", "speed", "duration", "ease_seconds", "up"});
+    const PathOptions options = check_options(L, 1);
+    lua_getfield(L, 1, "keys");
+    if (!lua_istable(L, -1)) return luaL_error(L, "strata.path needs 'keys', a list of keyframes");
+    const int keys_index = lua_gettop(L);
+    std::vector<Keyframe> keys;
+    for (lua_Integer i = 1; i <= lua_Integer(lua_rawlen(L, keys_index)); ++i) {
+        lua_rawgeti(L, keys_index, i);
+        if (!lua_istable(L, -1)) return luaL_error(L, "key %d is not a table", int(i));
+        keys.push_back(check_key(L, lua_gettop(L)));
+        lua_pop(L, 1);
+    }
+    try {
+        push_path(L, CameraPath::from_keys(std::move(keys), options));
+    } catch (const std::exception& e) {
+        return luaL_error(L, "%s", e.what());
+    }
+    return 1;
+}
+
+int load_path(lua_State* L) {
+    try {
+        push_path(L, CameraPath::load(luaL_checkstring(L, 1)));
+    } catch (const std::exception& e) {
+        return luaL_error(L, "%s", e.what());
+    }
+    return 1;
+}
+
+int import_osg(lua_State* L) {
+    const char* file = luaL_checkstring(L, 1);
+    lua::check_keys(L, 2, {"spline", "orientation", "easing", "speed", "duration", "ease_seconds", "up"});
+    const PathOptions options = check_options(L, 2);
+    try {
+        push_path(L, import_osg_path(file, options));
+    } catch (const std::exception& e) {
+        return luaL_error(L, "%s", e.what());
+    }
+    return 1;
+}
+
+int path_sample(lua_State* L) {
+    push_pose(L, check_path(L, 1).sample(luaL_checknumber(L, 2)));
+    return 1;
+}
+
+int path_duration(lua_State* L) {
+    lua_pushnumber(L, check_path(L, 1).duration());
+    return 1;
+}
+
+int path_length(lua_State* L) {
+    lua_pushnumber(L, check_path(L, 1).length());
+    return 1;
+}
+
+int path_key_time(lua_State* L) {
+    const CameraPath& path = check_path(L, 1);
+    const lua_Integer key = luaL_checkinteger(L, 2);
+    luaL_argcheck(L, key >= 1 && key <= lua_Integer(path.key_count()), 2, "no such key");
+    lua_pushnumber(L, path.key_time(size_t(key - 1)));
+    return 1;
+}
+
+double check_fps(lua_State* L, int index) {
+    const double fps = lua::opt_number(L, index, "fps", 30);
+    if (!(fps > 0)) luaL_error(L, "option 'fps' must be positive");
+    return fps;
+}
+
+int path_frame_count(lua_State* L) {
+    const CameraPath& path = check_path(L, 1);
+    lua::check_keys(L, 2, {"fps"});
+    lua_pushinteger(L, lua_Integer(path.frame_count(check_fps(L, 2))));
+    return 1;
+}
+
+// for i, pose in path:frames{ fps = 30 } do … end — frame i (from 1) at (i − 1)/fps seconds.
+int frames_step(lua_State* L) {
+    const CameraPath& path = check_path(L, lua_upvalueindex(1));
+    const double fps = lua_tonumber(L, lua_upvalueindex(2));
+    const lua_Integer i = luaL_checkinteger(L, 2) + 1;
+    if (size_t(i) > path.frame_count(fps)) return 0;
+    lua_pushinteger(L, i);
+    push_pose(L, path.sample(double(i - 1) / fps));
+    return 2;
+}
+
+int path_frames(lua_State* L) {
+    check_path(L, 1);
+    lua::check_keys(L, 2, {"fps"});
+    const double fps = check_fps(L, 2);
+    lua_pushvalue(L, 1);
+    lua_pushnumber(L, fps);
+    lua_pushcclosure(L, frames_step, 2);
+    lua_pushnil(L);
+    lua_pushinteger(L, 0);
+    return 3;
+}
+
+int path_save(lua_State* L) {
+    try {
+        check_path(L, 1).save(luaL_checkstring(L, 2));
+    } catch (const std::exception& e) {
+        return luaL_error(L, "%s", e.what());
+    }
+    return 0;
+}
+
+int path_export_osg(lua_State* L) {
+    const CameraPath& path = check_path(L, 1);
+    const char* file = luaL_checkstring(L, 2);
+    lua::check_keys(L, 3, {"fps"});
+    std::optional<double> fps;
+    if (lua::get_option(L, 3, "fps")) fps = check_fps(L, 3);
+    lua_pop(L, 1);
+    try {
+        export_osg_path(path, file, fps);
+    } catch (const std::exception& e) {
+        return luaL_error(L, "%s", e.what());
+    }
+    return 0;
+}
+
+int path_to_json(lua_State* L) {
+    lua_pushstring(L, check_path(L, 1).to_json().c_str());
+    return 1;
+}
+
+const luaL_Reg kMethods[] = {{"sample", path_sample},       {"duration", path_duration},
+                             {"length", path_length},       {"key_time", path_key_time},
+                             {"frame_count", path_frame_count}, {"frames", path_frames},
+                             {"save", path_save},           {"export_osg", path_export_osg},
+                             {"json", path_to_json},        {nullptr, nullptr}};
+
+}  // namespace
+
+void register_path(lua_State* L) {
+    if (luaL_newmetatable(L, kPathType)) {
+        luaL_newlib(L, kMethods);
+        lua_setfield(L, -2, "__index");
+        lua_pushcfunction(L, lua::collect_shared<CameraPath>);
+        lua_setfield(L, -2, "__gc");
+    }
+    lua_pop(L, 1);
+    const luaL_Reg functions[] = {{"path", new_path}, {"load_path", load_path}, {"import_osg_path", import_osg},
+                                  {nullptr, nullptr}};
+    luaL_setfuncs(L, functions, 0);
+}
+
+}  // namespace strata
