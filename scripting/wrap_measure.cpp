@@ -1,5 +1,6 @@
 // Measurements from Lua: strata.summary(values) → count, min, max, mean, median, p95;
-// strata.write_csv(path, rows[, columns]) for per-frame statistics (frame:stats() tables); strata.now().
+// strata.write_csv(path, rows[, columns]) and strata.write_json(path, value) for per-frame statistics
+// (frame:stats() tables) and summaries; strata.now().
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -7,6 +8,7 @@
 #include <vector>
 
 #include <lua.hpp>
+#include <nlohmann/json.hpp>
 
 #include "engine/io/atomic_file.h"
 #include "scripting/lua_util.h"
@@ -118,9 +120,69 @@ int now(lua_State* L) {  // seconds on a steady clock, for timing parts of a scr
     return 1;
 }
 
+// A Lua value as JSON: tables with keys 1…n are arrays, other tables objects (keys as strings);
+// numbers, strings, booleans; nil is null. Functions and userdata have no JSON form: an error.
+nlohmann::json to_json(lua_State* L, int index, int depth) {
+    if (depth > 64) luaL_error(L, "strata.write_json: the table nests too deep (a cycle?)");
+    switch (lua_type(L, index)) {
+    case LUA_TNIL: return nullptr;
+    case LUA_TBOOLEAN: return bool(lua_toboolean(L, index));
+    case LUA_TNUMBER:
+        if (lua_isinteger(L, index)) return lua_tointeger(L, index);
+        if (!std::isfinite(lua_tonumber(L, index))) return nullptr;  // JSON has no inf or NaN
+        return lua_tonumber(L, index);
+    case LUA_TSTRING: return std::string(lua_tostring(L, index));
+    case LUA_TTABLE: break;
+    default: luaL_error(L, "strata.write_json: a %s has no JSON form", luaL_typename(L, index));
+    }
+    index = lua_absindex(L, index);
+    const lua_Integer length = lua_Integer(lua_rawlen(L, index));
+    size_t keys = 0;
+    lua_pushnil(L);
+    while (lua_next(L, index)) {
+        lua_pop(L, 1);
+        ++keys;
+    }
+    if (length > 0 && keys == size_t(length)) {
+        nlohmann::json array = nlohmann::json::array();
+        for (lua_Integer i = 1; i <= length; ++i) {
+            lua_rawgeti(L, index, i);
+            array.push_back(to_json(L, -1, depth + 1));
+            lua_pop(L, 1);
+        }
+        return array;
+    }
+    nlohmann::json object = nlohmann::json::object();
+    lua_pushnil(L);
+    while (lua_next(L, index)) {
+        lua_pushvalue(L, -2);
+        const std::string key = luaL_tolstring(L, -1, nullptr);
+        lua_pop(L, 2);
+        object[key] = to_json(L, -1, depth + 1);
+        lua_pop(L, 1);
+    }
+    return object;
+}
+
+int write_json(lua_State* L) {
+    const std::string path = luaL_checkstring(L, 1);
+    luaL_checkany(L, 2);
+    const std::string text = to_json(L, 2, 0).dump(2) + "\n";
+    try {
+        AtomicOutputFile file(path);
+        file.write(text.data(), text.size());
+        file.commit();
+    } catch (const std::exception& e) {
+        return luaL_error(L, "%s", e.what());
+    }
+    return 0;
+}
+
 }  // namespace
 
 void register_measure(lua_State* L) {
+    lua_pushcfunction(L, write_json);
+    lua_setfield(L, -2, "write_json");
     lua_pushcfunction(L, now);
     lua_setfield(L, -2, "now");
     lua_pushcfunction(L, summary);

@@ -53,7 +53,10 @@ ImageChannels channels_at_top(lua_State* L, const char* option) {
 int render(lua_State* L) {
     const NodePtr& scene = check_node(L, 1);
     const std::shared_ptr<Camera>& camera = check_camera(L, 2);
-    lua::check_keys(L, 3, {"samples", "channels", "background", "culling", "gpu_time"});
+    lua::check_keys(L, 3, {"samples", "channels", "background", "culling", "gpu_time", "full_detail"});
+    // full_detail: draw only once every cube the view needs is resident. Models load whole today, so
+    // every frame already is; the option is accepted so capture scripts keep working when streaming comes.
+    lua::opt_boolean(L, 3, "full_detail", true);
     ImageChannels channels = ImageChannel::rgba;
     if (lua::get_option(L, 3, "channels")) channels = channels_at_top(L, "channels");
     lua_pop(L, 1);

@@ -20,4 +20,9 @@ expect_success "museum_flythrough" "$STRATA" run "$root/scripts/museum_flythroug
     "$WORK/models/octa.hlod" "$WORK/museum" 1 96x54 8
 checks=$((checks + 1)); [ -s "$WORK/museum/frame00008.exr" ] && [ -s "$WORK/museum/flythrough.mp4" ] && [ -s "$WORK/museum/tour.json" ] \
     || fail "museum_flythrough wrote no frames, video or path"
+if command -v exrheader >/dev/null; then  # the frames hold exactly RGBA and Z
+    checks=$((checks + 1))
+    channels=$(exrheader "$WORK/museum/frame00000.exr" | grep -E "^ +[A-Z]+, " | awk -F, '{print $1}' | tr -d ' ' | sort | tr '\n' ' ')
+    [ "$channels" = "A B G R Z " ] || fail "museum frame channels: '$channels'"
+fi
 finish
