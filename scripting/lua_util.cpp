@@ -68,6 +68,16 @@ void push_quat(lua_State* L, const glm::dquat& q) {
     }
 }
 
+void push_pose(lua_State* L, const glm::dvec3& position, const glm::dquat& orientation, double fov_degrees) {
+    lua_createtable(L, 0, 3);
+    push_vec3(L, position);
+    lua_setfield(L, -2, "position");
+    push_quat(L, orientation);
+    lua_setfield(L, -2, "orientation");
+    lua_pushnumber(L, fov_degrees);
+    lua_setfield(L, -2, "fov");
+}
+
 bool get_option(lua_State* L, int index, const char* key) {
     if (absent(L, index)) {
         lua_pushnil(L);

@@ -38,6 +38,8 @@ glm::dvec3 check_vec3(lua_State* L, int index);
 glm::dquat check_quat(lua_State* L, int index);
 void push_vec3(lua_State* L, const glm::dvec3& v);
 void push_quat(lua_State* L, const glm::dquat& q);
+// A camera pose as scripts see it: {position = {x,y,z}, orientation = {w,x,y,z}, fov = degrees}.
+void push_pose(lua_State* L, const glm::dvec3& position, const glm::dquat& orientation, double fov_degrees);
 
 // Options tables: `table.key` if present (of the right type, else an error naming the option), else
 // `fallback`. The table is at `index` and may be absent (none or nil).

@@ -73,13 +73,7 @@ int camera_frame(lua_State* L) {  // camera:frame(node): moves back along the vi
 
 int camera_pose(lua_State* L) {
     const Camera& c = *check_camera(L, 1);
-    lua_createtable(L, 0, 3);
-    lua::push_vec3(L, c.position);
-    lua_setfield(L, -2, "position");
-    lua::push_quat(L, c.orientation);
-    lua_setfield(L, -2, "orientation");
-    lua_pushnumber(L, c.fov_y_degrees);
-    lua_setfield(L, -2, "fov");
+    lua::push_pose(L, c.position, c.orientation, c.fov_y_degrees);
     return 1;
 }
 

@@ -18,6 +18,18 @@ namespace strata {
 
 namespace {
 
+// Writes `text` to `path` through a temporary file; a Lua error naming the path if it cannot.
+int write_text(lua_State* L, const std::string& path, const std::string& text) {
+    try {
+        AtomicOutputFile file(path);
+        file.write(text.data(), text.size());
+        file.commit();
+    } catch (const std::exception& e) {
+        return luaL_error(L, "%s", e.what());
+    }
+    return 0;
+}
+
 // The value at quantile q of sorted `v`, interpolating between neighbours.
 double quantile(const std::vector<double>& v, double q) {
     const double position = q * double(v.size() - 1);
@@ -105,14 +117,7 @@ int write_csv(lua_State* L) {
         text += "\n";
         lua_pop(L, 1);
     }
-    try {
-        AtomicOutputFile file(path);
-        file.write(text.data(), text.size());
-        file.commit();
-    } catch (const std::exception& e) {
-        return luaL_error(L, "%s", e.what());
-    }
-    return 0;
+    return write_text(L, path, text);
 }
 
 int now(lua_State* L) {  // seconds on a steady clock, for timing parts of a script
@@ -168,14 +173,7 @@ int write_json(lua_State* L) {
     const std::string path = luaL_checkstring(L, 1);
     luaL_checkany(L, 2);
     const std::string text = to_json(L, 2, 0).dump(2) + "\n";
-    try {
-        AtomicOutputFile file(path);
-        file.write(text.data(), text.size());
-        file.commit();
-    } catch (const std::exception& e) {
-        return luaL_error(L, "%s", e.what());
-    }
-    return 0;
+    return write_text(L, path, text);
 }
 
 }  // namespace

@@ -20,15 +20,7 @@ void push_path(lua_State* L, CameraPath path) {
 
 const CameraPath& check_path(lua_State* L, int index) { return *lua::check_shared<CameraPath>(L, index, kPathType); }
 
-void push_pose(lua_State* L, const Pose& pose) {
-    lua_createtable(L, 0, 3);
-    lua::push_vec3(L, pose.position);
-    lua_setfield(L, -2, "position");
-    lua::push_quat(L, pose.orientation);
-    lua_setfield(L, -2, "orientation");
-    lua_pushnumber(L, pose.fov_degrees);
-    lua_setfield(L, -2, "fov");
-}
+void push_pose(lua_State* L, const Pose& pose) { lua::push_pose(L, pose.position, pose.orientation, pose.fov_degrees); }
 
 // A vec3 option of the table at `index`, if present.
 std::optional<glm::dvec3> opt_vec3(lua_State* L, int index, const char* key) {

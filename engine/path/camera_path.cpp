@@ -13,11 +13,6 @@ namespace strata {
 
 namespace {
 
-std::string number(double value) {
-    std::ostringstream out;
-    out << value;
-    return out.str();
-}
 
 [[noreturn]] void fail_key(size_t key, const std::string& message) {
     throw std::runtime_error("key " + std::to_string(key) + ": " + message);
@@ -44,11 +39,11 @@ void check_key(const Keyframe& key, size_t index, bool last, const PathOptions& 
     if (!finite(key.position)) fail_key(index, "position is not finite");
     check_view(key, index, options.orientations);
     if (!(key.fov_degrees > 0 && key.fov_degrees < 180))
-        fail_key(index, "fov must be in (0, 180) degrees, got " + number(key.fov_degrees));
+        fail_key(index, "fov must be in (0, 180) degrees, got " + message_number(key.fov_degrees));
     if (key.duration) {
         if (last) fail_key(index, "duration on the last key, which starts no segment");
         if (!(std::isfinite(*key.duration) && *key.duration > 0))
-            fail_key(index, "duration must be a positive number of seconds, got " + number(*key.duration));
+            fail_key(index, "duration must be a positive number of seconds, got " + message_number(*key.duration));
     }
     if (key.handles.in && !finite(*key.handles.in)) fail_key(index, "handle_in is not finite");
     if (key.handles.out && !finite(*key.handles.out)) fail_key(index, "handle_out is not finite");
@@ -57,10 +52,10 @@ void check_key(const Keyframe& key, size_t index, bool last, const PathOptions& 
 void check_options(const PathOptions& options) {
     const auto& total = options.total_duration;
     if (total && !(std::isfinite(*total) && *total > 0))
-        throw std::runtime_error("total_duration must be a positive number of seconds, got " + number(*total));
+        throw std::runtime_error("total_duration must be a positive number of seconds, got " + message_number(*total));
     const auto& ramp = options.ease_seconds;
     if (ramp && !(std::isfinite(*ramp) && *ramp >= 0))
-        throw std::runtime_error("ease_seconds must be a number of seconds >= 0, got " + number(*ramp));
+        throw std::runtime_error("ease_seconds must be a number of seconds >= 0, got " + message_number(*ramp));
     if (!finite(options.up) || glm::length(options.up) == 0)
         throw std::runtime_error("up must be a finite, non-zero vector");
 }
@@ -203,7 +198,7 @@ Pose CameraPath::sample(double seconds) const {
 
 size_t CameraPath::frame_count(double fps) const {
     if (!(std::isfinite(fps) && fps > 0))
-        throw std::invalid_argument("camera path: fps must be a positive number, got " + number(fps));
+        throw std::invalid_argument("camera path: fps must be a positive number, got " + message_number(fps));
     return size_t(std::floor(duration() * fps + 1e-9)) + 1;
 }
 

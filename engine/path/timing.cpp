@@ -10,11 +10,6 @@ namespace strata {
 
 namespace {
 
-std::string number(double value) {
-    std::ostringstream out;
-    out << value;
-    return out.str();
-}
 
 }  // namespace
 
@@ -44,8 +39,8 @@ std::vector<double> segment_durations(const std::vector<std::optional<double>>& 
     }
     const double pool = total ? *total - given_sum : double(missing);
     if (pool <= 0)
-        throw std::runtime_error("total_duration " + number(*total) + " leaves no time for the segments "
-                                 "without a duration (the given durations sum to " + number(given_sum) + ")");
+        throw std::runtime_error("total_duration " + message_number(*total) + " leaves no time for the segments "
+                                 "without a duration (the given durations sum to " + message_number(given_sum) + ")");
     for (size_t i = 0; i < given.size(); ++i)
         if (!given[i]) durations[i] = pool * weights[i] / missing_weight;
     return durations;
@@ -55,8 +50,8 @@ EasingCurve::EasingCurve(Easing easing, double duration, double ramp) : duration
     if (easing == Easing::ease_in || easing == Easing::ease_in_out) ramp_in_ = ramp;
     if (easing == Easing::ease_out || easing == Easing::ease_in_out) ramp_out_ = ramp;
     if (ramp_in_ + ramp_out_ > duration * (1 + 1e-12))
-        throw std::runtime_error("ease_seconds " + number(ramp) + " does not fit in the path's duration " +
-                                 number(duration) + (ramp_in_ > 0 && ramp_out_ > 0 ? " twice" : ""));
+        throw std::runtime_error("ease_seconds " + message_number(ramp) + " does not fit in the path's duration " +
+                                 message_number(duration) + (ramp_in_ > 0 && ramp_out_ > 0 ? " twice" : ""));
     // The ramps cover half the distance a cruise of the same time would: speed up the cruise to make up.
     cruise_rate_ = duration / (duration - (ramp_in_ + ramp_out_) / 2);
 }
@@ -87,6 +82,12 @@ double EasingCurve::clock_time(double path) const {
         (path_time(middle) < path ? lo : hi) = middle;
     }
     return (lo + hi) / 2;
+}
+
+std::string message_number(double value) {
+    std::ostringstream out;
+    out << value;
+    return out.str();
 }
 
 }  // namespace strata

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <optional>
+#include <string>
 #include <vector>
 
 namespace strata {
@@ -42,5 +43,8 @@ private:
     double duration_ = 0, ramp_in_ = 0, ramp_out_ = 0;
     double cruise_rate_ = 1;  // path seconds per clock second between the ramps
 };
+
+// A number as error messages of the path code show it ("2.5", "-1", "1e+300").
+std::string message_number(double value);
 
 }  // namespace strata
