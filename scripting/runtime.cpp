@@ -6,6 +6,7 @@
 #include <lua.hpp>
 
 #include "engine/gl/context.h"
+#include "engine/io/image_writer.h"
 #include "engine/render/renderer.h"
 
 namespace strata {
@@ -57,6 +58,11 @@ gl::Context& Runtime::context() {
     return *context_;
 }
 
+ImageWriter& Runtime::writer() {
+    if (!writer_) writer_ = std::make_unique<ImageWriter>();
+    return *writer_;
+}
+
 Renderer& Runtime::renderer() {
     context();
     if (!renderer_) renderer_ = std::make_unique<Renderer>();
@@ -73,6 +79,16 @@ int Runtime::call(int arguments) {
         lua_pop(L_, 1);
     }
     lua_remove(L_, handler);
+    // Frames still being written in the background are part of the script's work: wait for them, and
+    // a frame that could not be written fails the run.
+    if (writer_) {
+        try {
+            writer_->flush();
+        } catch (const std::exception& e) {
+            std::fprintf(stderr, "%s\n", e.what());
+            return 1;
+        }
+    }
     return status == LUA_OK ? 0 : 1;
 }
 

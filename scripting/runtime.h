@@ -16,6 +16,7 @@ namespace gl {
 class Context;
 }
 class Renderer;
+class ImageWriter;
 
 struct RuntimeOptions {
     bool window = false;  // show each rendered frame in a window while the script runs
@@ -39,6 +40,8 @@ public:
     // The GL context and renderer, made on first use (a script that renders nothing needs no GL).
     gl::Context& context();
     Renderer& renderer();
+    // Frames written with { async = true } go through this writer thread, made on first use.
+    ImageWriter& writer();
 
     // The runtime that owns `L`.
     static Runtime& of(lua_State* L);
@@ -50,6 +53,7 @@ private:
     lua_State* L_;
     std::unique_ptr<gl::Context> context_;
     std::unique_ptr<Renderer> renderer_;
+    std::unique_ptr<ImageWriter> writer_;
 };
 
 // Registers the `strata` module's functions (wrap_*.cpp, one per area) into the table on top of the stack.

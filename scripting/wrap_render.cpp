@@ -9,6 +9,7 @@
 
 #include "engine/gl/framebuffer.h"
 #include "engine/io/image.h"
+#include "engine/io/image_writer.h"
 #include "engine/render/present.h"
 #include "engine/render/renderer.h"
 #include "scripting/lua_util.h"
@@ -23,7 +24,7 @@ namespace {
 constexpr const char* kFrameType = "strata.Frame";
 
 struct Frame {
-    Image image;
+    std::shared_ptr<const Image> image;  // shared with the background writer
     FrameStats stats;
 };
 
@@ -84,7 +85,7 @@ int render(lua_State* L) {
                                 .level = channels.contains(ImageChannel::level),
                                 .node_id = channels.contains(ImageChannel::node_id)});
         frame->stats = renderer.render(*scene, *camera, target, settings);
-        frame->image = renderer.read_image(target);
+        frame->image = std::make_shared<const Image>(renderer.read_image(target));
         if (runtime.options().window) {
             present(target, runtime.context());
             runtime.context().poll_events();
@@ -101,22 +102,26 @@ Frame& check_frame(lua_State* L, int index) { return *lua::check_shared<Frame>(L
 int frame_write(lua_State* L) {
     const Frame& frame = check_frame(L, 1);
     const std::string path = luaL_checkstring(L, 2);
-    lua::check_keys(L, 3, {"channels", "compression", "threads"});
+    lua::check_keys(L, 3, {"channels", "compression", "threads", "async"});
+    const bool png = path.size() > 4 && path.substr(path.size() - 4) == ".png";
+    const bool exr = path.size() > 4 && path.substr(path.size() - 4) == ".exr";
+    if (!png && !exr) return luaL_argerror(L, 2, "the file name must end in .png or .exr");
+    ImageChannels channels = frame.image->planes();
+    if (lua::get_option(L, 3, "channels")) channels = channels_at_top(L, "channels");
+    lua_pop(L, 1);
+    const bool async = lua::opt_boolean(L, 3, "async", false);
     try {
-        if (path.size() > 4 && path.substr(path.size() - 4) == ".png") {
-            write_png(frame.image, path);
-        } else if (path.size() > 4 && path.substr(path.size() - 4) == ".exr") {
-            ImageChannels channels = frame.image.planes();
-            if (lua::get_option(L, 3, "channels")) channels = channels_at_top(L, "channels");
-            lua_pop(L, 1);
-            ExrOptions options;
-            options.compression = parse_exr_compression(lua::opt_string(L, 3, "compression", "zip"));
-            // Compression on OpenEXR's worker threads, one per core unless told otherwise.
-            options.worker_threads = int(lua::opt_number(L, 3, "threads", std::max(1u, std::thread::hardware_concurrency())));
-            write_exr(frame.image, path, channels, options);
-        } else {
-            return luaL_argerror(L, 2, "the file name must end in .png or .exr");
-        }
+        ExrOptions options;
+        options.compression = parse_exr_compression(lua::opt_string(L, 3, "compression", "zip"));
+        // Compression on OpenEXR's worker threads, one per core unless told otherwise.
+        options.worker_threads = int(lua::opt_number(L, 3, "threads", std::max(1u, std::thread::hardware_concurrency())));
+        for (ImageChannel c : {ImageChannel::depth, ImageChannel::normals, ImageChannel::level, ImageChannel::node_id})
+            if (exr && channels.contains(c) && !frame.image->has(c))
+                throw std::invalid_argument("the frame has no " + channel_name(c) + " channel: render it with channels = \"..." +
+                                            channel_name(c) + "\"");
+        if (async) Runtime::of(L).writer().write(frame.image, path, channels, options);
+        else if (png) write_png(*frame.image, path);
+        else write_exr(*frame.image, path, channels, options);
     } catch (const std::exception& e) {
         return luaL_error(L, "%s", e.what());
     }
@@ -126,8 +131,8 @@ int frame_write(lua_State* L) {
 
 int frame_size(lua_State* L) {
     const Frame& frame = check_frame(L, 1);
-    lua_pushinteger(L, frame.image.width);
-    lua_pushinteger(L, frame.image.height);
+    lua_pushinteger(L, frame.image->width);
+    lua_pushinteger(L, frame.image->height);
     return 2;
 }
 
@@ -135,12 +140,13 @@ int frame_size(lua_State* L) {
 int frame_pixel(lua_State* L) {
     const Frame& frame = check_frame(L, 1);
     const lua_Integer x = luaL_checkinteger(L, 2), y = luaL_checkinteger(L, 3);
-    luaL_argcheck(L, x >= 0 && x < frame.image.width, 2, "outside the image");
-    luaL_argcheck(L, y >= 0 && y < frame.image.height, 3, "outside the image");
-    const size_t p = size_t(y) * frame.image.width + size_t(x);
-    for (int c = 0; c < 4; ++c) lua_pushnumber(L, frame.image.rgba[4 * p + c]);
-    lua_pushnumber(L, frame.image.depth.empty() ? HUGE_VAL : frame.image.depth[p]);
-    lua_pushinteger(L, frame.image.node_id.empty() ? 0 : frame.image.node_id[p]);
+    const Image& image = *frame.image;
+    luaL_argcheck(L, x >= 0 && x < image.width, 2, "outside the image");
+    luaL_argcheck(L, y >= 0 && y < image.height, 3, "outside the image");
+    const size_t p = size_t(y) * image.width + size_t(x);
+    for (int c = 0; c < 4; ++c) lua_pushnumber(L, image.rgba[4 * p + c]);
+    lua_pushnumber(L, image.depth.empty() ? HUGE_VAL : image.depth[p]);
+    lua_pushinteger(L, image.node_id.empty() ? 0 : image.node_id[p]);
     return 6;
 }
 
@@ -161,6 +167,16 @@ int frame_stats(lua_State* L) {
 const luaL_Reg kMethods[] = {{"write", frame_write}, {"size", frame_size}, {"pixel", frame_pixel},
                              {"stats", frame_stats}, {nullptr, nullptr}};
 
+// strata.flush(): waits for frames written with { async = true }; raises the first that failed.
+int flush(lua_State* L) {
+    try {
+        Runtime::of(L).writer().flush();
+    } catch (const std::exception& e) {
+        return luaL_error(L, "%s", e.what());
+    }
+    return 0;
+}
+
 }  // namespace
 
 void register_render(lua_State* L) {
@@ -173,6 +189,8 @@ void register_render(lua_State* L) {
     lua_pop(L, 1);
     lua_pushcfunction(L, render);
     lua_setfield(L, -2, "render");
+    lua_pushcfunction(L, flush);
+    lua_setfield(L, -2, "flush");
 }
 
 }  // namespace strata
