@@ -49,10 +49,11 @@ local frames = 0
 for i, pose in path:frames{ fps = fps } do
     cam:set_pose(pose)
     local frame = strata.render(scene, cam, { channels = "RGBA,Z", background = { 0.04, 0.04, 0.05, 1 } })
-    frame:write(("%s/frame%05d.exr"):format(out, i - 1), { channels = "RGBA,Z" })
-    frame:write(("%s/frame%05d.png"):format(out, i - 1))
+    frame:write(("%s/frame%05d.exr"):format(out, i - 1), { channels = "RGBA,Z", async = true })
+    frame:write(("%s/frame%05d.png"):format(out, i - 1), { async = true })
     frames = i
 end
+strata.flush()  -- every frame on disk before the encoder reads them
 strata.video{ frames = out .. "/frame%05d.png", output = out .. "/flythrough.mp4", fps = fps }
 print(("museum_flythrough: %d frames in %s (frameNNNNN.exr: RGBA + Z), video %s/flythrough.mp4, path %s/tour.json")
       :format(frames, out, out, out))

@@ -20,8 +20,9 @@ for i = 0, frames - 1 do
     cam:look_at({ b.center[1] + distance * math.sin(a), b.center[2] + 0.35 * distance, b.center[3] + distance * math.cos(a) },
                 b.center)
     local frame = strata.render(scene, cam, { channels = "RGBA,Z", background = { 0.05, 0.05, 0.06, 1 } })
-    frame:write(("%s/orbit%05d.exr"):format(out, i))
-    frame:write(("%s/orbit%05d.png"):format(out, i))
+    frame:write(("%s/orbit%05d.exr"):format(out, i), { async = true })  -- written while the next frame renders
+    frame:write(("%s/orbit%05d.png"):format(out, i), { async = true })
 end
+strata.flush()  -- every frame on disk before the encoder reads them
 strata.video{ frames = out .. "/orbit%05d.png", output = out .. "/orbit.mp4", fps = fps }
 print(("orbit_capture: %d frames and %s/orbit.mp4"):format(frames, out))
