@@ -23,5 +23,6 @@ Command add_verify(CLI::App& app);
 Command add_render(CLI::App& app);
 Command add_view(CLI::App& app);
 Command add_run(CLI::App& app);
+Command add_shell(CLI::App& app);
 
 }  // namespace strata::cli

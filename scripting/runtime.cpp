@@ -69,16 +69,21 @@ Renderer& Runtime::renderer() {
     return *renderer_;
 }
 
-int Runtime::call(int arguments) {
+bool Runtime::protected_call(int arguments, int results) {
     const int handler = lua_gettop(L_) - arguments;
     lua_pushcfunction(L_, traceback);
     lua_insert(L_, handler);
-    const int status = lua_pcall(L_, arguments, 0, handler);
-    if (status != LUA_OK) {
-        std::fprintf(stderr, "%s\n", lua_tostring(L_, -1));
-        lua_pop(L_, 1);
-    }
+    const int status = lua_pcall(L_, arguments, results, handler);
     lua_remove(L_, handler);
+    if (status == LUA_OK) return true;
+    std::fflush(stdout);  // what the chunk printed comes before its error
+    std::fprintf(stderr, "%s\n", lua_tostring(L_, -1));
+    lua_pop(L_, 1);
+    return false;
+}
+
+int Runtime::call(int arguments) {
+    const bool ok = protected_call(arguments, 0);
     // Frames still being written in the background are part of the script's work: wait for them, and
     // a frame that could not be written fails the run.
     if (writer_) {
@@ -89,7 +94,7 @@ int Runtime::call(int arguments) {
             return 1;
         }
     }
-    return status == LUA_OK ? 0 : 1;
+    return ok ? 0 : 1;
 }
 
 int Runtime::run_file(const std::filesystem::path& script, const std::vector<std::string>& args) {

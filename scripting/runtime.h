@@ -35,6 +35,10 @@ public:
     // Runs a chunk of Lua source (tests, the REPL later); the same error handling. `name` names it.
     int run_string(const std::string& source, const std::string& name);
 
+    // Calls the function below its `arguments` on the stack with a traceback handler; true with
+    // `results` values left (LUA_MULTRET: all), or false after printing the error.
+    bool protected_call(int arguments, int results);
+
     lua_State* state() const { return L_; }
     const RuntimeOptions& options() const { return options_; }
     // The GL context and renderer, made on first use (a script that renders nothing needs no GL).

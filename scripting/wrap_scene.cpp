@@ -179,22 +179,34 @@ int node_get(lua_State* L) {
     return 1;
 }
 
+const char* type_name(const Node* node) {
+    return dynamic_cast<const HlodModel*>(node)        ? "hlod"
+           : dynamic_cast<const Geometry*>(node)       ? "geometry"
+           : dynamic_cast<const Transform*>(node)      ? "transform"
+           : dynamic_cast<const Group*>(node)          ? "group"
+           : dynamic_cast<const DirectionalLight*>(node) ? "light"
+           : dynamic_cast<const AmbientLight*>(node)   ? "ambient"
+                                                       : "node";
+}
+
 int node_type(lua_State* L) {
-    const Node* node = check_node(L, 1).get();
-    const char* type = dynamic_cast<const HlodModel*>(node)      ? "hlod"
-                       : dynamic_cast<const Geometry*>(node)     ? "geometry"
-                       : dynamic_cast<const Transform*>(node)    ? "transform"
-                       : dynamic_cast<const Group*>(node)        ? "group"
-                       : dynamic_cast<const DirectionalLight*>(node) ? "light"
-                       : dynamic_cast<const AmbientLight*>(node) ? "ambient"
-                                                                 : "node";
-    lua_pushstring(L, type);
+    lua_pushstring(L, type_name(check_node(L, 1).get()));
     return 1;
 }
 
+// strata.hlod 'bunny' (data/bunny.hlod, 12 levels), strata.group 'scene' (3 children), …
 int node_tostring(lua_State* L) {
-    const NodePtr& node = check_node(L, 1);
-    lua_pushfstring(L, "strata node '%s'", node->name().c_str());
+    const Node* node = check_node(L, 1).get();
+    lua_pushfstring(L, "strata.%s '%s'", type_name(node), node->name().c_str());
+    if (const auto* model = dynamic_cast<const HlodModel*>(node))
+        lua_pushfstring(L, " (%s, %d levels)", model->path().c_str(), int(model->header().max_level + 1));
+    else if (const auto* geometry = dynamic_cast<const Geometry*>(node))
+        lua_pushfstring(L, " (%d triangles)", int(geometry->mesh().triangle_count()));
+    else if (const auto* group = dynamic_cast<const Group*>(node))
+        lua_pushfstring(L, group->child_count() == 1 ? " (%d child)" : " (%d children)", int(group->child_count()));
+    else
+        lua_pushliteral(L, "");
+    lua_concat(L, 2);
     return 1;
 }
 
