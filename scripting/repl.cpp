@@ -16,44 +16,12 @@
 // libedit's readline emulation (after <cstdio>, which it needs).
 #include <editline/readline.h>
 
+#include "scripting/interpreter.h"
 #include "scripting/wrap_scene.h"
 
 namespace strata {
 
 namespace {
-
-// Readable printing of results: tables (sorted keys, nested, depth-limited), strings quoted.
-const char* const kPrinter = R"(
-local function show(value, indent, seen)
-    if type(value) == "string" then return string.format("%q", value) end
-    if type(value) ~= "table" then return tostring(value) end
-    if seen[value] then return "{...}" end
-    if indent > 3 then return "{…}" end
-    seen[value] = true
-    local keys = {}
-    for k in pairs(value) do keys[#keys + 1] = k end
-    table.sort(keys, function(a, b)
-        if type(a) == type(b) and (type(a) == "number" or type(a) == "string") then return a < b end
-        return type(a) < type(b)
-    end)
-    local parts, pad = {}, string.rep("  ", indent + 1)
-    for i, k in ipairs(keys) do
-        local key = (type(k) == "number" and k == i) and "" or
-                    (type(k) == "string" and k:match("^[%a_][%w_]*$") and k .. " = " or "[" .. show(k, indent + 1, seen) .. "] = ")
-        parts[#parts + 1] = pad .. key .. show(value[k], indent + 1, seen)
-    end
-    seen[value] = nil
-    if #parts == 0 then return "{}" end
-    local flat = "{ " .. table.concat(parts, ", "):gsub("\n%s*", " "):gsub("^%s+", ""):gsub(",%s+", ", ") .. " }"
-    if #flat <= 72 and not flat:find("\n") then return flat end
-    return "{\n" .. table.concat(parts, ",\n") .. "\n" .. string.rep("  ", indent) .. "}"
-end
-return function(...)
-    local out = {}
-    for i = 1, select("#", ...) do out[i] = show(select(i, ...), 0, {}) end
-    if #out > 0 then print(table.concat(out, "\t")) end
-end
-)";
 
 lua_State* completion_state = nullptr;
 std::vector<std::string> completions;
@@ -150,103 +118,43 @@ char** complete(const char* text, int start, int) {
     return rl_completion_matches(text, next_completion);
 }
 
-// Whether `source` compiles, as Lua's own REPL decides: as an expression ("return " + source), else as
-// statements; when neither compiles and the statements stop short (the error is at <eof>), more lines
-// are expected.
-enum class Chunk { complete, incomplete, invalid };
-
-bool compiles(lua_State* L, const std::string& source, std::string* error = nullptr) {
-    const bool ok = luaL_loadbuffer(L, source.data(), source.size(), "=stdin") == LUA_OK;
-    if (!ok && error) *error = lua_tostring(L, -1);
-    lua_pop(L, 1);
-    return ok;
-}
-
-Chunk classify(lua_State* L, const std::string& source) {
-    std::string error;
-    if (compiles(L, "return " + source) || compiles(L, source, &error)) return Chunk::complete;
-    const bool at_end = error.size() >= 5 && error.compare(error.size() - 5, 5, "<eof>") == 0;
-    return at_end ? Chunk::incomplete : Chunk::invalid;
-}
-
-// Runs `source` as an expression whose values are printed, or else as statements.
-void evaluate(Runtime& runtime, int printer, const std::string& source) {
-    lua_State* L = runtime.state();
-    const std::string expression = "return " + source;
-    if (luaL_loadbuffer(L, expression.data(), expression.size(), "=stdin") != LUA_OK) {
-        lua_pop(L, 1);
-        if (luaL_loadbuffer(L, source.data(), source.size(), "=stdin") != LUA_OK) {
-            std::fflush(stdout);
-            std::fprintf(stderr, "%s\n", lua_tostring(L, -1));
-            lua_pop(L, 1);
-            return;
-        }
-    }
-    const int base = lua_gettop(L) - 1;
-    if (!runtime.protected_call(0, LUA_MULTRET)) return;
-    const int results = lua_gettop(L) - base;
-    lua_pushvalue(L, printer);
-    lua_insert(L, base + 1);
-    runtime.protected_call(results, 0);
-    std::fflush(stdout);
-}
-
-// The state of one REPL: the lines gathered so far for an unfinished chunk, and the printer.
-struct Session {
-    Runtime& runtime;
-    int printer;
-    std::string buffer;
-    bool finished = false;
-
-    const char* prompt() const { return buffer.empty() ? "strata> " : "   ...> "; }
-
-    // A line typed (or read); a chunk that is complete (or wrong) runs, an unfinished one waits.
-    void line(const std::string& text, bool terminal) {
-        buffer += buffer.empty() ? text : "\n" + text;
-        if (classify(runtime.state(), buffer) == Chunk::incomplete) return;
-        if (terminal && !buffer.empty()) add_history(buffer.c_str());
-        evaluate(runtime, printer, buffer);
-        buffer.clear();
-    }
-    // End of input: an unfinished chunk runs, to report its error.
-    void end() {
-        if (!buffer.empty()) evaluate(runtime, printer, buffer);
-        buffer.clear();
-        finished = true;
-    }
-};
-
-Session* active_session = nullptr;
+Interpreter* active_interpreter = nullptr;
+bool input_ended = false;
 
 // libedit's callback for a finished line (nullptr at Ctrl-D on an empty line).
 void on_terminal_line(char* text) {
     if (!text) {
-        active_session->end();
+        active_interpreter->finish();
+        input_ended = true;
         return;
     }
-    active_session->line(text, true);
+    if (active_interpreter->feed(text) && !active_interpreter->last_chunk().empty())
+        add_history(active_interpreter->last_chunk().c_str());
     std::free(text);
-    rl_callback_handler_install(active_session->prompt(), on_terminal_line);
+    rl_callback_handler_install(active_interpreter->prompt(), on_terminal_line);
 }
 
 // Keys are read one at a time as they come (libedit's callback interface), so windows opened from
-// the REPL keep drawing between keystrokes and type-ahead is never dropped.
-void run_terminal(Session& session, const ReplOptions& options) {
-    completion_state = session.runtime.state();
+// the REPL keep drawing between keystrokes (about 60 times a second) and type-ahead is never dropped.
+void run_terminal(Runtime& runtime, Interpreter& interpreter, const ReplOptions& options) {
+    completion_state = runtime.state();
     rl_attempted_completion_function = complete;
     rl_basic_word_break_characters = " \t\n\"\\'`@$><=;|&{(,+-*/%^#~[]";
     using_history();
     if (!options.history.empty()) read_history(options.history.c_str());
     std::printf("strata shell: Lua 5.4 with the strata module. Tab completes, Ctrl-D leaves.\n");
-    active_session = &session;
-    rl_callback_handler_install(session.prompt(), on_terminal_line);
-    while (!session.finished) {
+    active_interpreter = &interpreter;
+    input_ended = false;
+    rl_callback_handler_install(interpreter.prompt(), on_terminal_line);
+    while (!input_ended) {
         pollfd input{STDIN_FILENO, POLLIN, 0};
-        if (poll(&input, 1, -1) < 0 && errno != EINTR) break;
-        if (input.revents & (POLLIN | POLLHUP)) rl_callback_read_char();
+        const int ready = poll(&input, 1, runtime.has_live_windows() ? 15 : -1);
+        if (ready < 0 && errno != EINTR) break;
+        if (ready > 0 && (input.revents & (POLLIN | POLLHUP))) rl_callback_read_char();
+        runtime.pump_live_windows();
     }
     rl_callback_handler_remove();
-    active_session = nullptr;
+    active_interpreter = nullptr;
     std::printf("\n");
     if (!options.history.empty()) write_history(options.history.c_str());
 }
@@ -254,17 +162,19 @@ void run_terminal(Session& session, const ReplOptions& options) {
 }  // namespace
 
 int run_repl(Runtime& runtime, const ReplOptions& options) {
-    lua_State* L = runtime.state();
-    if (luaL_loadstring(L, kPrinter) != LUA_OK || !runtime.protected_call(0, 1)) return 1;
-    Session session{runtime, lua_gettop(L), {}};
+    Interpreter interpreter(runtime);
     if (isatty(STDIN_FILENO)) {
-        run_terminal(session, options);
+        run_terminal(runtime, interpreter, options);
     } else {
         std::string text;
-        while (std::getline(std::cin, text)) session.line(text, false);
-        session.end();
+        while (std::getline(std::cin, text)) {
+            interpreter.feed(text);
+            runtime.pump_live_windows();
+        }
+        interpreter.finish();
     }
-    lua_settop(L, session.printer - 1);
+    // Windows opened from the REPL stay until they are closed.
+    while (runtime.has_live_windows()) runtime.pump_live_windows();
     return 0;
 }
 

@@ -2,6 +2,7 @@
 
 #include <cstdio>
 #include <cstring>
+#include <string>
 
 #include <lua.hpp>
 
@@ -34,6 +35,21 @@ int traceback(lua_State* L) {
     return 1;
 }
 
+// print, as Lua's own, but through the runtime's output (the editor's console captures it).
+int print(lua_State* L) {
+    std::string line;
+    for (int i = 1; i <= lua_gettop(L); ++i) {
+        if (i > 1) line += '\t';
+        size_t length = 0;
+        const char* text = luaL_tolstring(L, i, &length);
+        line.append(text, length);
+        lua_pop(L, 1);
+    }
+    line += '\n';
+    Runtime::of(L).write_output(line, false);
+    return 0;
+}
+
 }  // namespace
 
 Runtime::Runtime(RuntimeOptions options) : options_(options), L_(luaL_newstate()) {
@@ -42,6 +58,7 @@ Runtime::Runtime(RuntimeOptions options) : options_(options), L_(luaL_newstate()
     luaL_openlibs(L_);
     luaL_requiref(L_, "strata", open_strata, 1);  // package.loaded.strata, and the global
     lua_pop(L_, 1);
+    lua_register(L_, "print", print);
 }
 
 Runtime::~Runtime() {
@@ -56,6 +73,24 @@ gl::Context& Runtime::context() {
     if (!context_)
         context_ = options_.window ? gl::create_window_context("strata run", 1280, 720) : gl::create_headless_context();
     return *context_;
+}
+
+gl::Context& Runtime::window_context() {
+    if (context_ && context_->window()) return *context_;
+    renderer_.reset();  // its GPU objects belong to the context going away
+    context_.reset();
+    context_ = gl::create_window_context("strata", 1280, 720);
+    return *context_;
+}
+
+void Runtime::write_output(std::string_view text, bool error) const {
+    if (sink_) return sink_(text, error);
+    if (error) std::fflush(stdout);  // what was printed before comes before the error
+    std::fwrite(text.data(), 1, text.size(), error ? stderr : stdout);
+}
+
+void Runtime::pump_live_windows() {
+    std::erase_if(live_windows_, [](const std::function<bool()>& frame) { return !frame(); });
 }
 
 ImageWriter& Runtime::writer() {
@@ -76,8 +111,7 @@ bool Runtime::protected_call(int arguments, int results) {
     const int status = lua_pcall(L_, arguments, results, handler);
     lua_remove(L_, handler);
     if (status == LUA_OK) return true;
-    std::fflush(stdout);  // what the chunk printed comes before its error
-    std::fprintf(stderr, "%s\n", lua_tostring(L_, -1));
+    write_output(std::string(lua_tostring(L_, -1)) + "\n", true);
     lua_pop(L_, 1);
     return false;
 }

@@ -4,7 +4,9 @@
 #pragma once
 
 #include <filesystem>
+#include <functional>
 #include <memory>
+#include <string_view>
 #include <string>
 #include <vector>
 
@@ -32,17 +34,32 @@ public:
     // Runs `script` with `args` (arg[0] is the script's path, arg[1…] the arguments). On an error
     // prints the message with file:line and a traceback to stderr and returns 1; else 0.
     int run_file(const std::filesystem::path& script, const std::vector<std::string>& args);
-    // Runs a chunk of Lua source (tests, the REPL later); the same error handling. `name` names it.
+    // Runs a chunk of Lua source (tests); the same error handling. `name` names it.
     int run_string(const std::string& source, const std::string& name);
 
     // Calls the function below its `arguments` on the stack with a traceback handler; true with
     // `results` values left (LUA_MULTRET: all), or false after printing the error.
     bool protected_call(int arguments, int results);
 
+    // Where `print` and error messages go: stdout and stderr, unless a sink is set (the editor's
+    // console sets one while it runs a line). `error` is true for error messages.
+    using OutputSink = std::function<void(std::string_view text, bool error)>;
+    void set_output_sink(OutputSink sink) { sink_ = std::move(sink); }
+    void write_output(std::string_view text, bool error) const;
+
+    // Windows that stay open beside the script or the REPL (the editor): each frame() draws one frame
+    // and answers false once its window is closed, when it is dropped. pump() draws one frame of each.
+    void add_live_window(std::function<bool()> frame) { live_windows_.push_back(std::move(frame)); }
+    bool has_live_windows() const { return !live_windows_.empty(); }
+    void pump_live_windows();
+
     lua_State* state() const { return L_; }
     const RuntimeOptions& options() const { return options_; }
     // The GL context and renderer, made on first use (a script that renders nothing needs no GL).
     gl::Context& context();
+    // A context with a window (the editor's): the current one when it has a window, else a new window
+    // context that replaces the headless one (its GPU caches are rebuilt on the next render).
+    gl::Context& window_context();
     Renderer& renderer();
     // Frames written with { async = true } go through this writer thread, made on first use.
     ImageWriter& writer();
@@ -58,6 +75,8 @@ private:
     std::unique_ptr<gl::Context> context_;
     std::unique_ptr<Renderer> renderer_;
     std::unique_ptr<ImageWriter> writer_;
+    OutputSink sink_;
+    std::vector<std::function<bool()>> live_windows_;
 };
 
 // Registers the `strata` module's functions (wrap_*.cpp, one per area) into the table on top of the stack.
