@@ -2,6 +2,7 @@
 #include <memory>
 
 #include "editor/commands.h"
+#include "editor/wrap_editor.h"
 #include "scripting/runtime.h"
 
 namespace strata::cli {
@@ -24,7 +25,11 @@ Command add_run(CLI::App& app) {
     sub->prefix_command();
     return {sub, [o, sub] {
                 Runtime runtime({.window = o->window});
-                return runtime.run_file(o->script, sub->remaining());
+                register_editor(runtime.state());
+                const int status = runtime.run_file(o->script, sub->remaining());
+                // An editor the script opened (strata.view) stays until its window is closed.
+                while (status == kOk && runtime.has_live_windows()) runtime.pump_live_windows();
+                return status;
             }};
 }
 

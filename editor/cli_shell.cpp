@@ -3,7 +3,10 @@
 #include <memory>
 
 #include "editor/commands.h"
+#include "editor/wrap_editor.h"
 #include "scripting/repl.h"
+
+#include <lua.hpp>
 
 namespace strata::cli {
 
@@ -26,6 +29,12 @@ Command add_shell(CLI::App& app) {
                 "History is kept in $STRATA_HISTORY or ~/.strata_history. Ctrl-D leaves.");
     return {sub, [scene] {
                 Runtime runtime;
+                register_editor(runtime.state());
+                // At the prompt, view() opens the editor on the globals `scene` and `camera`.
+                lua_getglobal(runtime.state(), "strata");
+                lua_getfield(runtime.state(), -1, "view");
+                lua_setglobal(runtime.state(), "view");
+                lua_pop(runtime.state(), 1);
                 if (!scene->empty() && runtime.run_file(*scene, {}) != 0) return kFailed;
                 return run_repl(runtime, {history_file()});
             }};

@@ -255,16 +255,8 @@ int group_count(lua_State* L) {
     return 1;
 }
 
-NodePtr find_shared(const NodePtr& root, const std::string& name) {
-    if (root->name() == name) return root;
-    if (auto* group = dynamic_cast<Group*>(root.get()))
-        for (const NodePtr& child : group->children())
-            if (NodePtr found = find_shared(child, name)) return found;
-    return nullptr;
-}
-
 int node_find(lua_State* L) {
-    NodePtr found = find_shared(check_node(L, 1), luaL_checkstring(L, 2));
+    NodePtr found = find_node(check_node(L, 1), luaL_checkstring(L, 2));
     if (!found) return 0;
     push_node(L, found);
     return 1;

@@ -97,6 +97,8 @@ struct ExrOptions {
 // 8-bit RGBA PNG: linear RGB through the sRGB transfer function, alpha linear; values clamped to
 // [0, 1], NaN written as 0. Throws std::invalid_argument if the image has no rgba plane.
 void write_png(const Image& image, const std::filesystem::path& path);
+// Pixels already encoded (a window's sRGB back buffer): width × height × 4 bytes, rows top to bottom.
+void write_png_rgba8(const std::vector<uint8_t>& pixels, int width, int height, const std::filesystem::path& path);
 
 // OpenEXR with the channels in `which`: R G B A (HALF), Z (FLOAT), N.X N.Y N.Z (HALF), level (HALF),
 // id (UINT). Throws std::invalid_argument naming a channel asked for that the image does not hold.

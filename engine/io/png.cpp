@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdint>
 #include <stdexcept>
+#include <string>
 #include <vector>
 
 #include "engine/io/atomic_file.h"
@@ -43,10 +44,15 @@ void write_to_file(void* file, void* data, int size) {
 void write_png(const Image& image, const std::filesystem::path& path) {
     image.check_sizes();
     if (!image.has(ImageChannel::rgba)) throw std::invalid_argument("cannot write a PNG: the image has no RGBA plane");
-    const std::vector<uint8_t> bytes = encode_rgba8(image);
+    write_png_rgba8(encode_rgba8(image), image.width, image.height, path);
+}
+
+void write_png_rgba8(const std::vector<uint8_t>& pixels, int width, int height, const std::filesystem::path& path) {
+    if (width <= 0 || height <= 0 || pixels.size() != size_t(width) * size_t(height) * 4)
+        throw std::invalid_argument("cannot write a PNG: " + std::to_string(pixels.size()) + " bytes for " +
+                                    std::to_string(width) + "x" + std::to_string(height) + " RGBA pixels");
     AtomicOutputFile file(path);
-    const int row_bytes = 4 * image.width;
-    if (!stbi_write_png_to_func(write_to_file, &file, image.width, image.height, 4, bytes.data(), row_bytes))
+    if (!stbi_write_png_to_func(write_to_file, &file, width, height, 4, pixels.data(), 4 * width))
         file.fail("PNG encoding failed");
     file.commit();
 }

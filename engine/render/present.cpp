@@ -23,6 +23,11 @@ void blit_resolved(gl::Framebuffer& frame, glm::ivec2 size) {
 }  // namespace
 
 void present(gl::Framebuffer& frame, gl::Context& window) {
+    blit_to_window(frame, window);
+    window.swap_buffers();
+}
+
+void blit_to_window(gl::Framebuffer& frame, gl::Context& window) {
     const glm::ivec2 size = window.framebuffer_size();
     glEnable(GL_FRAMEBUFFER_SRGB);
     glNamedFramebufferReadBuffer(frame.id(), GL_COLOR_ATTACHMENT0);
@@ -33,7 +38,6 @@ void present(gl::Framebuffer& frame, gl::Context& window) {
                                GL_COLOR_BUFFER_BIT, frame.samples() > 1 ? GL_NEAREST : GL_LINEAR);
     glDisable(GL_FRAMEBUFFER_SRGB);
     gl::check_gl("showing a frame in the window");
-    window.swap_buffers();
 }
 
 }  // namespace strata

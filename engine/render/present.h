@@ -8,5 +8,7 @@
 namespace strata {
 
 void present(gl::Framebuffer& frame, gl::Context& window);
+// The blit alone, without the swap: a UI is drawn over it before the caller swaps.
+void blit_to_window(gl::Framebuffer& frame, gl::Context& window);
 
 }  // namespace strata

@@ -97,4 +97,12 @@ Node* find_node(Node& root, const std::string& name) {
     return nullptr;
 }
 
+NodePtr find_node(const NodePtr& root, const std::string& name) {
+    if (root->name() == name) return root;
+    if (auto* group = dynamic_cast<Group*>(root.get()))
+        for (const NodePtr& child : group->children())
+            if (NodePtr found = find_node(child, name)) return found;
+    return nullptr;
+}
+
 }  // namespace strata

@@ -119,5 +119,7 @@ private:
 
 // The first node named `name` at or below `root`, depth first; nullptr if none.
 Node* find_node(Node& root, const std::string& name);
+// The same, sharing ownership of what it finds.
+NodePtr find_node(const NodePtr& root, const std::string& name);
 
 }  // namespace strata

@@ -1,0 +1,413 @@
+#include "editor/editor.h"
+
+#include "engine/gl/gl.h"  // epoxy before GLFW
+#define GLFW_INCLUDE_NONE
+#include <GLFW/glfw3.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <stdexcept>
+
+#include <glm/gtc/matrix_transform.hpp>
+#include <glm/gtc/quaternion.hpp>
+
+#include <backends/imgui_impl_glfw.h>
+#include <backends/imgui_impl_opengl3.h>
+#include <imgui.h>
+#include <imgui_stdlib.h>
+
+#include "engine/gl/context.h"
+#include "engine/render/present.h"
+#include "engine/render/renderer.h"
+#include "engine/scene/light.h"
+#include "nodes/geometry.h"
+#include "nodes/hlod_model.h"
+
+namespace strata {
+
+namespace {
+
+Editor* the_editor = nullptr;  // ImGui's context is global: one editor at a time
+
+double milliseconds_since(std::chrono::steady_clock::time_point start) {
+    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+}
+
+const char* type_name(const Node& node) {
+    if (dynamic_cast<const HlodModel*>(&node)) return "model";
+    if (dynamic_cast<const Geometry*>(&node)) return "mesh";
+    if (dynamic_cast<const Transform*>(&node)) return "transform";
+    if (dynamic_cast<const Group*>(&node)) return "group";
+    if (dynamic_cast<const DirectionalLight*>(&node)) return "light";
+    if (dynamic_cast<const AmbientLight*>(&node)) return "ambient";
+    return "node";
+}
+
+// ---- input: the navigator gets the mouse and keys ImGui does not want ----------------------------
+
+struct Mouse {
+    double x = 0, y = 0;
+} mouse;
+
+void on_cursor(GLFWwindow* window, double x, double y) {
+    const double dx = x - mouse.x, dy = y - mouse.y;
+    mouse = {x, y};
+    if (!the_editor || ImGui::GetIO().WantCaptureMouse) return;
+    Navigator& navigator = the_editor->navigator();
+    if (glfwGetMouseButton(window, GLFW_MOUSE_BUTTON_LEFT) == GLFW_PRESS) navigator.rotate(dx, dy);
+    else if (glfwGetMouseButton(window, GLFW_MOUSE_BUTTON_RIGHT) == GLFW_PRESS) navigator.zoom(-dy * 0.05);
+    else if (glfwGetMouseButton(window, GLFW_MOUSE_BUTTON_MIDDLE) == GLFW_PRESS) navigator.pan(dx, dy);
+}
+
+void on_scroll(GLFWwindow*, double, double dy) {
+    if (the_editor && !ImGui::GetIO().WantCaptureMouse) the_editor->navigator().zoom(dy);
+}
+
+void on_key(GLFWwindow*, int key, int, int action, int) {
+    if (!the_editor || action != GLFW_PRESS || ImGui::GetIO().WantCaptureKeyboard) return;
+    if (key == GLFW_KEY_F) the_editor->navigator().toggle_fly();
+    if (key == GLFW_KEY_R) the_editor->navigator().reset();
+}
+
+glm::dvec3 fly_direction(GLFWwindow* window) {
+    auto down = [&](int key) { return glfwGetKey(window, key) == GLFW_PRESS ? 1.0 : 0.0; };
+    glm::dvec3 d{down(GLFW_KEY_D) - down(GLFW_KEY_A), down(GLFW_KEY_E) - down(GLFW_KEY_Q), down(GLFW_KEY_S) - down(GLFW_KEY_W)};
+    return d * (down(GLFW_KEY_LEFT_SHIFT) ? 4.0 : 1.0);
+}
+
+bool same_pose(const Camera& camera, const Pose& pose) {
+    return camera.position == pose.position && camera.orientation == pose.orientation;
+}
+
+Pose pose_of(const Camera& camera) { return {camera.position, camera.orientation, camera.fov_y_degrees}; }
+
+}  // namespace
+
+// ---- lifetime ------------------------------------------------------------------------------------
+
+Editor::Editor(Runtime& runtime, EditorDocument document)
+    : runtime_(runtime),
+      document_(std::move(document)),
+      window_(runtime.window_context()),
+      navigator_(*document_.camera, document_.scene->bound()),
+      path_(*document_.camera),
+      console_(runtime) {
+    if (the_editor) throw std::runtime_error("an editor is already open");
+    GLFWwindow* window = window_.window();
+    glfwShowWindow(window);
+    glfwSetWindowShouldClose(window, GLFW_FALSE);
+    glfwSetWindowTitle(window, "strata");
+    // Ours first: ImGui's backend calls the callbacks installed before it, after its own.
+    glfwSetCursorPosCallback(window, on_cursor);
+    glfwSetScrollCallback(window, on_scroll);
+    glfwSetKeyCallback(window, on_key);
+    IMGUI_CHECKVERSION();
+    ImGui::CreateContext();
+    ImGui::GetIO().IniFilename = nullptr;  // the layout is the editor's, not a file left in the working folder
+    ImGui::StyleColorsDark();
+    ImGui_ImplGlfw_InitForOpenGL(window, true);
+    ImGui_ImplOpenGL3_Init("#version 450");
+    the_editor = this;
+    if (same_pose(camera(), Pose{})) navigator_.reset();  // a camera never placed: frame the scene
+    else navigator_.follow_camera();
+    last_frame_ = std::chrono::steady_clock::now();
+}
+
+Editor::~Editor() {
+    window_.make_current();
+    ImGui_ImplOpenGL3_Shutdown();
+    ImGui_ImplGlfw_Shutdown();
+    ImGui::DestroyContext();
+    GLFWwindow* window = window_.window();
+    glfwSetCursorPosCallback(window, nullptr);
+    glfwSetScrollCallback(window, nullptr);
+    glfwSetKeyCallback(window, nullptr);
+    glfwHideWindow(window);
+    the_editor = nullptr;
+}
+
+void Editor::close() {
+    if (!open_) return;
+    open_ = false;
+    glfwHideWindow(window_.window());
+}
+
+// ---- one frame -----------------------------------------------------------------------------------
+
+void Editor::handle_navigation(double seconds) {
+    if (navigator_.flying() && !ImGui::GetIO().WantCaptureKeyboard) navigator_.fly(fly_direction(window_.window()), seconds);
+    path_.advance(seconds);
+}
+
+bool Editor::frame() {
+    if (!open_) return false;
+    window_.make_current();
+    const Pose before_events = pose_of(camera());
+    window_.poll_events();
+    if (window_.should_close()) {
+        close();
+        return false;
+    }
+    const auto now = std::chrono::steady_clock::now();
+    const double seconds = std::chrono::duration<double>(now - last_frame_).count();
+    last_frame_ = now;
+    fps_ = fps_ == 0 ? 1 / std::max(seconds, 1e-6) : 0.9 * fps_ + 0.1 / std::max(seconds, 1e-6);
+    handle_navigation(seconds);
+
+    const glm::ivec2 size = window_.framebuffer_size();
+    if (size.x == 0 || size.y == 0) return true;  // minimized
+    if (!target_ || target_->width() != size.x || target_->height() != size.y)
+        target_ = std::make_unique<gl::Framebuffer>(gl::FramebufferFormat{.width = size.x, .height = size.y, .samples = 4});
+    camera().width = size.x;
+    camera().height = size.y;
+    const auto scene_start = std::chrono::steady_clock::now();
+    stats_ = runtime_.renderer().render(*document_.scene, camera(), *target_, {.background = {0.06f, 0.06f, 0.07f, 1.0f}});
+    blit_to_window(*target_, window_);
+    if (measure_) glFinish();
+    timings_.scene_ms = milliseconds_since(scene_start);
+
+    // Measuring: the scene's GL work finishes first, and the panels' before the clock stops, so the
+    // figure is the panels' whole cost and nothing of the scene's (a driver may otherwise make the
+    // panels' buffer uploads wait for the scene).
+    if (measure_) glFinish();
+    const auto ui_start = std::chrono::steady_clock::now();
+    ImGui_ImplOpenGL3_NewFrame();
+    ImGui_ImplGlfw_NewFrame();
+    ImGui::NewFrame();
+    const Pose before_panels = pose_of(camera());
+    draw_panels();
+    // The camera moved by something other than the mouse (a bookmark, the timeline, the console):
+    // orbit about the point ahead of its new pose.
+    if (!same_pose(camera(), before_panels) || !same_pose(camera(), before_events)) navigator_.follow_camera();
+    ImGui::Render();
+    glBindFramebuffer(GL_FRAMEBUFFER, 0);
+    glViewport(0, 0, size.x, size.y);
+    ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
+    if (measure_) glFinish();
+    timings_.ui_ms = milliseconds_since(ui_start);
+    last_width_ = size.x;
+    last_height_ = size.y;
+    if (capture_) capture_back_buffer(size.x, size.y);  // before the swap leaves it undefined
+    window_.swap_buffers();
+    return true;
+}
+
+std::vector<uint8_t> Editor::screenshot(int& width, int& height) {
+    capture_ = true;
+    frame();
+    capture_ = false;
+    width = last_width_;
+    height = last_height_;
+    return std::move(captured_);
+}
+
+void Editor::capture_back_buffer(int width, int height) {
+    captured_.resize(size_t(width) * size_t(height) * 4);
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, 0);
+    glReadBuffer(GL_BACK);
+    glPixelStorei(GL_PACK_ALIGNMENT, 1);
+    glReadPixels(0, 0, width, height, GL_RGBA, GL_UNSIGNED_BYTE, captured_.data());
+    // OpenGL's rows run bottom to top.
+    const auto row = std::ptrdiff_t(width) * 4;
+    for (int y = 0; y < height / 2; ++y)
+        std::swap_ranges(captured_.begin() + y * row, captured_.begin() + (y + 1) * row, captured_.begin() + (height - 1 - y) * row);
+}
+
+// ---- scene edits ---------------------------------------------------------------------------------
+
+void Editor::remove(const NodePtr& node) {
+    if (selected() == node) selected_.reset();
+    const std::vector<Group*> parents = node->parents();  // a copy: remove() changes the list
+    for (Group* parent : parents) parent->remove(node.get());
+}
+
+NodePtr Editor::add_file(const std::filesystem::path& file) {
+    NodePtr node;
+    if (file.extension() == ".hlod") node = HlodModel::load(file);
+    else node = Geometry::load(file);
+    node->set_name(file.stem().string());
+    document_.scene->add(node);
+    navigator_.set_bounds(document_.scene->bound());
+    selected_ = node;
+    return node;
+}
+
+void Editor::add_bookmark(const std::string& name) {
+    auto same = [&](const Bookmark& b) { return b.name == name; };
+    std::erase_if(document_.bookmarks, same);
+    document_.bookmarks.push_back({name, pose_of(camera())});
+}
+
+bool Editor::go_to_bookmark(const std::string& name) {
+    for (const Bookmark& bookmark : document_.bookmarks) {
+        if (bookmark.name != name) continue;
+        camera().position = bookmark.pose.position;
+        camera().orientation = bookmark.pose.orientation;
+        camera().fov_y_degrees = bookmark.pose.fov_degrees;
+        navigator_.follow_camera();
+        return true;
+    }
+    return false;
+}
+
+// ---- panels --------------------------------------------------------------------------------------
+
+void Editor::draw_panels() {
+    const ImVec2 display = ImGui::GetIO().DisplaySize;
+    const float side = 300.0f, console_height = 180.0f;
+    auto place = [](ImVec2 position, ImVec2 size) {
+        ImGui::SetNextWindowPos(position, ImGuiCond_FirstUseEver);
+        ImGui::SetNextWindowSize(size, ImGuiCond_FirstUseEver);
+    };
+    const float column = display.y - console_height;
+    place({0, 0}, {side, column * 0.5f});
+    if (ImGui::Begin("Outliner")) draw_outliner();
+    ImGui::End();
+    place({0, column * 0.5f}, {side, column * 0.5f});
+    if (ImGui::Begin("Inspector")) draw_inspector();
+    ImGui::End();
+    place({display.x - side, 0}, {side, column * 0.4f});
+    if (ImGui::Begin("Camera")) draw_camera_panel();
+    ImGui::End();
+    place({display.x - side, column * 0.4f}, {side, column * 0.6f});
+    if (ImGui::Begin("Path")) path_.draw_panel();
+    ImGui::End();
+    place({0, column}, {display.x, console_height});
+    if (ImGui::Begin("Console")) console_.draw_panel();
+    ImGui::End();
+    draw_stats_overlay();
+    path_.draw_overlay(*ImGui::GetBackgroundDrawList(), display.x, display.y);
+}
+
+void Editor::draw_outliner_node(const NodePtr& node) {
+    const auto* group = dynamic_cast<const Group*>(node.get());
+    ImGuiTreeNodeFlags flags = ImGuiTreeNodeFlags_OpenOnArrow | ImGuiTreeNodeFlags_DefaultOpen | ImGuiTreeNodeFlags_SpanAvailWidth;
+    if (!group || group->child_count() == 0) flags |= ImGuiTreeNodeFlags_Leaf;
+    if (selected() == node) flags |= ImGuiTreeNodeFlags_Selected;
+    ImGui::PushID(node.get());
+    bool visible = node->visible();
+    if (ImGui::Checkbox("##visible", &visible)) node->set_visible(visible);
+    ImGui::SameLine();
+    const bool open = ImGui::TreeNodeEx("node", flags, "%s  [%s]", node->name().empty() ? "(unnamed)" : node->name().c_str(),
+                                        type_name(*node));
+    if (ImGui::IsItemClicked() && !ImGui::IsItemToggledOpen()) selected_ = node;
+    bool deleted = false;
+    if (ImGui::BeginPopupContextItem()) {
+        std::string name = node->name();
+        if (ImGui::InputText("name", &name)) node->set_name(name);
+        if (node != document_.scene && ImGui::MenuItem("Delete")) deleted = true;
+        ImGui::EndPopup();
+    }
+    if (open) {
+        if (group) {
+            const std::vector<NodePtr> children = group->children();  // a copy: a child may be deleted
+            for (const NodePtr& child : children) draw_outliner_node(child);
+        }
+        ImGui::TreePop();
+    }
+    ImGui::PopID();
+    if (deleted) remove(node);
+}
+
+void Editor::draw_outliner() {
+    draw_outliner_node(document_.scene);
+    ImGui::Separator();
+    ImGui::SetNextItemWidth(-50);
+    ImGui::InputTextWithHint("##file", ".hlod or mesh file", &new_file_);
+    ImGui::SameLine();
+    if (ImGui::Button("Add")) {
+        try {
+            add_file(new_file_);
+            add_error_.clear();
+        } catch (const std::exception& e) {
+            add_error_ = e.what();
+        }
+    }
+    if (!add_error_.empty()) ImGui::TextColored(ImVec4(1.0f, 0.45f, 0.4f, 1.0f), "%s", add_error_.c_str());
+}
+
+void Editor::draw_inspector() {
+    const NodePtr node = selected();
+    if (!node) {
+        ImGui::TextDisabled("Select a node in the outliner or click one in the view.");
+        return;
+    }
+    std::string name = node->name();
+    if (ImGui::InputText("name", &name)) node->set_name(name);
+    ImGui::Text("type: %s", type_name(*node));
+    if (auto* transform = dynamic_cast<Transform*>(node.get())) {
+        // Translation, rotation (Euler degrees, XYZ) and uniform scale, as the Lua API composes them.
+        const glm::dmat4& m = transform->matrix();
+        glm::dvec3 translation(m[3]);
+        const double scale = glm::length(glm::dvec3(m[0]));
+        glm::dvec3 euler = glm::degrees(glm::eulerAngles(glm::quat_cast(glm::dmat3(m) / scale)));
+        double s = scale;
+        bool changed = ImGui::InputScalarN("translate", ImGuiDataType_Double, &translation.x, 3, nullptr, nullptr, "%.4f");
+        changed |= ImGui::InputScalarN("rotate °", ImGuiDataType_Double, &euler.x, 3, nullptr, nullptr, "%.2f");
+        changed |= ImGui::InputScalar("scale", ImGuiDataType_Double, &s, nullptr, nullptr, "%.4f");
+        if (changed && s > 0) {
+            const glm::dmat4 rotation = glm::mat4_cast(glm::dquat(glm::radians(euler)));
+            transform->set_matrix(glm::translate(glm::dmat4(1.0), translation) * rotation * glm::scale(glm::dmat4(1.0), glm::dvec3(s)));
+        }
+    }
+    if (auto* model = dynamic_cast<HlodModel*>(node.get())) {
+        float pixels = float(model->pixel_error());
+        if (ImGui::SliderFloat("pixel error", &pixels, 0.1f, 16.0f, "%.2f px", ImGuiSliderFlags_Logarithmic))
+            model->set_pixel_error(pixels);
+        bool morph = model->morph();
+        if (ImGui::Checkbox("morph", &morph)) model->set_morph(morph);
+        ImGui::SameLine();
+        bool boxes = model->show_cube_boxes();
+        if (ImGui::Checkbox("cube boxes", &boxes)) model->set_show_cube_boxes(boxes);
+        int view = int(model->debug_view());
+        if (ImGui::Combo("view", &view, "shaded\0colour by level\0wireframe\0")) model->set_debug_view(HlodDebugView(view));
+        ImGui::Text("%s", model->path().c_str());
+        ImGui::Text("%u levels, %zu cubes", model->header().max_level + 1, model->cubes().size());
+    }
+    if (auto* geometry = dynamic_cast<Geometry*>(node.get()))
+        ImGui::Text("%zu vertices, %zu triangles", geometry->mesh().vertex_count(), geometry->mesh().triangle_count());
+    ImGui::Separator();
+    ImGui::TextDisabled("drawn this frame (whole scene)");
+    ImGui::Text("%.3f M triangles, %llu cubes", stats_.triangles / 1e6, (unsigned long long)stats_.cubes);
+    ImGui::Text("%.1f MB resident", stats_.bytes_resident / 1e6);
+}
+
+void Editor::draw_camera_panel() {
+    int mode = navigator_.flying() ? 1 : 0;
+    if (ImGui::RadioButton("orbit", &mode, 0) && navigator_.flying()) navigator_.toggle_fly();
+    ImGui::SameLine();
+    if (ImGui::RadioButton("fly (WASD QE)", &mode, 1) && !navigator_.flying()) navigator_.toggle_fly();
+    float fov = float(camera().fov_y_degrees);
+    if (ImGui::SliderFloat("fov", &fov, 10.0f, 120.0f, "%.0f°")) camera().fov_y_degrees = fov;
+    if (ImGui::Button("Reset view (R)")) navigator_.reset();
+    ImGui::Separator();
+    ImGui::TextDisabled("bookmarks");
+    ImGui::SetNextItemWidth(-50);
+    ImGui::InputTextWithHint("##bookmark", "name", &bookmark_name_);
+    ImGui::SameLine();
+    if (ImGui::Button("Add") && !bookmark_name_.empty()) add_bookmark(bookmark_name_);
+    std::optional<std::string> removed;
+    for (const Bookmark& bookmark : document_.bookmarks) {
+        ImGui::PushID(bookmark.name.c_str());
+        if (ImGui::Selectable(bookmark.name.c_str(), false, ImGuiSelectableFlags_AllowItemOverlap, ImVec2(ImGui::GetContentRegionAvail().x - 30, 0)))
+            go_to_bookmark(bookmark.name);
+        ImGui::SameLine();
+        if (ImGui::SmallButton("x")) removed = bookmark.name;
+        ImGui::PopID();
+    }
+    if (removed) std::erase_if(document_.bookmarks, [&](const Bookmark& b) { return b.name == *removed; });
+}
+
+void Editor::draw_stats_overlay() {
+    const ImVec2 display = ImGui::GetIO().DisplaySize;
+    ImGui::SetNextWindowPos(ImVec2(display.x * 0.5f, 8), ImGuiCond_Always, ImVec2(0.5f, 0));
+    ImGui::SetNextWindowBgAlpha(0.5f);
+    const ImGuiWindowFlags flags = ImGuiWindowFlags_NoDecoration | ImGuiWindowFlags_AlwaysAutoResize | ImGuiWindowFlags_NoSavedSettings |
+                                   ImGuiWindowFlags_NoFocusOnAppearing | ImGuiWindowFlags_NoNav | ImGuiWindowFlags_NoInputs;
+    if (ImGui::Begin("stats", nullptr, flags))
+        ImGui::Text("%.0f fps  %.1f ms  |  %.2f M triangles  %llu cubes  |  ui %.2f ms", fps_, 1000.0 / std::max(fps_, 1e-6),
+                    stats_.triangles / 1e6, (unsigned long long)stats_.cubes, timings_.ui_ms);
+    ImGui::End();
+}
+
+}  // namespace strata

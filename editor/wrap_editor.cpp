@@ -1,0 +1,354 @@
+// strata.view: the editor from Lua. In the REPL the window is drawn between keystrokes while the prompt
+// stays live; in `strata run` and `strata view` it stays until closed. The editor object's methods
+// drive it as a person would (select, add keys, scrub, bookmarks, the console, screenshots): what
+// scripted tests and capture set-ups use.
+#include "editor/wrap_editor.h"
+
+#include <stdexcept>
+#include <string>
+
+#include <lua.hpp>
+
+#include "engine/io/image.h"
+#include "scripting/lua_util.h"
+#include "scripting/wrap_camera.h"
+#include "scripting/wrap_scene.h"
+
+namespace strata {
+
+namespace {
+
+constexpr const char* kEditorType = "strata.Editor";
+constexpr const char* kOpenEditor = "strata.open_editor";  // registry key of the one editor
+
+// The handle may be empty: a later strata.view() replaced the editor it held.
+const std::shared_ptr<Editor>& check_handle(lua_State* L) { return lua::check_shared<Editor>(L, 1, kEditorType); }
+
+Editor& check_editor(lua_State* L) {
+    const std::shared_ptr<Editor>& editor = check_handle(L);
+    if (!editor || !editor->open()) luaL_error(L, "the editor's window is closed: call strata.view() to open it again");
+    return *editor;
+}
+
+// A method body that may throw (bad file, bad path): the exception becomes a Lua error.
+template <typename Action>
+int guarded(lua_State* L, Action&& action) {
+    try {
+        return action();
+    } catch (const std::exception& e) {
+        return luaL_error(L, "%s", e.what());
+    }
+}
+
+// A 1-based key index from Lua, checked against the keys there are.
+size_t check_key(lua_State* L, int index, const Editor& editor) {
+    const lua_Integer key = luaL_checkinteger(L, index);
+    const size_t count = const_cast<Editor&>(editor).path().keys().size();
+    luaL_argcheck(L, key >= 1 && size_t(key) <= count, index, "no such key");
+    return size_t(key - 1);
+}
+
+int editor_frame(lua_State* L) {  // ed:frame([n]) → open
+    const std::shared_ptr<Editor>& editor = check_handle(L);
+    const lua_Integer frames = luaL_optinteger(L, 2, 1);
+    bool open = editor && editor->open();
+    for (lua_Integer i = 0; i < frames && open; ++i) open = guarded(L, [&] { return int(editor->frame()); });
+    lua_pushboolean(L, open);
+    return 1;
+}
+
+int editor_is_open(lua_State* L) {
+    const std::shared_ptr<Editor>& editor = check_handle(L);
+    lua_pushboolean(L, editor && editor->open());
+    return 1;
+}
+
+int editor_close(lua_State* L) {
+    if (const std::shared_ptr<Editor>& editor = check_handle(L)) editor->close();
+    return 0;
+}
+
+int editor_select(lua_State* L) {  // ed:select(node | name | nil) → the node
+    Editor& editor = check_editor(L);
+    NodePtr node;
+    if (lua_type(L, 2) == LUA_TSTRING) {
+        node = find_node(editor.document().scene, lua_tostring(L, 2));
+        if (!node) return luaL_error(L, "no node named '%s' in the scene", lua_tostring(L, 2));
+    } else if (!lua_isnoneornil(L, 2)) {
+        node = check_node(L, 2);
+    }
+    editor.select(node);
+    if (!node) return 0;
+    push_node(L, node);
+    return 1;
+}
+
+int editor_selected(lua_State* L) {
+    const NodePtr node = check_editor(L).selected();
+    if (!node) return 0;
+    push_node(L, node);
+    return 1;
+}
+
+int editor_add(lua_State* L) {  // ed:add(file) → the node, selected
+    Editor& editor = check_editor(L);
+    const std::string file = luaL_checkstring(L, 2);
+    return guarded(L, [&] {
+        push_node(L, editor.add_file(file));
+        return 1;
+    });
+}
+
+int editor_remove(lua_State* L) {
+    check_editor(L).remove(check_node(L, 2));
+    return 0;
+}
+
+int editor_scene(lua_State* L) {
+    push_node(L, check_editor(L).document().scene);
+    return 1;
+}
+
+int editor_camera(lua_State* L) {
+    push_camera(L, check_editor(L).document().camera);
+    return 1;
+}
+
+// ---- the path ----
+
+int editor_add_key(lua_State* L) {  // ed:add_key() → the number of keys
+    Editor& editor = check_editor(L);
+    editor.path().add_key();
+    lua_pushinteger(L, lua_Integer(editor.path().keys().size()));
+    return 1;
+}
+
+int editor_move_key(lua_State* L) {
+    Editor& editor = check_editor(L);
+    editor.path().move_key(check_key(L, 2, editor));
+    return 0;
+}
+
+int editor_remove_key(lua_State* L) {
+    Editor& editor = check_editor(L);
+    editor.path().remove_key(check_key(L, 2, editor));
+    return 0;
+}
+
+int editor_set_duration(lua_State* L) {  // ed:set_duration(key, seconds | nil): the segment after the key
+    Editor& editor = check_editor(L);
+    const size_t key = check_key(L, 2, editor);
+    luaL_argcheck(L, key + 1 < editor.path().keys().size(), 2, "the last key has no segment after it");
+    std::optional<double> seconds;
+    if (!lua_isnoneornil(L, 3)) {
+        seconds = luaL_checknumber(L, 3);
+        luaL_argcheck(L, *seconds > 0, 3, "a duration must be > 0");
+    }
+    editor.path().set_duration(key, seconds);
+    return 0;
+}
+
+int editor_keys(lua_State* L) {
+    lua_pushinteger(L, lua_Integer(check_editor(L).path().keys().size()));
+    return 1;
+}
+
+int editor_duration(lua_State* L) {  // ed:duration() → seconds, or nil and why while there is no path
+    const PathEditor& path = check_editor(L).path();
+    if (!path.path()) {
+        lua_pushnil(L);
+        lua_pushstring(L, path.error().c_str());
+        return 2;
+    }
+    lua_pushnumber(L, path.path()->duration());
+    return 1;
+}
+
+int editor_scrub(lua_State* L) {
+    check_editor(L).path().scrub(luaL_checknumber(L, 2));
+    return 0;
+}
+
+int editor_time(lua_State* L) {
+    lua_pushnumber(L, check_editor(L).path().time());
+    return 1;
+}
+
+int editor_play(lua_State* L) {
+    check_editor(L).path().play(lua_isnone(L, 2) || lua_toboolean(L, 2));
+    return 0;
+}
+
+int editor_playing(lua_State* L) {
+    lua_pushboolean(L, check_editor(L).path().playing());
+    return 1;
+}
+
+int editor_save_path(lua_State* L) {
+    Editor& editor = check_editor(L);
+    const std::string file = luaL_checkstring(L, 2);
+    return guarded(L, [&] {
+        editor.path().save(file);
+        return 0;
+    });
+}
+
+int editor_load_path(lua_State* L) {
+    Editor& editor = check_editor(L);
+    const std::string file = luaL_checkstring(L, 2);
+    return guarded(L, [&] {
+        editor.path().load(file);
+        return 0;
+    });
+}
+
+// ---- bookmarks, console, screen ----
+
+int editor_bookmark(lua_State* L) {  // ed:bookmark(name): the camera's pose, under that name
+    check_editor(L).add_bookmark(luaL_checkstring(L, 2));
+    return 0;
+}
+
+int editor_go(lua_State* L) {  // ed:go(name) → true, or false when there is no such bookmark
+    lua_pushboolean(L, check_editor(L).go_to_bookmark(luaL_checkstring(L, 2)));
+    return 1;
+}
+
+int editor_bookmarks(lua_State* L) {  // → { "name", … } in order
+    const std::vector<Bookmark>& bookmarks = check_editor(L).document().bookmarks;
+    lua_createtable(L, int(bookmarks.size()), 0);
+    for (size_t i = 0; i < bookmarks.size(); ++i) {
+        lua_pushstring(L, bookmarks[i].name.c_str());
+        lua_rawseti(L, -2, lua_Integer(i + 1));
+    }
+    return 1;
+}
+
+int editor_console(lua_State* L) {  // ed:console(line) → what the console showed for it
+    Console& console = check_editor(L).console();
+    const size_t before = console.log().size();
+    console.enter(luaL_checkstring(L, 2));
+    lua_pushstring(L, console.text(before).c_str());
+    return 1;
+}
+
+// ed:screenshot([file.png]) → pixels, width, height: draws a frame and returns the window as shown,
+// panels and all (a string of width × height × 4 bytes, 8-bit sRGB RGBA, rows top to bottom), and
+// writes it to the PNG when given.
+int editor_screenshot(lua_State* L) {
+    Editor& editor = check_editor(L);
+    const char* file = luaL_optstring(L, 2, nullptr);
+    return guarded(L, [&] {
+        int width = 0, height = 0;
+        const std::vector<uint8_t> pixels = editor.screenshot(width, height);
+        if (file) write_png_rgba8(pixels, width, height, file);
+        lua_pushlstring(L, reinterpret_cast<const char*>(pixels.data()), pixels.size());
+        lua_pushinteger(L, width);
+        lua_pushinteger(L, height);
+        return 3;
+    });
+}
+
+int editor_stats(lua_State* L) {  // → { triangles, cubes, ui_ms, scene_ms }
+    Editor& editor = check_editor(L);
+    lua_createtable(L, 0, 4);
+    lua_pushinteger(L, lua_Integer(editor.stats().triangles));
+    lua_setfield(L, -2, "triangles");
+    lua_pushinteger(L, lua_Integer(editor.stats().cubes));
+    lua_setfield(L, -2, "cubes");
+    lua_pushnumber(L, editor.timings().ui_ms);
+    lua_setfield(L, -2, "ui_ms");
+    lua_pushnumber(L, editor.timings().scene_ms);
+    lua_setfield(L, -2, "scene_ms");
+    return 1;
+}
+
+int editor_measure(lua_State* L) {  // ed:measure(on): exact split of the scene's and the panels' time
+    check_editor(L).set_measure(lua_toboolean(L, 2));
+    return 0;
+}
+
+const luaL_Reg kEditorMethods[] = {
+    {"frame", editor_frame},       {"is_open", editor_is_open},       {"close", editor_close},
+    {"select", editor_select},     {"selected", editor_selected},     {"add", editor_add},
+    {"remove", editor_remove},     {"scene", editor_scene},           {"camera", editor_camera},
+    {"add_key", editor_add_key},   {"move_key", editor_move_key},     {"remove_key", editor_remove_key},
+    {"set_duration", editor_set_duration}, {"keys", editor_keys},     {"duration", editor_duration},
+    {"scrub", editor_scrub},       {"time", editor_time},             {"play", editor_play},
+    {"playing", editor_playing},   {"save_path", editor_save_path},   {"load_path", editor_load_path},
+    {"bookmark", editor_bookmark}, {"go", editor_go},                 {"bookmarks", editor_bookmarks},
+    {"console", editor_console},   {"screenshot", editor_screenshot}, {"stats", editor_stats},
+    {"measure", editor_measure},
+    {nullptr, nullptr}};
+
+// strata.view([scene [, camera]]): defaults are the globals `scene` and `camera` (what a scene script sets).
+int view(lua_State* L) {
+    EditorDocument document;
+    if (!lua_isnoneornil(L, 1)) {
+        document.scene = std::dynamic_pointer_cast<Group>(check_node(L, 1));
+        if (!document.scene) return luaL_argerror(L, 1, "the scene must be a group (strata.scene())");
+        if (!lua_isnoneornil(L, 2)) document.camera = check_camera(L, 2);
+    }
+    return guarded(L, [&] {
+        if (!document.scene) document = document_from_globals(L);
+        open_editor(Runtime::of(L), std::move(document));
+        push_editor(L);
+        return 1;
+    });
+}
+
+}  // namespace
+
+EditorDocument document_from_globals(lua_State* L) {
+    EditorDocument document;
+    const int top = lua_gettop(L);
+    lua_getglobal(L, "scene");
+    if (lua_isnil(L, -1)) throw std::runtime_error("no scene: the global 'scene' is not set (scene = strata.scene())");
+    if (luaL_testudata(L, -1, kNodeType)) document.scene = std::dynamic_pointer_cast<Group>(check_node(L, -1));
+    if (!document.scene) {
+        const std::string type = luaL_typename(L, -1);
+        lua_settop(L, top);
+        throw std::runtime_error("the global 'scene' must be a group (strata.scene()), not a " + type);
+    }
+    lua_getglobal(L, "camera");
+    if (luaL_testudata(L, -1, kCameraType)) document.camera = check_camera(L, -1);
+    lua_settop(L, top);
+    return document;
+}
+
+void push_editor(lua_State* L) { lua_getfield(L, LUA_REGISTRYINDEX, kOpenEditor); }
+
+std::shared_ptr<Editor> open_editor(Runtime& runtime, EditorDocument document) {
+    lua_State* L = runtime.state();
+    if (!document.camera) document.camera = std::make_shared<Camera>();
+    // One editor at a time: the previous one (open or closed) goes first.
+    lua_getfield(L, LUA_REGISTRYINDEX, kOpenEditor);
+    if (auto* previous = static_cast<std::shared_ptr<Editor>*>(luaL_testudata(L, -1, kEditorType))) previous->reset();
+    lua_pop(L, 1);
+    auto editor = std::make_shared<Editor>(runtime, std::move(document));
+    // The Lua state owns it: it is destroyed when the state closes, before the GL context goes.
+    lua::push_shared(L, editor, kEditorType);
+    lua_setfield(L, LUA_REGISTRYINDEX, kOpenEditor);
+    runtime.add_live_window([weak = std::weak_ptr<Editor>(editor)] {
+        const std::shared_ptr<Editor> live = weak.lock();
+        return live && live->frame();
+    });
+    return editor;
+}
+
+void register_editor(lua_State* L) {
+    if (luaL_newmetatable(L, kEditorType)) {
+        luaL_newlib(L, kEditorMethods);
+        lua_setfield(L, -2, "__index");
+        lua_pushcfunction(L, lua::collect_shared<Editor>);
+        lua_setfield(L, -2, "__gc");
+    }
+    lua_pop(L, 1);
+    luaL_getsubtable(L, LUA_REGISTRYINDEX, LUA_LOADED_TABLE);
+    lua_getfield(L, -1, "strata");
+    lua_pushcfunction(L, view);
+    lua_setfield(L, -2, "view");
+    lua_pop(L, 2);
+}
+
+}  // namespace strata

@@ -1,0 +1,34 @@
+#!/usr/bin/env bash
+# The editor (strata view) in a real GLFW window under Xvfb, driven by the Lua scripts in tests/editor
+# through the `editor` object: panels and scene on screen, outliner, inspector, bookmarks, the path
+# editor, the console; strata.view from a script; bad scene scripts.
+source "$(dirname "$0")/common.sh"
+root=$2
+[ -s "$root/data/bunny.off" ] || { echo "sample missing: run scripts/setup.sh"; exit 1; }
+command -v xvfb-run >/dev/null || { echo "xvfb-run missing: run scripts/setup.sh"; exit 1; }
+"$STRATA" build "$root/data/bunny.off" -o "$WORK/bunny.hlod" -q || { echo "build failed"; exit 1; }
+cp "$root/tests/editor/scene.lua" "$WORK/scene.lua"
+export WORK
+xvfb() { xvfb-run -a -s "-screen 0 1400x900x24" "$@"; }
+
+expect_success "panels" xvfb "$STRATA" view "$WORK/scene.lua" --script "$root/tests/editor/drive_panels.lua"
+checks=$((checks + 1)); grep -q "editor panels: ok" "$WORK/out.txt" || { fail "the panel script did not finish"; cat "$WORK/out.txt"; }
+checks=$((checks + 1)); [ -s "$WORK/editor.png" ] || fail "no screenshot"
+
+# Files on the command line, a fixed number of frames, a screenshot of the window.
+expect_success "files" xvfb "$STRATA" view "$WORK/bunny.hlod" --size 640x480 --frames 3 --screenshot "$WORK/files.png"
+checks=$((checks + 1)); [ -s "$WORK/files.png" ] || fail "no screenshot of the files view"
+
+# strata.view from `strata run`: the editor opens on the script's globals and the script drives it.
+printf 'dofile(os.getenv("WORK") .. "/scene.lua")\nlocal ed = strata.view()\nassert(ed:frame(2))\nassert(ed:scene():find("bunny3"))\ned:close()\nprint("run view: ok")\n' >"$WORK/run_view.lua"
+expect_success "strata.view from a script" xvfb "$STRATA" run "$WORK/run_view.lua"
+checks=$((checks + 1)); grep -q "run view: ok" "$WORK/out.txt" || fail "strata.view from a script did not finish"
+
+# Bad input: a scene script that fails, one without a scene, a driving script that fails.
+printf 'scene = strata.scene()\nerror("broken scene")\n' >"$WORK/broken.lua"
+expect_failure "failing scene script" "broken.lua:2: broken scene" xvfb "$STRATA" view "$WORK/broken.lua" --frames 1
+printf 'local x = 1\n' >"$WORK/noscene.lua"
+expect_failure "no scene global" "noscene.lua: no scene" xvfb "$STRATA" view "$WORK/noscene.lua" --frames 1
+printf 'editor:select("missing")\n' >"$WORK/baddrive.lua"
+expect_failure "failing drive script" "no node named 'missing'" xvfb "$STRATA" view "$WORK/scene.lua" --script "$WORK/baddrive.lua"
+finish
