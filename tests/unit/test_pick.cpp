@@ -131,7 +131,8 @@ TEST(Pick, MissesFindNothing) {
     EXPECT_FALSE(cast(scene, {0, 0, 0}, {0, 0, 1})) << "behind the ray";
     EXPECT_FALSE(cast(scene, {0.7, 0.7, 0}, {0, 0, -1})) << "inside the bound, outside the shape";
     EXPECT_FALSE(cast(scene, {5, 0, 0}, {0, 0, -1})) << "beside the bound";
-    PickVisitor short_ray(Camera{}, Ray{{0, 0, 0}, {0, 0, -1}, 0, 8.5});
+    const Camera camera;
+    PickVisitor short_ray(camera, Ray{{0, 0, 0}, {0, 0, -1}, 0, 8.5});
     scene.accept(short_ray);
     EXPECT_FALSE(short_ray.nearest()) << "ends before the surface";
     Group empty;
