@@ -50,6 +50,14 @@ void Geometry::cull(CullVisitor& cull) {
     if (mesh_.triangle_count() > 0) cull.add(*this);
 }
 
+// Every triangle, no acceleration structure: Geometry holds the few-triangle meshes beside scans
+// (floors, plinths, reference objects) and the pick has already tested the bound; a mesh large enough
+// for this to matter belongs in an HLOD model.
+std::optional<SurfaceHit> Geometry::intersect(const Ray& ray, const PickContext&) const {
+    const std::vector<float>& p = mesh_.positions;
+    return nearest_triangle(ray, mesh_.indices, [&](uint32_t v) { return glm::dvec3(p[3 * v], p[3 * v + 1], p[3 * v + 2]); });
+}
+
 void compute_vertex_normals(Mesh& mesh) {
     mesh.normals.assign(mesh.positions.size(), 0.0f);
     auto at = [&](uint32_t v) { return glm::vec3(mesh.positions[3 * v], mesh.positions[3 * v + 1], mesh.positions[3 * v + 2]); };

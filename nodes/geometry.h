@@ -31,6 +31,7 @@ public:
 
     void cull(CullVisitor& cull) override;
     void draw(DrawContext& context, const DrawItem& item) override;
+    std::optional<SurfaceHit> intersect(const Ray& ray, const PickContext& context) const override;
 
 protected:
     Box compute_bound() const override;

@@ -95,6 +95,24 @@ Box HlodModel::cell(const HlodNode& node) const {
     return Box::from(lo, lo + glm::dvec3(s));
 }
 
+Box HlodModel::cull_box(const HlodNode& node) const {
+    const Box cell_box = cell(node);
+    const glm::dvec3 grow(1.5 * header_.sigma0 * header_.cube_size(node.level));
+    return Box::from(cell_box.lo - grow, cell_box.hi + grow);
+}
+
+HlodView HlodModel::view_for(const Camera& camera, const glm::dvec3& eye) const {
+    HlodView view{eye - origin(), kappa0_for(camera.width, camera.tan_half_fov_x())};
+    if (camera.projection == ProjectionKind::orthographic) view.fixed_level = orthographic_level(camera);
+    return view;
+}
+
+bool HlodModel::suitable(const HlodNode& node, const HlodView& view) const {
+    if (node.level == header_.max_level) return true;
+    if (view.fixed_level >= 0) return int(node.level) >= view.fixed_level;
+    return box_distance(view.eye, cell(node)) >= view.kappa0 * header_.cube_size(node.level);
+}
+
 void HlodModel::select(const HlodView& view, std::vector<uint32_t>& out) const {
     out.clear();
     select_from(root_, view, view.plane_mask, out);
@@ -102,24 +120,14 @@ void HlodModel::select(const HlodView& view, std::vector<uint32_t>& out) const {
 
 void HlodModel::select_from(uint32_t c, const HlodView& view, uint8_t mask, std::vector<uint32_t>& out) const {
     const HlodCube& cube = cubes_[c];
-    const Box cell_box = cell(cube.node);
-    if (view.frustum && mask) {
-        // Vertices overhang their cell by σ0·s_l and the morph moves them by up to σ0·s_l more.
-        const double s = header_.cube_size(cube.node.level);
-        const glm::dvec3 grow(1.5 * header_.sigma0 * s);
-        if (!intersects(*view.frustum, Box::from(cell_box.lo - grow, cell_box.hi + grow), mask)) return;
-    }
-    const bool finest = cube.node.level == header_.max_level;
-    const bool suitable = view.fixed_level >= 0
-                              ? int(cube.node.level) >= view.fixed_level
-                              : box_distance(view.eye, cell_box) >= view.kappa0 * header_.cube_size(cube.node.level);
-    if (finest || suitable) {
+    if (view.frustum && mask && !intersects(*view.frustum, cull_box(cube.node), mask)) return;
+    if (suitable(cube.node, view)) {
         out.push_back(c);
         return;
     }
     // Front to back: the octant on the eye's side of the centre first, then the rest in an order in
     // which no octant comes before one that could hide it.
-    const glm::dvec3 centre = cell_box.center();
+    const glm::dvec3 centre = cell(cube.node).center();
     const uint32_t near = (view.eye.x >= centre.x) | (view.eye.y >= centre.y) << 1 | (view.eye.z >= centre.z) << 2;
     for (uint32_t k = 0; k < 8; ++k) {
         const uint32_t child = cube.children[near ^ k];
@@ -194,11 +202,8 @@ const std::vector<glm::vec4>* HlodModel::captured_morph(uint32_t cube) const {
 }
 
 void HlodModel::cull(CullVisitor& cull) {
-    const Camera& camera = cull.camera();
-    const glm::dmat4 to_node = lattice_to_node();
-    const Frustum frustum = cull.local_frustum().in_child_frame(to_node);
-    HlodView view{cull.local_eye() - origin(), kappa0_for(camera.width, camera.tan_half_fov_x())};
-    if (camera.projection == ProjectionKind::orthographic) view.fixed_level = orthographic_level(camera);
+    const Frustum frustum = cull.local_frustum().in_child_frame(lattice_to_node());
+    HlodView view = view_for(cull.camera(), cull.local_eye());
     if (cull.frustum_culling()) {
         view.frustum = &frustum;
         view.plane_mask = cull.plane_mask();

@@ -76,6 +76,9 @@ public:
     void select(const HlodView& view, std::vector<uint32_t>& out) const;
     // A cube's cell in the lattice frame.
     Box cell(const HlodNode& node) const;
+    // The box around everything a cube draws, morphed or not: its cell grown by 1.5·σ0·s_l (the
+    // vertices' overhang plus the morph's travel). Selection culls against it; picking tests rays on it.
+    Box cull_box(const HlodNode& node) const;
 
     // The CPU twin of the morph shader: the positions a cube's vertices are drawn at in a perspective
     // view, for shader_eye() and shader_kappa0(), bit-identical to the shader's arithmetic.
@@ -107,12 +110,20 @@ public:
 
     void cull(CullVisitor& cull) override;
     void draw(DrawContext& context, const DrawItem& item) override;
+    // Against the triangles as drawn for the camera: its selection, morphed as the shader morphs
+    // (hlod_model_pick.cpp).
+    std::optional<SurfaceHit> intersect(const Ray& ray, const PickContext& context) const override;
 
 protected:
     Box compute_bound() const override { return bound_; }
 
 private:
     HlodModel() = default;
+    // The selection's view for `camera` with the eye at `eye` in the node's frame: cull() and
+    // intersect() select alike through it.
+    HlodView view_for(const Camera& camera, const glm::dvec3& eye) const;
+    // Whether the selection draws this cube rather than going down to its children.
+    bool suitable(const HlodNode& node, const HlodView& view) const;
     void select_from(uint32_t cube, const HlodView& view, uint8_t mask, std::vector<uint32_t>& out) const;
 
     std::filesystem::path path_;

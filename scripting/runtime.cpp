@@ -24,6 +24,7 @@ int open_strata(lua_State* L) {
     register_measure(L);
     register_files(L);
     register_path(L);
+    register_pick(L);
     return 1;
 }
 

@@ -88,5 +88,6 @@ void register_video(lua_State* L);
 void register_measure(lua_State* L);
 void register_files(lua_State* L);
 void register_path(lua_State* L);
+void register_pick(lua_State* L);
 
 }  // namespace strata

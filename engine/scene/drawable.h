@@ -1,8 +1,12 @@
 // Drawable: a node that puts triangles on screen. Node types in nodes/ (Geometry, the HLOD model)
-// bring their own cull logic, which emits draw items, and their own draw, which the renderer calls.
+// bring their own cull logic, which emits draw items, their own draw, which the renderer calls, and
+// their own ray test, which picking calls.
 #pragma once
 
+#include <optional>
+
 #include "engine/scene/node.h"
+#include "engine/scene/ray.h"
 
 namespace strata {
 
@@ -18,6 +22,9 @@ public:
     virtual void cull(CullVisitor& cull) = 0;
     // Issue the GL for one item this drawable emitted (current context, state set by the renderer).
     virtual void draw(DrawContext& context, const DrawItem& item) = 0;
+    // The nearest point within [ray.t_min, ray.t_max] where `ray` (in this node's frame) meets the
+    // triangles this drawable draws for `context.camera`; none by default (nothing to pick).
+    virtual std::optional<SurfaceHit> intersect(const Ray&, const PickContext&) const { return std::nullopt; }
 };
 
 }  // namespace strata

@@ -1,0 +1,77 @@
+// Picking an HLOD model: a ray against the triangles as drawn for the pick's camera. The selection
+// runs along the ray only (the cubes whose cull boxes it meets, by the rule select() applies), best
+// first: boxes in the order the ray enters them, so the search stops at the first box entered beyond
+// the nearest hit, and only the cubes that get that far are morphed and their triangles tested.
+#include <queue>
+#include <vector>
+
+#include "engine/scene/camera.h"
+#include "nodes/hlod_model.h"
+
+namespace strata {
+
+namespace {
+
+// A cube whose cull box the ray enters at `entry`; the queue hands out the nearest first.
+struct Candidate {
+    double entry;
+    uint32_t cube;
+    bool operator>(const Candidate& other) const { return entry > other.entry; }
+};
+
+// What the shader gets for the pick's view (HlodModel::shader_eye and friends), fed to the CPU twin.
+struct MorphInputs {
+    glm::vec3 eye;
+    float kappa0;
+    bool morph;
+};
+
+// The lattice-frame positions a cube's vertices are drawn at.
+void drawn_positions(const HlodModel& model, uint32_t c, const MorphInputs& inputs, std::vector<glm::vec3>& out) {
+    if (inputs.morph) {
+        model.morphed_positions(c, inputs.eye, inputs.kappa0, out);
+        return;
+    }
+    const HlodCube& cube = model.cubes()[c];
+    out.resize(cube.data.vertex_count());
+    for (uint32_t v = 0; v < out.size(); ++v) out[v] = model.vertex_position(cube, v);
+}
+
+}  // namespace
+
+std::optional<SurfaceHit> HlodModel::intersect(const Ray& ray, const PickContext& context) const {
+    const Camera& camera = context.camera;
+    const HlodView view = view_for(camera, context.local_eye());
+    const MorphInputs inputs{shader_eye(context.world_from_node, context.eye_world), shader_kappa0(camera), morphs_for(camera)};
+    // The lattice frame is the node's frame shifted by −O: the same parameter t names the same point.
+    Ray lattice_ray = ray;
+    lattice_ray.origin -= origin();
+
+    std::priority_queue<Candidate, std::vector<Candidate>, std::greater<>> queue;
+    auto enqueue = [&](uint32_t c) {
+        if (const std::optional<double> t = entry(lattice_ray, cull_box(cubes_[c].node))) queue.push({*t, c});
+    };
+    enqueue(root_);
+    std::optional<SurfaceHit> nearest;
+    std::vector<glm::vec3> positions;
+    while (!queue.empty()) {
+        const Candidate next = queue.top();
+        queue.pop();
+        // A cube's box holds its children's boxes, so nothing still queued or below it starts nearer.
+        if (next.entry > lattice_ray.t_max) break;
+        const HlodCube& cube = cubes_[next.cube];
+        if (!suitable(cube.node, view)) {
+            for (const uint32_t child : cube.children)
+                if (child != kNoCube) enqueue(child);
+            continue;
+        }
+        drawn_positions(*this, next.cube, inputs, positions);
+        const auto hit = nearest_triangle(lattice_ray, cube.data.indices, [&](uint32_t v) { return glm::dvec3(positions[v]); });
+        if (!hit) continue;
+        nearest = SurfaceHit{hit->t, hit->normal, next.cube};
+        lattice_ray.t_max = hit->t;
+    }
+    return nearest;
+}
+
+}  // namespace strata
