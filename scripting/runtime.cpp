@@ -23,6 +23,7 @@ int open_strata(lua_State* L) {
     register_measure(L);
     register_files(L);
     register_path(L);
+    register_scene_script(L);
     return 1;
 }
 

@@ -69,5 +69,6 @@ void register_video(lua_State* L);
 void register_measure(lua_State* L);
 void register_files(lua_State* L);
 void register_path(lua_State* L);
+void register_scene_script(lua_State* L);
 
 }  // namespace strata
