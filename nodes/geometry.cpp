@@ -10,6 +10,7 @@ namespace strata {
 std::shared_ptr<Geometry> Geometry::load(const std::filesystem::path& path) {
     auto geometry = from_mesh(read_mesh(path));
     geometry->set_name(path.stem().string());
+    geometry->source_ = path;
     return geometry;
 }
 
@@ -36,6 +37,7 @@ std::shared_ptr<Geometry> Geometry::plane(const glm::dvec3& center, const glm::d
     mesh.indices = ccw ? std::vector<uint32_t>{0, 1, 2, 0, 2, 3} : std::vector<uint32_t>{0, 2, 1, 0, 3, 2};
     auto geometry = from_mesh(std::move(mesh));
     geometry->set_name("plane");
+    geometry->source_ = PlaneSource{center, up, width, depth};
     return geometry;
 }
 

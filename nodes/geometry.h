@@ -4,6 +4,7 @@
 
 #include <filesystem>
 #include <memory>
+#include <variant>
 
 #include <glm/glm.hpp>
 
@@ -16,6 +17,15 @@ struct Material {
     glm::vec4 base_color{0.8f, 0.8f, 0.8f, 1.0f};  // linear; multiplies the vertex colours if any
 };
 
+// What Geometry::plane was given.
+struct PlaneSource {
+    glm::dvec3 center, up;
+    double width, depth;
+};
+// Where a geometry's mesh came from, so that a saved scene can rebuild it: the file as given to load(),
+// the plane's parameters, or nothing for a mesh built in code.
+using GeometrySource = std::variant<std::monostate, std::filesystem::path, PlaneSource>;
+
 class Geometry : public Drawable {
 public:
     // Any format read_mesh reads (PLY, OBJ, OFF, STL); throws naming the file on bad input.
@@ -27,6 +37,7 @@ public:
     static std::shared_ptr<Geometry> plane(const glm::dvec3& center, const glm::dvec3& up, double width, double depth);
 
     const Mesh& mesh() const { return mesh_; }
+    const GeometrySource& source() const { return source_; }
     Material material;
 
     void cull(CullVisitor& cull) override;
@@ -39,6 +50,7 @@ protected:
 private:
     Geometry() = default;
     Mesh mesh_;
+    GeometrySource source_;
 };
 
 // Area-weighted vertex normals (each triangle adds its cross product to its three corners).

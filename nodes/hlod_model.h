@@ -55,7 +55,8 @@ public:
     // κ0 per view through Eq. 4.5). Either is clamped to κ0 ≥ 1 + 3σ0 + 0.25 (DESIGN.md §3).
     void set_kappa0(double kappa0);
     void set_pixel_error(double pixels);
-    double pixel_error() const { return pixel_error_; }
+    double pixel_error() const { return pixel_error_; }  // 0 when κ0 was set instead
+    double kappa0() const { return kappa0_; }             // as set (and clamped) by set_kappa0
     // κ0 for an image `width` pixels wide with horizontal half-angle tangent `tan_half_fov_x`.
     double kappa0_for(int width, double tan_half_fov_x) const;
     double min_kappa0() const { return 1.0 + 3.0 * header_.sigma0 + 0.25; }

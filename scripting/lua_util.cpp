@@ -48,7 +48,16 @@ glm::dquat check_quat(lua_State* L, int index) {
     if (!table_of_numbers(L, index, 4, v)) shape_error(L, index, "quaternion {w, x, y, z}");
     const glm::dquat q(v[0], v[1], v[2], v[3]);
     if (glm::length(q) == 0) luaL_argerror(L, index, "the quaternion has length 0");
-    return glm::normalize(q);
+    return is_unit(q) ? q : glm::normalize(q);
+}
+
+// 1e-12: what computed rotations (look-at, products of rotations) leave, far below anything a view shows.
+bool is_unit(const glm::dquat& q) { return std::abs(glm::length(q) - 1) <= 1e-12; }
+
+glm::dmat4 check_mat4(lua_State* L, int index) {
+    glm::dmat4 m;
+    if (!table_of_numbers(L, index, 16, &m[0][0])) shape_error(L, index, "a matrix (16 finite numbers, column-major)");
+    return m;
 }
 
 void push_vec3(lua_State* L, const glm::dvec3& v) {

@@ -25,6 +25,13 @@ std::shared_ptr<T>& check_shared(lua_State* L, int index, const char* type_name)
     return *static_cast<std::shared_ptr<T>*>(luaL_checkudata(L, index, type_name));
 }
 
+// The object at `index` if it is a `type_name` userdata, else nullptr (for errors worded by the caller).
+template <class T>
+std::shared_ptr<T> test_shared(lua_State* L, int index, const char* type_name) {
+    const auto* held = static_cast<std::shared_ptr<T>*>(luaL_testudata(L, index, type_name));
+    return held ? *held : nullptr;
+}
+
 // __gc for push_shared userdata.
 template <class T>
 int collect_shared(lua_State* L) {
@@ -34,8 +41,13 @@ int collect_shared(lua_State* L) {
 
 // {x, y, z} at `index`, or an argument error.
 glm::dvec3 check_vec3(lua_State* L, int index);
-// {w, x, y, z} at `index`, normalized, or an argument error.
+// {w, x, y, z} at `index`, normalized unless is_unit already, or an argument error.
 glm::dquat check_quat(lua_State* L, int index);
+// Of unit length up to rounding (1e-12): check_quat keeps such a quaternion as it is, because normalizing
+// it again would move its last bits and a saved pose or scene would not reload bit for bit.
+bool is_unit(const glm::dquat& q);
+// 16 finite numbers at `index`, column-major (as OpenGL and GLM), or an argument error.
+glm::dmat4 check_mat4(lua_State* L, int index);
 void push_vec3(lua_State* L, const glm::dvec3& v);
 void push_quat(lua_State* L, const glm::dquat& q);
 // A camera pose as scripts see it: {position = {x,y,z}, orientation = {w,x,y,z}, fov = degrees}.

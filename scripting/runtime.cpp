@@ -25,6 +25,7 @@ int open_strata(lua_State* L) {
     register_files(L);
     register_path(L);
     register_pick(L);
+    register_scene_script(L);
     return 1;
 }
 

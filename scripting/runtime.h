@@ -89,5 +89,6 @@ void register_measure(lua_State* L);
 void register_files(lua_State* L);
 void register_path(lua_State* L);
 void register_pick(lua_State* L);
+void register_scene_script(lua_State* L);
 
 }  // namespace strata

@@ -30,20 +30,6 @@ void apply_settings(lua_State* L, int index, Camera& c) {
     c.far_clip = lua::opt_number(L, index, "far", c.far_clip);
 }
 
-// {position=…, orientation={w,x,y,z} | target=…, up=…, fov=…}: the pose parts present.
-void apply_pose(lua_State* L, int index, Camera& c) {
-    if (lua::get_option(L, index, "position")) c.position = check_vec3(L, lua_gettop(L));
-    lua_pop(L, 1);
-    if (lua::get_option(L, index, "orientation")) c.orientation = lua::check_quat(L, lua_gettop(L));
-    lua_pop(L, 1);
-    glm::dvec3 up{0, 1, 0};
-    if (lua::get_option(L, index, "up")) up = check_vec3(L, lua_gettop(L));
-    lua_pop(L, 1);
-    if (lua::get_option(L, index, "target")) c.look_at(c.position, check_vec3(L, lua_gettop(L)), up);
-    lua_pop(L, 1);
-    c.fov_y_degrees = lua::opt_number(L, index, "fov", c.fov_y_degrees);
-}
-
 int new_camera(lua_State* L) {
     check_keys(L, 1, {"fov", "width", "height", "orthographic", "ortho_height", "near", "far", "position",
                       "orientation", "target", "up"});
@@ -80,7 +66,8 @@ int camera_pose(lua_State* L) {
 int camera_set_pose(lua_State* L) {
     Camera& c = *check_camera(L, 1);
     luaL_checktype(L, 2, LUA_TTABLE);
-    check_keys(L, 2, {"position", "orientation", "target", "up", "fov"});
+    // A bookmark ({name=, position=, …}, scene scripts) is a pose too: its name is ignored.
+    check_keys(L, 2, {"position", "orientation", "target", "up", "fov", "name"});
     apply_pose(L, 2, c);
     lua_settop(L, 1);
     return 1;
@@ -111,6 +98,19 @@ const luaL_Reg kMethods[] = {{"look_at", camera_look_at}, {"frame", camera_frame
                              {nullptr, nullptr}};
 
 }  // namespace
+
+void apply_pose(lua_State* L, int index, Camera& c) {
+    if (lua::get_option(L, index, "position")) c.position = check_vec3(L, lua_gettop(L));
+    lua_pop(L, 1);
+    if (lua::get_option(L, index, "orientation")) c.orientation = lua::check_quat(L, lua_gettop(L));
+    lua_pop(L, 1);
+    glm::dvec3 up{0, 1, 0};
+    if (lua::get_option(L, index, "up")) up = check_vec3(L, lua_gettop(L));
+    lua_pop(L, 1);
+    if (lua::get_option(L, index, "target")) c.look_at(c.position, check_vec3(L, lua_gettop(L)), up);
+    lua_pop(L, 1);
+    c.fov_y_degrees = lua::opt_number(L, index, "fov", c.fov_y_degrees);
+}
 
 void push_camera(lua_State* L, std::shared_ptr<Camera> camera) { lua::push_shared(L, std::move(camera), kCameraType); }
 

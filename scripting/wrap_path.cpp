@@ -7,12 +7,11 @@
 #include "engine/path/osg_path.h"
 #include "scripting/lua_util.h"
 #include "scripting/runtime.h"
+#include "scripting/wrap_path.h"
 
 namespace strata {
 
 namespace {
-
-constexpr const char* kPathType = "strata.Path";
 
 void push_path(lua_State* L, CameraPath path) {
     lua::push_shared(L, std::make_shared<CameraPath>(std::move(path)), kPathType);

@@ -52,7 +52,7 @@ int new_group(lua_State* L) {
 }
 
 int new_transform(lua_State* L) {
-    check_keys(L, 1, {"name", "translate", "rotate", "quaternion", "scale"});
+    check_keys(L, 1, {"name", "translate", "rotate", "quaternion", "scale", "matrix"});
     auto transform = std::make_shared<Transform>();
     transform->set_name(opt_string(L, 1, "name", "transform"));
     apply_transform_options(L, 1, *transform);
@@ -265,8 +265,20 @@ int node_find(lua_State* L) {
 // ---- transforms ------------------------------------------------------------------------------
 
 // translate · rotate · scale, from {translate = {x,y,z}, rotate = {x°,y°,z°} (applied x, then y,
-// then z) or quaternion = {w,x,y,z}, scale = s}.
+// then z) or quaternion = {w,x,y,z}, scale = s}; or any matrix = {16 numbers} (what a saved scene
+// writes when those cannot give the matrix bit for bit).
 void apply_transform_options(lua_State* L, int index, Transform& t) {
+    if (lua::get_option(L, index, "matrix")) {
+        const glm::dmat4 matrix = lua::check_mat4(L, lua_gettop(L));
+        lua_pop(L, 1);
+        for (const char* key : {"translate", "rotate", "quaternion", "scale"}) {
+            if (lua::get_option(L, index, key)) luaL_error(L, "option 'matrix' cannot be combined with '%s'", key);
+            lua_pop(L, 1);
+        }
+        t.set_matrix(matrix);
+        return;
+    }
+    lua_pop(L, 1);
     glm::dvec3 translate{0, 0, 0};
     glm::dquat rotation{1, 0, 0, 0};
     double scale = 1;
@@ -283,13 +295,13 @@ void apply_transform_options(lua_State* L, int index, Transform& t) {
     lua_pop(L, 1);
     scale = opt_number(L, index, "scale", 1.0);
     if (!(scale > 0)) luaL_error(L, "option 'scale' must be positive (the HLOD selection assumes uniform scale)");
-    t.set_matrix(glm::translate(glm::dmat4(1.0), translate) * glm::mat4_cast(rotation) * glm::scale(glm::dmat4(1.0), glm::dvec3(scale)));
+    t.set_matrix(compose_transform(translate, rotation, scale));
 }
 
-int transform_set(lua_State* L) {  // transform:set{translate=…, rotate=…, scale=…}: replaces the matrix
+int transform_set(lua_State* L) {  // transform:set_transform{translate=…, rotate=…, scale=…}: replaces the matrix
     Transform& t = check_node_as<Transform>(L, 1, "transform");
     luaL_checktype(L, 2, LUA_TTABLE);
-    check_keys(L, 2, {"translate", "rotate", "quaternion", "scale"});
+    check_keys(L, 2, {"translate", "rotate", "quaternion", "scale", "matrix"});
     apply_transform_options(L, 2, t);
     return 0;
 }
@@ -366,6 +378,10 @@ const luaL_Reg kFunctions[] = {{"scene", new_scene}, {"group", new_group},   {"t
                                {"ambient", new_ambient}, {nullptr, nullptr}};
 
 }  // namespace
+
+glm::dmat4 compose_transform(const glm::dvec3& translate, const glm::dquat& rotation, double scale) {
+    return glm::translate(glm::dmat4(1.0), translate) * glm::mat4_cast(rotation) * glm::scale(glm::dmat4(1.0), glm::dvec3(scale));
+}
 
 void push_node(lua_State* L, NodePtr node) { lua::push_shared(L, std::move(node), kNodeType); }
 

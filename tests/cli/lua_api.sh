@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # strata run: the Lua API scripts in tests/lua (each asserts its own results), started from another
-# directory; and bad scripts: syntax error, runtime error, wrong argument types, missing files, each
+# directory; a scene one of them saved, run from yet another; and bad scripts: syntax error, runtime error, wrong argument types, missing files, each
 # with file:line, a non-zero exit and no crash.
 source "$(dirname "$0")/common.sh"
 root=$2
@@ -11,6 +11,15 @@ for script in "$root"/tests/lua/*.lua; do
     expect_success "$(basename "$script")" "$STRATA" run "$script" "$WORK/bunny.hlod" "$WORK" "$root/data/bunny.off"
     checks=$((checks + 1)); grep -q ": ok$" "$WORK/out.txt" || fail "$(basename "$script") did not finish"
 done
+
+# The scene save_scene_api.lua saved, run from elsewhere by `strata run` and `strata shell`: its files are
+# found beside it.
+cd /
+expect_success "saved scene runs" "$STRATA" run "$WORK/scene_project/scene.lua"
+expect_success "saved scene in the shell" "$STRATA" shell "$WORK/scene_project/scene.lua" \
+    <<<'print(scene:find("bunny"):info().pixel_error, #bookmarks, paths.tour:duration() > 0)'
+checks=$((checks + 1)); grep -q "^2.0	2	true$" "$WORK/out.txt" || fail "saved scene in the shell: $(cat "$WORK/out.txt")"
+cd "$WORK"
 
 # Arguments and modules beside the script.
 mkdir -p "$WORK/proj"
