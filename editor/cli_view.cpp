@@ -37,11 +37,11 @@ bool is_scene_script(const std::vector<std::string>& files) {
     return files.size() == 1 && std::filesystem::path(files[0]).extension() == ".lua";
 }
 
-EditorDocument load_document(Runtime& runtime, const ViewOptions& o) {
-    if (!is_scene_script(o.files)) return {load_scene_files(o.files, o.scene), nullptr, {}};
+SceneState load_state(Runtime& runtime, const ViewOptions& o) {
+    if (!is_scene_script(o.files)) return {load_scene_files(o.files, o.scene), nullptr, {}, {}};
     if (runtime.run_file(o.files[0], {}) != 0) throw std::runtime_error("");  // the error is printed
     try {
-        return document_from_globals(runtime.state());
+        return read_scene_globals(runtime.state());
     } catch (const std::exception& e) {
         throw std::runtime_error(o.files[0] + ": " + e.what());
     }
@@ -59,10 +59,11 @@ int run_view(const ViewOptions& o) {
     register_editor(runtime.state());
     std::shared_ptr<Editor> editor;
     try {
-        EditorDocument document = load_document(runtime, o);
+        SceneState state = load_state(runtime, o);
         runtime.window_context();  // no display: fail before anything else
         glfwSetWindowSize(runtime.window_context().window(), width, height);
-        editor = open_editor(runtime, std::move(document));
+        editor = open_editor(runtime, std::move(state));
+        if (is_scene_script(o.files)) editor->set_file(o.files[0]);  // "Save" writes back to it
     } catch (const std::exception& e) {
         if (*e.what()) std::fprintf(stderr, "strata view: %s\n", e.what());
         return kFailed;

@@ -5,6 +5,7 @@
 #include <GLFW/glfw3.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <stdexcept>
 
@@ -59,6 +60,23 @@ void on_cursor(GLFWwindow* window, double x, double y) {
     else if (glfwGetMouseButton(window, GLFW_MOUSE_BUTTON_MIDDLE) == GLFW_PRESS) navigator.pan(dx, dy);
 }
 
+// A click (press and release without a drag) in the view picks; a drag navigates.
+void on_mouse_button(GLFWwindow* window, int button, int action, int) {
+    static Mouse pressed;
+    if (!the_editor || button != GLFW_MOUSE_BUTTON_LEFT || ImGui::GetIO().WantCaptureMouse) return;
+    if (action == GLFW_PRESS) {
+        pressed = mouse;
+        return;
+    }
+    if (std::abs(mouse.x - pressed.x) > 3 || std::abs(mouse.y - pressed.y) > 3) return;
+    // Cursor positions are in screen coordinates; the framebuffer may have more pixels (HiDPI).
+    int window_width = 0, window_height = 0, width = 0, height = 0;
+    glfwGetWindowSize(window, &window_width, &window_height);
+    glfwGetFramebufferSize(window, &width, &height);
+    if (window_width > 0 && window_height > 0)
+        the_editor->click(mouse.x * width / window_width, mouse.y * height / window_height);
+}
+
 void on_scroll(GLFWwindow*, double, double dy) {
     if (the_editor && !ImGui::GetIO().WantCaptureMouse) the_editor->navigator().zoom(dy);
 }
@@ -81,16 +99,28 @@ bool same_pose(const Camera& camera, const Pose& pose) {
 
 Pose pose_of(const Camera& camera) { return {camera.position, camera.orientation, camera.fov_y_degrees}; }
 
-}  // namespace
-
 // ---- lifetime ------------------------------------------------------------------------------------
 
-Editor::Editor(Runtime& runtime, EditorDocument document)
+std::shared_ptr<Group> checked_group(const NodePtr& scene) {
+    auto group = std::dynamic_pointer_cast<Group>(scene);
+    if (!group) throw std::invalid_argument("the scene must be a group (strata.scene())");
+    return group;
+}
+
+SceneState with_camera(SceneState state) {
+    if (!state.camera) state.camera = std::make_shared<Camera>();
+    return state;
+}
+
+}  // namespace
+
+Editor::Editor(Runtime& runtime, SceneState state)
     : runtime_(runtime),
-      document_(std::move(document)),
+      state_(with_camera(std::move(state))),
+      scene_(checked_group(state_.scene)),
       window_(runtime.window_context()),
-      navigator_(*document_.camera, document_.scene->bound()),
-      path_(*document_.camera),
+      navigator_(*state_.camera, scene_->bound()),
+      path_(*state_.camera),
       console_(runtime) {
     if (the_editor) throw std::runtime_error("an editor is already open");
     GLFWwindow* window = window_.window();
@@ -101,6 +131,7 @@ Editor::Editor(Runtime& runtime, EditorDocument document)
     glfwSetCursorPosCallback(window, on_cursor);
     glfwSetScrollCallback(window, on_scroll);
     glfwSetKeyCallback(window, on_key);
+    glfwSetMouseButtonCallback(window, on_mouse_button);
     IMGUI_CHECKVERSION();
     ImGui::CreateContext();
     ImGui::GetIO().IniFilename = nullptr;  // the layout is the editor's, not a file left in the working folder
@@ -110,6 +141,10 @@ Editor::Editor(Runtime& runtime, EditorDocument document)
     the_editor = this;
     if (same_pose(camera(), Pose{})) navigator_.reset();  // a camera never placed: frame the scene
     else navigator_.follow_camera();
+    if (!state_.paths.empty()) {
+        path_name_ = state_.paths.front().first;
+        path_.set_path(*state_.paths.front().second);
+    }
     last_frame_ = std::chrono::steady_clock::now();
 }
 
@@ -122,6 +157,7 @@ Editor::~Editor() {
     glfwSetCursorPosCallback(window, nullptr);
     glfwSetScrollCallback(window, nullptr);
     glfwSetKeyCallback(window, nullptr);
+    glfwSetMouseButtonCallback(window, nullptr);
     glfwHideWindow(window);
     the_editor = nullptr;
 }
@@ -161,7 +197,7 @@ bool Editor::frame() {
     camera().width = size.x;
     camera().height = size.y;
     const auto scene_start = std::chrono::steady_clock::now();
-    stats_ = runtime_.renderer().render(*document_.scene, camera(), *target_, {.background = {0.06f, 0.06f, 0.07f, 1.0f}});
+    stats_ = runtime_.renderer().render(*scene_, camera(), *target_, {.background = {0.06f, 0.06f, 0.07f, 1.0f}});
     blit_to_window(*target_, window_);
     if (measure_) glFinish();
     timings_.scene_ms = milliseconds_since(scene_start);
@@ -189,6 +225,7 @@ bool Editor::frame() {
     last_height_ = size.y;
     if (capture_) capture_back_buffer(size.x, size.y);  // before the swap leaves it undefined
     window_.swap_buffers();
+    ++frames_;
     return true;
 }
 
@@ -226,28 +263,66 @@ NodePtr Editor::add_file(const std::filesystem::path& file) {
     if (file.extension() == ".hlod") node = HlodModel::load(file);
     else node = Geometry::load(file);
     node->set_name(file.stem().string());
-    document_.scene->add(node);
-    navigator_.set_bounds(document_.scene->bound());
+    scene_->add(node);
+    navigator_.set_bounds(scene_->bound());
     selected_ = node;
     return node;
 }
 
 void Editor::add_bookmark(const std::string& name) {
     auto same = [&](const Bookmark& b) { return b.name == name; };
-    std::erase_if(document_.bookmarks, same);
-    document_.bookmarks.push_back({name, pose_of(camera())});
+    std::erase_if(state_.bookmarks, same);
+    state_.bookmarks.push_back({name, camera().position, camera().orientation, camera().fov_y_degrees});
 }
 
 bool Editor::go_to_bookmark(const std::string& name) {
-    for (const Bookmark& bookmark : document_.bookmarks) {
+    for (const Bookmark& bookmark : state_.bookmarks) {
         if (bookmark.name != name) continue;
-        camera().position = bookmark.pose.position;
-        camera().orientation = bookmark.pose.orientation;
-        camera().fov_y_degrees = bookmark.pose.fov_degrees;
+        camera().position = bookmark.position;
+        camera().orientation = bookmark.orientation;
+        camera().fov_y_degrees = bookmark.fov_degrees;
         navigator_.follow_camera();
         return true;
     }
     return false;
+}
+
+std::optional<PickHit> Editor::click(double x, double y) {
+    const auto start = std::chrono::steady_clock::now();
+    std::optional<PickHit> hit = pick(*scene_, camera(), x, y);
+    timings_.pick_ms = milliseconds_since(start);
+    if (hit) selected_ = find_node(NodePtr(scene_), hit->node);
+    else selected_.reset();
+    return hit;
+}
+
+void Editor::sync_path() {
+    auto entry = std::find_if(state_.paths.begin(), state_.paths.end(), [&](const auto& named) { return named.first == path_name_; });
+    if (path_.keys().empty()) {
+        if (entry != state_.paths.end()) state_.paths.erase(entry);
+    } else if (!path_.path()) {
+        // Keys that make no path cannot be written as one; dropping them would lose the user's work.
+        throw std::runtime_error("the path '" + path_name_ + "' cannot be saved: " + path_.error());
+    } else if (entry != state_.paths.end()) {
+        entry->second = std::make_shared<CameraPath>(*path_.path());
+    } else {
+        state_.paths.insert(state_.paths.begin(), {path_name_, std::make_shared<CameraPath>(*path_.path())});
+    }
+}
+
+const SceneState& Editor::state() {
+    sync_path();
+    return state_;
+}
+
+void Editor::save(const std::filesystem::path& file) {
+    try {
+        save_scene_script(state(), file);
+    } catch (const std::runtime_error& e) {
+        const std::string message = e.what();
+        if (message.find(file.string()) != std::string::npos) throw;
+        throw std::runtime_error("cannot save " + file.string() + ": " + message);
+    }
 }
 
 // ---- panels --------------------------------------------------------------------------------------
@@ -295,7 +370,7 @@ void Editor::draw_outliner_node(const NodePtr& node) {
     if (ImGui::BeginPopupContextItem()) {
         std::string name = node->name();
         if (ImGui::InputText("name", &name)) node->set_name(name);
-        if (node != document_.scene && ImGui::MenuItem("Delete")) deleted = true;
+        if (node != scene_ && ImGui::MenuItem("Delete")) deleted = true;
         ImGui::EndPopup();
     }
     if (open) {
@@ -310,7 +385,7 @@ void Editor::draw_outliner_node(const NodePtr& node) {
 }
 
 void Editor::draw_outliner() {
-    draw_outliner_node(document_.scene);
+    draw_outliner_node(scene_);
     ImGui::Separator();
     ImGui::SetNextItemWidth(-50);
     ImGui::InputTextWithHint("##file", ".hlod or mesh file", &new_file_);
@@ -324,6 +399,18 @@ void Editor::draw_outliner() {
         }
     }
     if (!add_error_.empty()) ImGui::TextColored(ImVec4(1.0f, 0.45f, 0.4f, 1.0f), "%s", add_error_.c_str());
+    ImGui::SetNextItemWidth(-50);
+    ImGui::InputTextWithHint("##scene file", "scene script (.lua)", &file_);
+    ImGui::SameLine();
+    if (ImGui::Button("Save")) {
+        try {
+            save(file_);
+            save_message_ = "saved " + file_;
+        } catch (const std::exception& e) {
+            save_message_ = e.what();
+        }
+    }
+    if (!save_message_.empty()) ImGui::TextWrapped("%s", save_message_.c_str());
 }
 
 void Editor::draw_inspector() {
@@ -370,6 +457,7 @@ void Editor::draw_inspector() {
     ImGui::TextDisabled("drawn this frame (whole scene)");
     ImGui::Text("%.3f M triangles, %llu cubes", stats_.triangles / 1e6, (unsigned long long)stats_.cubes);
     ImGui::Text("%.1f MB resident", stats_.bytes_resident / 1e6);
+    if (timings_.pick_ms > 0) ImGui::Text("last pick %.2f ms", timings_.pick_ms);
 }
 
 void Editor::draw_camera_panel() {
@@ -387,7 +475,7 @@ void Editor::draw_camera_panel() {
     ImGui::SameLine();
     if (ImGui::Button("Add") && !bookmark_name_.empty()) add_bookmark(bookmark_name_);
     std::optional<std::string> removed;
-    for (const Bookmark& bookmark : document_.bookmarks) {
+    for (const Bookmark& bookmark : state_.bookmarks) {
         ImGui::PushID(bookmark.name.c_str());
         if (ImGui::Selectable(bookmark.name.c_str(), false, ImGuiSelectableFlags_AllowItemOverlap, ImVec2(ImGui::GetContentRegionAvail().x - 30, 0)))
             go_to_bookmark(bookmark.name);
@@ -395,7 +483,7 @@ void Editor::draw_camera_panel() {
         if (ImGui::SmallButton("x")) removed = bookmark.name;
         ImGui::PopID();
     }
-    if (removed) std::erase_if(document_.bookmarks, [&](const Bookmark& b) { return b.name == *removed; });
+    if (removed) std::erase_if(state_.bookmarks, [&](const Bookmark& b) { return b.name == *removed; });
 }
 
 void Editor::draw_stats_overlay() {

@@ -18,22 +18,11 @@
 #include "engine/render/draw_context.h"
 #include "engine/scene/camera.h"
 #include "engine/scene/node.h"
+#include "engine/scene/pick.h"
 #include "scripting/runtime.h"
+#include "scripting/scene_script.h"
 
 namespace strata {
-
-// A named camera pose the user can jump back to.
-struct Bookmark {
-    std::string name;
-    Pose pose;
-};
-
-// What the editor edits: the scene, the camera looking at it, bookmarks and the path.
-struct EditorDocument {
-    std::shared_ptr<Group> scene;
-    std::shared_ptr<Camera> camera;
-    std::vector<Bookmark> bookmarks;
-};
 
 // The editor's own cost per frame, apart from drawing the scene: building and drawing the panels, and
 // picking (when a click picked this frame). Exact only while measuring (Editor::set_measure): the GPU
@@ -46,9 +35,11 @@ struct EditorTimings {
 
 class Editor {
 public:
-    // Opens the window (the runtime's window context) and sets up ImGui. Throws gl::GlError when there
-    // is no display.
-    Editor(Runtime& runtime, EditorDocument document);
+    // Opens the window (the runtime's window context) on `state` (a scene script's: the scene, which
+    // must be a group, its camera — a new one when null —, bookmarks, and paths, the first of which the
+    // path editor takes) and sets up ImGui. Throws gl::GlError when there is no display,
+    // std::invalid_argument when the scene is not a group.
+    Editor(Runtime& runtime, SceneState state);
     ~Editor();
     Editor(const Editor&) = delete;
     Editor& operator=(const Editor&) = delete;
@@ -59,13 +50,19 @@ public:
     bool open() const { return open_; }
     void close();
 
-    EditorDocument& document() { return document_; }
-    Camera& camera() { return *document_.camera; }
+    // The state as edited, with the path editor's path in `paths` (none when it has no keys). Throws
+    // std::runtime_error when its keys make no valid path (one key, two keys at one place…).
+    const SceneState& state();
+    Group& scene() { return *scene_; }
+    const std::shared_ptr<Group>& scene_pointer() const { return scene_; }
+    Camera& camera() { return *state_.camera; }
+    const std::shared_ptr<Camera>& camera_pointer() const { return state_.camera; }
     Navigator& navigator() { return navigator_; }
     PathEditor& path() { return path_; }
     Console& console() { return console_; }
     const FrameStats& stats() const { return stats_; }
     const EditorTimings& timings() const { return timings_; }
+    uint64_t frames() const { return frames_; }  // drawn since the editor opened
     // Waits for the GPU between the scene and the panels each frame, so timings() split them exactly
     // (benchmarks; it costs the overlap of CPU and GPU work).
     void set_measure(bool on) { measure_ = on; }
@@ -77,6 +74,16 @@ public:
     // Loads an .hlod model or a mesh and adds it to the scene (selected). Throws naming the file.
     NodePtr add_file(const std::filesystem::path& file);
 
+    // Selects the node drawn at pixel (x, y) of the window's framebuffer (none on the background) and
+    // returns the hit; what a click in the view does.
+    std::optional<PickHit> click(double x, double y);
+
+    // Saves the scene, camera, bookmarks and paths as a scene script (temp file + rename). Throws
+    // std::runtime_error naming the file or the node that cannot be written.
+    void save(const std::filesystem::path& file);
+    void set_file(const std::filesystem::path& file) { file_ = file.string(); }
+
+    const std::vector<Bookmark>& bookmarks() const { return state_.bookmarks; }
     void add_bookmark(const std::string& name);
     // False when there is no bookmark of that name.
     bool go_to_bookmark(const std::string& name);
@@ -95,8 +102,12 @@ private:
     void handle_navigation(double seconds);
     void capture_back_buffer(int width, int height);
 
+    void sync_path();
+
     Runtime& runtime_;
-    EditorDocument document_;
+    SceneState state_;
+    std::shared_ptr<Group> scene_;
+    std::string path_name_ = "path";  // the name the edited path has in state_.paths
     gl::Context& window_;
     Navigator navigator_;
     PathEditor path_;
@@ -111,10 +122,13 @@ private:
     int last_width_ = 0, last_height_ = 0;
     std::chrono::steady_clock::time_point last_frame_;
     double fps_ = 0;
+    uint64_t frames_ = 0;
     bool open_ = true;
     std::string new_file_;      // the outliner's "add a file" field
     std::string add_error_;
     std::string bookmark_name_;
+    std::string file_ = "scene.lua";  // where "Save scene" writes
+    std::string save_message_;
 };
 
 }  // namespace strata

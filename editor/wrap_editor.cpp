@@ -72,7 +72,7 @@ int editor_select(lua_State* L) {  // ed:select(node | name | nil) → the node
     Editor& editor = check_editor(L);
     NodePtr node;
     if (lua_type(L, 2) == LUA_TSTRING) {
-        node = find_node(editor.document().scene, lua_tostring(L, 2));
+        node = find_node(NodePtr(editor.scene_pointer()), lua_tostring(L, 2));
         if (!node) return luaL_error(L, "no node named '%s' in the scene", lua_tostring(L, 2));
     } else if (!lua_isnoneornil(L, 2)) {
         node = check_node(L, 2);
@@ -105,12 +105,12 @@ int editor_remove(lua_State* L) {
 }
 
 int editor_scene(lua_State* L) {
-    push_node(L, check_editor(L).document().scene);
+    push_node(L, check_editor(L).scene_pointer());
     return 1;
 }
 
 int editor_camera(lua_State* L) {
-    push_camera(L, check_editor(L).document().camera);
+    push_camera(L, check_editor(L).camera_pointer());
     return 1;
 }
 
@@ -215,7 +215,7 @@ int editor_go(lua_State* L) {  // ed:go(name) → true, or false when there is n
 }
 
 int editor_bookmarks(lua_State* L) {  // → { "name", … } in order
-    const std::vector<Bookmark>& bookmarks = check_editor(L).document().bookmarks;
+    const std::vector<Bookmark>& bookmarks = check_editor(L).bookmarks();
     lua_createtable(L, int(bookmarks.size()), 0);
     for (size_t i = 0; i < bookmarks.size(); ++i) {
         lua_pushstring(L, bookmarks[i].name.c_str());
@@ -249,9 +249,9 @@ int editor_screenshot(lua_State* L) {
     });
 }
 
-int editor_stats(lua_State* L) {  // → { triangles, cubes, ui_ms, scene_ms }
+int editor_stats(lua_State* L) {  // → { triangles, cubes, ui_ms, scene_ms, pick_ms, frames }
     Editor& editor = check_editor(L);
-    lua_createtable(L, 0, 4);
+    lua_createtable(L, 0, 6);
     lua_pushinteger(L, lua_Integer(editor.stats().triangles));
     lua_setfield(L, -2, "triangles");
     lua_pushinteger(L, lua_Integer(editor.stats().cubes));
@@ -260,7 +260,34 @@ int editor_stats(lua_State* L) {  // → { triangles, cubes, ui_ms, scene_ms }
     lua_setfield(L, -2, "ui_ms");
     lua_pushnumber(L, editor.timings().scene_ms);
     lua_setfield(L, -2, "scene_ms");
+    lua_pushnumber(L, editor.timings().pick_ms);
+    lua_setfield(L, -2, "pick_ms");
+    lua_pushinteger(L, lua_Integer(editor.frames()));
+    lua_setfield(L, -2, "frames");
     return 1;
+}
+
+int editor_save(lua_State* L) {  // ed:save(file.lua): the scene script that reopens all of it
+    Editor& editor = check_editor(L);
+    const std::string file = luaL_checkstring(L, 2);
+    return guarded(L, [&] {
+        editor.save(file);
+        return 0;
+    });
+}
+
+// ed:click(x, y) → the node picked (now selected) and the point, or nil on the background: a click
+// at pixel (x, y) of the window, from the top-left.
+int editor_click(lua_State* L) {
+    Editor& editor = check_editor(L);
+    const double x = luaL_checknumber(L, 2), y = luaL_checknumber(L, 3);
+    luaL_argcheck(L, x >= 0 && x < editor.camera().width, 2, "outside the window");
+    luaL_argcheck(L, y >= 0 && y < editor.camera().height, 3, "outside the window");
+    const std::optional<PickHit> hit = editor.click(x, y);
+    if (!hit) return 0;
+    push_node(L, editor.selected());
+    lua::push_vec3(L, hit->point);
+    return 2;
 }
 
 int editor_measure(lua_State* L) {  // ed:measure(on): exact split of the scene's and the panels' time
@@ -278,20 +305,20 @@ const luaL_Reg kEditorMethods[] = {
     {"playing", editor_playing},   {"save_path", editor_save_path},   {"load_path", editor_load_path},
     {"bookmark", editor_bookmark}, {"go", editor_go},                 {"bookmarks", editor_bookmarks},
     {"console", editor_console},   {"screenshot", editor_screenshot}, {"stats", editor_stats},
-    {"measure", editor_measure},
+    {"measure", editor_measure},   {"save", editor_save},             {"click", editor_click},
     {nullptr, nullptr}};
 
-// strata.view([scene [, camera]]): defaults are the globals `scene` and `camera` (what a scene script sets).
+// strata.view([scene [, camera]]): without arguments, the scene script's globals (scene, camera,
+// bookmarks, paths).
 int view(lua_State* L) {
-    EditorDocument document;
+    SceneState state;
     if (!lua_isnoneornil(L, 1)) {
-        document.scene = std::dynamic_pointer_cast<Group>(check_node(L, 1));
-        if (!document.scene) return luaL_argerror(L, 1, "the scene must be a group (strata.scene())");
-        if (!lua_isnoneornil(L, 2)) document.camera = check_camera(L, 2);
+        state.scene = check_node(L, 1);
+        if (!lua_isnoneornil(L, 2)) state.camera = check_camera(L, 2);
     }
     return guarded(L, [&] {
-        if (!document.scene) document = document_from_globals(L);
-        open_editor(Runtime::of(L), std::move(document));
+        if (!state.scene) state = read_scene_globals(L);
+        open_editor(Runtime::of(L), std::move(state));
         push_editor(L);
         return 1;
     });
@@ -299,33 +326,15 @@ int view(lua_State* L) {
 
 }  // namespace
 
-EditorDocument document_from_globals(lua_State* L) {
-    EditorDocument document;
-    const int top = lua_gettop(L);
-    lua_getglobal(L, "scene");
-    if (lua_isnil(L, -1)) throw std::runtime_error("no scene: the global 'scene' is not set (scene = strata.scene())");
-    if (luaL_testudata(L, -1, kNodeType)) document.scene = std::dynamic_pointer_cast<Group>(check_node(L, -1));
-    if (!document.scene) {
-        const std::string type = luaL_typename(L, -1);
-        lua_settop(L, top);
-        throw std::runtime_error("the global 'scene' must be a group (strata.scene()), not a " + type);
-    }
-    lua_getglobal(L, "camera");
-    if (luaL_testudata(L, -1, kCameraType)) document.camera = check_camera(L, -1);
-    lua_settop(L, top);
-    return document;
-}
-
 void push_editor(lua_State* L) { lua_getfield(L, LUA_REGISTRYINDEX, kOpenEditor); }
 
-std::shared_ptr<Editor> open_editor(Runtime& runtime, EditorDocument document) {
+std::shared_ptr<Editor> open_editor(Runtime& runtime, SceneState state) {
     lua_State* L = runtime.state();
-    if (!document.camera) document.camera = std::make_shared<Camera>();
     // One editor at a time: the previous one (open or closed) goes first.
     lua_getfield(L, LUA_REGISTRYINDEX, kOpenEditor);
     if (auto* previous = static_cast<std::shared_ptr<Editor>*>(luaL_testudata(L, -1, kEditorType))) previous->reset();
     lua_pop(L, 1);
-    auto editor = std::make_shared<Editor>(runtime, std::move(document));
+    auto editor = std::make_shared<Editor>(runtime, std::move(state));
     // The Lua state owns it: it is destroyed when the state closes, before the GL context goes.
     lua::push_shared(L, editor, kEditorType);
     lua_setfield(L, LUA_REGISTRYINDEX, kOpenEditor);

@@ -13,14 +13,10 @@ namespace strata {
 // scripting library, so the commands that can show a window register it).
 void register_editor(lua_State* L);
 
-// Opens the editor on `document` (a default camera when it has none), replacing any previous one, and
-// keeps it drawing beside the script or the REPL (Runtime::pump_live_windows). The Lua state owns it.
-std::shared_ptr<Editor> open_editor(Runtime& runtime, EditorDocument document);
+// Opens the editor on `state` (a new camera when it has none), replacing any previous one, and keeps it
+// drawing beside the script or the REPL (Runtime::pump_live_windows). The Lua state owns it.
+std::shared_ptr<Editor> open_editor(Runtime& runtime, SceneState state);
 // Pushes the open editor's Lua object (nil when none was opened).
 void push_editor(lua_State* L);
-
-// What a scene script left: the globals `scene` (a group) and `camera` (optional). Throws
-// std::runtime_error when `scene` is missing or not a group.
-EditorDocument document_from_globals(lua_State* L);
 
 }  // namespace strata

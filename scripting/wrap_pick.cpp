@@ -15,16 +15,6 @@ namespace strata {
 
 namespace {
 
-// The shared pointer that holds `node` at or below `root`: a hit names its node by address, and a
-// script needs a handle that keeps the node alive.
-NodePtr shared_of(const NodePtr& root, const Node* node) {
-    if (root.get() == node) return root;
-    if (const auto* group = dynamic_cast<const Group*>(root.get()))
-        for (const NodePtr& child : group->children())
-            if (NodePtr found = shared_of(child, node)) return found;
-    return nullptr;
-}
-
 int pick(lua_State* L) {
     const NodePtr& scene = check_node(L, 1);
     const Camera& camera = *check_camera(L, 2);
@@ -42,7 +32,7 @@ int pick(lua_State* L) {
         return 1;
     }
     lua_createtable(L, 0, 4);
-    push_node(L, shared_of(scene, hit->node));
+    push_node(L, find_node(scene, hit->node));  // a hit names its node by address
     lua_setfield(L, -2, "node");
     lua::push_vec3(L, hit->point);
     lua_setfield(L, -2, "point");

@@ -105,4 +105,12 @@ NodePtr find_node(const NodePtr& root, const std::string& name) {
     return nullptr;
 }
 
+NodePtr find_node(const NodePtr& root, const Node* node) {
+    if (root.get() == node) return root;
+    if (const auto* group = dynamic_cast<const Group*>(root.get()))
+        for (const NodePtr& child : group->children())
+            if (NodePtr found = find_node(child, node)) return found;
+    return nullptr;
+}
+
 }  // namespace strata

@@ -121,5 +121,8 @@ private:
 Node* find_node(Node& root, const std::string& name);
 // The same, sharing ownership of what it finds.
 NodePtr find_node(const NodePtr& root, const std::string& name);
+// The shared pointer that holds `node` at or below `root` (a pick names its node by address, a
+// script or the editor needs a handle that keeps it alive); nullptr if it is not there.
+NodePtr find_node(const NodePtr& root, const Node* node);
 
 }  // namespace strata

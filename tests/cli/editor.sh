@@ -15,6 +15,17 @@ expect_success "panels" xvfb "$STRATA" view "$WORK/scene.lua" --script "$root/te
 checks=$((checks + 1)); grep -q "editor panels: ok" "$WORK/out.txt" || { fail "the panel script did not finish"; cat "$WORK/out.txt"; }
 checks=$((checks + 1)); [ -s "$WORK/editor.png" ] || fail "no screenshot"
 
+# Picking and saving; the saved scene script reopens to the same state, and saves to the same text.
+expect_success "pick and save" xvfb "$STRATA" view "$WORK/scene.lua" --script "$root/tests/editor/drive_save.lua"
+checks=$((checks + 1)); grep -q "editor save: ok" "$WORK/out.txt" || { fail "the save script did not finish"; cat "$WORK/out.txt"; }
+expect_success "reload" xvfb "$STRATA" view "$WORK/saved.lua" --script "$root/tests/editor/drive_reload.lua"
+checks=$((checks + 1)); grep -q "editor reload: ok" "$WORK/out.txt" || { fail "the reload script did not finish"; cat "$WORK/out.txt"; }
+checks=$((checks + 1)); cmp -s "$WORK/saved.lua" "$WORK/saved_again.lua" || { fail "saving the reloaded scene changed it:"; diff "$WORK/saved.lua" "$WORK/saved_again.lua"; }
+# The saved script runs headless too.
+printf 'dofile(arg[1])\nassert(scene:find("bunny3") and #bookmarks == 2 and paths.path)\nprint("headless reload: ok")\n' >"$WORK/headless.lua"
+expect_success "headless reload" "$STRATA" run "$WORK/headless.lua" "$WORK/saved.lua"
+checks=$((checks + 1)); grep -q "headless reload: ok" "$WORK/out.txt" || fail "the saved scene does not run headless"
+
 # Files on the command line, a fixed number of frames, a screenshot of the window.
 expect_success "files" xvfb "$STRATA" view "$WORK/bunny.hlod" --size 640x480 --frames 3 --screenshot "$WORK/files.png"
 checks=$((checks + 1)); [ -s "$WORK/files.png" ] || fail "no screenshot of the files view"
@@ -28,7 +39,7 @@ checks=$((checks + 1)); grep -q "run view: ok" "$WORK/out.txt" || fail "strata.v
 printf 'scene = strata.scene()\nerror("broken scene")\n' >"$WORK/broken.lua"
 expect_failure "failing scene script" "broken.lua:2: broken scene" xvfb "$STRATA" view "$WORK/broken.lua" --frames 1
 printf 'local x = 1\n' >"$WORK/noscene.lua"
-expect_failure "no scene global" "noscene.lua: no scene" xvfb "$STRATA" view "$WORK/noscene.lua" --frames 1
+expect_failure "no scene global" "noscene.lua: 'scene' must be a strata node" xvfb "$STRATA" view "$WORK/noscene.lua" --frames 1
 printf 'editor:select("missing")\n' >"$WORK/baddrive.lua"
 expect_failure "failing drive script" "no node named 'missing'" xvfb "$STRATA" view "$WORK/scene.lua" --script "$WORK/baddrive.lua"
 finish

@@ -79,4 +79,23 @@ tmux_ new-session -d -s shell -x 100 -y 40 "env STRATA_HISTORY=$WORK/history $ST
 expect_screen "second banner" "Tab completes"
 tmux_ send-keys -t shell Up Enter
 expect_screen "history recalled" "strata.hlod 'bunny' ("
+tmux_ kill-session -t shell
+
+# view() opens the editor on the scene while the prompt stays live: the window draws frames between
+# keystrokes (its frame count grows while nothing is typed) and the REPL still answers.
+if command -v xvfb-run >/dev/null; then
+    tmux_ new-session -d -s shell -x 100 -y 40 \
+        "xvfb-run -a -s '-screen 0 1400x900x24' env STRATA_HISTORY=$WORK/history $STRATA shell $WORK/scene.lua; sleep 30"
+    expect_screen "banner with a display" "Tab completes"
+    tmux_ send-keys -t shell 'ed = view()' Enter
+    tmux_ send-keys -t shell 'ed:is_open(), ed:scene():find("bunny") ~= nil' Enter
+    expect_screen "the editor opened" "true    true"
+    tmux_ send-keys -t shell 'n0 = ed:stats().frames' Enter
+    sleep 1
+    tmux_ send-keys -t shell 'ed:stats().frames - n0 > 5' Enter
+    expect_screen "frames drawn while the prompt waits" "true"
+    tmux_ send-keys -t shell '6 * 7' Enter
+    expect_screen "the prompt still answers" "42"
+    tmux_ send-keys -t shell 'ed:close()' Enter C-d
+fi
 finish
