@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <stdexcept>
 
 #include <glm/gtc/matrix_transform.hpp>
@@ -17,6 +18,7 @@
 #include <imgui.h>
 #include <imgui_stdlib.h>
 
+#include "editor/widgets.h"
 #include "engine/gl/context.h"
 #include "engine/render/present.h"
 #include "engine/render/renderer.h"
@@ -81,10 +83,28 @@ void on_scroll(GLFWwindow*, double, double dy) {
     if (the_editor && !ImGui::GetIO().WantCaptureMouse) the_editor->navigator().zoom(dy);
 }
 
+// Every HLOD model at or below `node`.
+void for_each_model(Node& node, const std::function<void(HlodModel&)>& action) {
+    if (auto* model = dynamic_cast<HlodModel*>(&node)) action(*model);
+    if (auto* group = dynamic_cast<Group*>(&node))
+        for (const NodePtr& child : group->children()) for_each_model(*child, action);
+}
+
+// The viewer's keys: navigation, and debug views for every model (the inspector sets them one by one).
 void on_key(GLFWwindow*, int key, int, int action, int) {
     if (!the_editor || action != GLFW_PRESS || ImGui::GetIO().WantCaptureKeyboard) return;
-    if (key == GLFW_KEY_F) the_editor->navigator().toggle_fly();
-    if (key == GLFW_KEY_R) the_editor->navigator().reset();
+    Node& scene = the_editor->scene();
+    auto view = [&](HlodDebugView v) { for_each_model(scene, [&](HlodModel& m) { m.set_debug_view(v); }); };
+    switch (key) {
+    case GLFW_KEY_F: the_editor->navigator().toggle_fly(); break;
+    case GLFW_KEY_R: the_editor->navigator().reset(); break;
+    case GLFW_KEY_1: view(HlodDebugView::none); break;
+    case GLFW_KEY_2: view(HlodDebugView::levels); break;
+    case GLFW_KEY_3: view(HlodDebugView::wireframe); break;
+    case GLFW_KEY_B: for_each_model(scene, [](HlodModel& m) { m.set_show_cube_boxes(!m.show_cube_boxes()); }); break;
+    case GLFW_KEY_M: for_each_model(scene, [](HlodModel& m) { m.set_morph(!m.morph()); }); break;
+    default: break;
+    }
 }
 
 glm::dvec3 fly_direction(GLFWwindow* window) {
@@ -387,29 +407,9 @@ void Editor::draw_outliner_node(const NodePtr& node) {
 void Editor::draw_outliner() {
     draw_outliner_node(scene_);
     ImGui::Separator();
-    ImGui::SetNextItemWidth(-50);
-    ImGui::InputTextWithHint("##file", ".hlod or mesh file", &new_file_);
-    ImGui::SameLine();
-    if (ImGui::Button("Add")) {
-        try {
-            add_file(new_file_);
-            add_error_.clear();
-        } catch (const std::exception& e) {
-            add_error_ = e.what();
-        }
-    }
-    if (!add_error_.empty()) ImGui::TextColored(ImVec4(1.0f, 0.45f, 0.4f, 1.0f), "%s", add_error_.c_str());
-    ImGui::SetNextItemWidth(-50);
-    ImGui::InputTextWithHint("##scene file", "scene script (.lua)", &file_);
-    ImGui::SameLine();
-    if (ImGui::Button("Save")) {
-        try {
-            save(file_);
-            save_message_ = "saved " + file_;
-        } catch (const std::exception& e) {
-            save_message_ = e.what();
-        }
-    }
+    if (file_field("add", ".hlod or mesh file", new_file_, "Add")) add_message_ = outcome([&] { add_file(new_file_); }, "");
+    if (!add_message_.empty()) ImGui::TextColored(ImVec4(1.0f, 0.45f, 0.4f, 1.0f), "%s", add_message_.c_str());
+    if (file_field("save", "scene script (.lua)", file_, "Save")) save_message_ = outcome([&] { save(file_); }, "saved " + file_);
     if (!save_message_.empty()) ImGui::TextWrapped("%s", save_message_.c_str());
 }
 
@@ -438,9 +438,21 @@ void Editor::draw_inspector() {
         }
     }
     if (auto* model = dynamic_cast<HlodModel*>(node.get())) {
-        float pixels = float(model->pixel_error());
-        if (ImGui::SliderFloat("pixel error", &pixels, 0.1f, 16.0f, "%.2f px", ImGuiSliderFlags_Logarithmic))
-            model->set_pixel_error(pixels);
+        // Detail by a screen-space error in pixels (Eq. 4.5 sets κ0 per view), or by κ0 itself.
+        int by_kappa0 = model->pixel_error() > 0 ? 0 : 1;
+        if (ImGui::RadioButton("pixel error", &by_kappa0, 0) && model->pixel_error() <= 0) model->set_pixel_error(1.0);
+        ImGui::SameLine();
+        if (ImGui::RadioButton("kappa0", &by_kappa0, 1) && model->pixel_error() > 0) model->set_kappa0(model->kappa0());
+        if (by_kappa0 == 0) {
+            float pixels = float(model->pixel_error());
+            if (ImGui::SliderFloat("##pixels", &pixels, 0.1f, 16.0f, "%.2f px", ImGuiSliderFlags_Logarithmic) && pixels > 0)
+                model->set_pixel_error(pixels);
+        } else {
+            float kappa0 = float(model->kappa0());
+            if (ImGui::SliderFloat("##kappa0", &kappa0, float(model->min_kappa0()), 32.0f, "kappa0 = %.2f", ImGuiSliderFlags_Logarithmic) &&
+                kappa0 > 0)
+                model->set_kappa0(kappa0);
+        }
         bool morph = model->morph();
         if (ImGui::Checkbox("morph", &morph)) model->set_morph(morph);
         ImGui::SameLine();

@@ -125,7 +125,7 @@ private:
     uint64_t frames_ = 0;
     bool open_ = true;
     std::string new_file_;      // the outliner's "add a file" field
-    std::string add_error_;
+    std::string add_message_;  // why the last Add failed
     std::string bookmark_name_;
     std::string file_ = "scene.lua";  // where "Save scene" writes
     std::string save_message_;

@@ -7,6 +7,8 @@
 #include <imgui.h>
 #include <imgui_stdlib.h>
 
+#include "editor/widgets.h"
+
 namespace strata {
 
 namespace {
@@ -158,20 +160,9 @@ void PathEditor::draw_panel() {
         ImGui::EndTable();
         if (removed) remove_key(*removed);
     }
-    ImGui::SetNextItemWidth(-110);
-    ImGui::InputText("##file", &file_);
+    if (ImGui::Button("Save")) file_message_ = outcome([&] { save(file_); }, "saved " + file_);
     ImGui::SameLine();
-    auto attempt = [&](auto&& action, const char* done) {
-        try {
-            action();
-            file_message_ = done + file_;
-        } catch (const std::exception& e) {
-            file_message_ = e.what();
-        }
-    };
-    if (ImGui::Button("Save")) attempt([&] { save(file_); }, "saved ");
-    ImGui::SameLine();
-    if (ImGui::Button("Load")) attempt([&] { load(file_); }, "loaded ");
+    if (file_field("path file", "path.json", file_, "Load")) file_message_ = outcome([&] { load(file_); }, "loaded " + file_);
     if (!file_message_.empty()) ImGui::TextWrapped("%s", file_message_.c_str());
 }
 
