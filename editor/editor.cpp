@@ -236,6 +236,7 @@ bool Editor::frame() {
     // orbit about the point ahead of its new pose.
     if (!same_pose(camera(), before_panels) || !same_pose(camera(), before_events)) navigator_.follow_camera();
     ImGui::Render();
+    timings_.ui_build_ms = milliseconds_since(ui_start);
     glBindFramebuffer(GL_FRAMEBUFFER, 0);
     glViewport(0, 0, size.x, size.y);
     ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());

@@ -28,7 +28,8 @@ namespace strata {
 // picking (when a click picked this frame). Exact only while measuring (Editor::set_measure): the GPU
 // work is then waited for at each step.
 struct EditorTimings {
-    double ui_ms = 0;
+    double ui_ms = 0;        // the panels: laid out on the CPU, then drawn
+    double ui_build_ms = 0;  // of which laying them out (ImGui's CPU work)
     double pick_ms = 0;
     double scene_ms = 0;  // culling and drawing the scene, for comparison
 };

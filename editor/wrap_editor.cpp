@@ -249,15 +249,17 @@ int editor_screenshot(lua_State* L) {
     });
 }
 
-int editor_stats(lua_State* L) {  // → { triangles, cubes, ui_ms, scene_ms, pick_ms, frames }
+int editor_stats(lua_State* L) {  // → { triangles, cubes, ui_ms, ui_build_ms, scene_ms, pick_ms, frames }
     Editor& editor = check_editor(L);
-    lua_createtable(L, 0, 6);
+    lua_createtable(L, 0, 7);
     lua_pushinteger(L, lua_Integer(editor.stats().triangles));
     lua_setfield(L, -2, "triangles");
     lua_pushinteger(L, lua_Integer(editor.stats().cubes));
     lua_setfield(L, -2, "cubes");
     lua_pushnumber(L, editor.timings().ui_ms);
     lua_setfield(L, -2, "ui_ms");
+    lua_pushnumber(L, editor.timings().ui_build_ms);
+    lua_setfield(L, -2, "ui_build_ms");
     lua_pushnumber(L, editor.timings().scene_ms);
     lua_setfield(L, -2, "scene_ms");
     lua_pushnumber(L, editor.timings().pick_ms);

@@ -9,13 +9,14 @@ for _, child in ed:scene():children() do ed:select(child) break end  -- the insp
 ed:console("print('measuring')")
 ed:frame(10)  -- warm up: shaders, buffers, the font atlas
 
-local ui, scene_ms, picks = {}, {}, {}
+local ui, build, scene_ms, picks = {}, {}, {}, {}
 local _, width, height = ed:screenshot()
 math.randomseed(7)
 for i = 1, frames do
     ed:frame()
     local stats = ed:stats()
     ui[#ui + 1] = stats.ui_ms
+    build[#build + 1] = stats.ui_build_ms
     scene_ms[#scene_ms + 1] = stats.scene_ms
     -- A click every frame at a random pixel of the view's middle (where the model is).
     ed:click(width * (0.25 + 0.5 * math.random()), height * (0.25 + 0.5 * math.random()))
@@ -28,6 +29,7 @@ local function report(name, values, target)
 end
 print(("editor cost over %d frames at %dx%d, %d triangles drawn"):format(frames, width, height, ed:stats().triangles))
 report("panels (build + draw)", ui, 1)
+report("  of which build (CPU)", build)
 report("pick (a click)", picks, 5)
 report("scene (for scale)", scene_ms)
 ed:close()
