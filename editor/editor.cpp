@@ -8,7 +8,9 @@
 #include <cmath>
 #include <cstdio>
 #include <functional>
+#include <optional>
 #include <stdexcept>
+#include <vector>
 
 #include <glm/gtc/matrix_transform.hpp>
 #include <glm/gtc/quaternion.hpp>
@@ -62,21 +64,48 @@ void on_cursor(GLFWwindow* window, double x, double y) {
     else if (glfwGetMouseButton(window, GLFW_MOUSE_BUTTON_MIDDLE) == GLFW_PRESS) navigator.pan(dx, dy);
 }
 
-// A click (press and release without a drag) in the view picks; a drag navigates.
-void on_mouse_button(GLFWwindow* window, int button, int action, int) {
-    static Mouse pressed;
-    if (!the_editor || button != GLFW_MOUSE_BUTTON_LEFT || ImGui::GetIO().WantCaptureMouse) return;
-    if (action == GLFW_PRESS) {
-        pressed = mouse;
+// A left click in the view: pressed and released without a drag, the press not on a panel; where it
+// was pressed, in framebuffer pixels. Read from ImGui's input state after NewFrame, not from GLFW's
+// callbacks: ImGui knows the press landed on a panel even when the pointer moved there and clicked
+// within one frame (common at a few frames a second), when WantCaptureMouse still tells of the last.
+std::optional<ImVec2> view_click() {
+    const ImGuiIO& io = ImGui::GetIO();
+    const int left = ImGuiMouseButton_Left;
+    if (!io.MouseReleased[left] || io.MouseDownOwned[left] || io.MouseDragMaxDistanceSqr[left] > 3 * 3) return {};
+    // ImGui's positions are in screen coordinates; the framebuffer may have more pixels (HiDPI).
+    const ImVec2 at = io.MouseClickedPos[left];
+    return ImVec2(at.x * io.DisplayFramebufferScale.x, at.y * io.DisplayFramebufferScale.y);
+}
+
+// ImGui 1.86 reads keys as states once a frame: a key pressed and released within one frame (a quick
+// tap at a few frames a second) would never be seen down, and Enter would not run the console's line.
+// So a release that follows its press within a frame is held back until the next frame. Installed
+// after ImGui's backend, in front of it; ImGui's callback calls the viewer's (on_key) in turn.
+struct KeyTaps {
+    GLFWkeyfun imgui = nullptr;
+    std::vector<int> pressed;  // since the last frame
+    struct Release {
+        int key, scancode, mods;
+    };
+    std::vector<Release> held;
+} key_taps;
+
+void on_key_event(GLFWwindow* window, int key, int scancode, int action, int mods) {
+    if (action == GLFW_PRESS) key_taps.pressed.push_back(key);
+    if (action == GLFW_RELEASE && std::ranges::find(key_taps.pressed, key) != key_taps.pressed.end()) {
+        key_taps.held.push_back({key, scancode, mods});
         return;
     }
-    if (std::abs(mouse.x - pressed.x) > 3 || std::abs(mouse.y - pressed.y) > 3) return;
-    // Cursor positions are in screen coordinates; the framebuffer may have more pixels (HiDPI).
-    int window_width = 0, window_height = 0, width = 0, height = 0;
-    glfwGetWindowSize(window, &window_width, &window_height);
-    glfwGetFramebufferSize(window, &width, &height);
-    if (window_width > 0 && window_height > 0)
-        the_editor->click(mouse.x * width / window_width, mouse.y * height / window_height);
+    if (key_taps.imgui) key_taps.imgui(window, key, scancode, action, mods);
+}
+
+// Before a frame's events: the releases held back in the last frame.
+void release_held_keys(GLFWwindow* window) {
+    std::vector<KeyTaps::Release> held;
+    held.swap(key_taps.held);
+    key_taps.pressed.clear();
+    if (key_taps.imgui)
+        for (const KeyTaps::Release& r : held) key_taps.imgui(window, r.key, r.scancode, GLFW_RELEASE, r.mods);
 }
 
 void on_scroll(GLFWwindow*, double, double dy) {
@@ -151,12 +180,13 @@ Editor::Editor(Runtime& runtime, SceneState state)
     glfwSetCursorPosCallback(window, on_cursor);
     glfwSetScrollCallback(window, on_scroll);
     glfwSetKeyCallback(window, on_key);
-    glfwSetMouseButtonCallback(window, on_mouse_button);
     IMGUI_CHECKVERSION();
     ImGui::CreateContext();
     ImGui::GetIO().IniFilename = nullptr;  // the layout is the editor's, not a file left in the working folder
     ImGui::StyleColorsDark();
     ImGui_ImplGlfw_InitForOpenGL(window, true);
+    key_taps = {};
+    key_taps.imgui = glfwSetKeyCallback(window, on_key_event);
     ImGui_ImplOpenGL3_Init("#version 450");
     the_editor = this;
     if (same_pose(camera(), Pose{})) navigator_.reset();  // a camera never placed: frame the scene
@@ -177,7 +207,7 @@ Editor::~Editor() {
     glfwSetCursorPosCallback(window, nullptr);
     glfwSetScrollCallback(window, nullptr);
     glfwSetKeyCallback(window, nullptr);
-    glfwSetMouseButtonCallback(window, nullptr);
+    key_taps = {};
     glfwHideWindow(window);
     the_editor = nullptr;
 }
@@ -199,6 +229,7 @@ bool Editor::frame() {
     if (!open_) return false;
     window_.make_current();
     const Pose before_events = pose_of(camera());
+    release_held_keys(window_.window());
     window_.poll_events();
     if (window_.should_close()) {
         close();
@@ -230,6 +261,7 @@ bool Editor::frame() {
     ImGui_ImplOpenGL3_NewFrame();
     ImGui_ImplGlfw_NewFrame();
     ImGui::NewFrame();
+    if (const std::optional<ImVec2> at = view_click()) click(at->x, at->y);
     const Pose before_panels = pose_of(camera());
     draw_panels();
     // The camera moved by something other than the mouse (a bookmark, the timeline, the console):

@@ -10,7 +10,7 @@ packages=(
   libgtest-dev libgmock-dev
   libepoxy-dev libegl-dev libegl-mesa0 libgl1-mesa-dri libglfw3-dev libglm-dev
   libopenexr-dev openexr libstb-dev xvfb xauth
-  liblua5.4-dev ffmpeg libedit-dev tmux libimgui-dev
+  liblua5.4-dev ffmpeg libedit-dev tmux libimgui-dev xdotool
   libopenscenegraph-dev  # only for the cull benchmark (tests/bench/bench_cull.cpp), its peer
 )
 

@@ -1,0 +1,43 @@
+-- Real input through the X server: tests/cli/editor_input.sh clicks, drags, presses keys and types with
+-- xdotool while this script runs frames. Each stage writes a marker file that tells the sender to go on,
+-- then runs frames until the input has had its effect (or fails at a deadline).
+local work = assert(os.getenv("WORK"), "WORK must name the test's scratch directory")
+local ed = editor
+local scene = ed:scene()
+local cam = ed:camera()
+
+local function stage(name, done)
+    io.open(work .. "/" .. name, "w"):close()
+    local deadline = os.time() + 60
+    while not done() do
+        assert(ed:frame(), "the window closed during " .. name)
+        assert(os.time() < deadline, "no effect of the input within a minute: " .. name)
+    end
+end
+
+local function position() return cam:pose().position end
+local function distance(a, b) return math.sqrt((a[1] - b[1]) ^ 2 + (a[2] - b[2]) ^ 2 + (a[3] - b[3]) ^ 2) end
+
+-- The middle model alone, in the middle of the window.
+scene:find("place1"):visible(false)
+scene:find("place3"):visible(false)
+cam:look_at({ 0, 0.2, 2.5 }, { 0, 0, 0 })
+assert(ed:frame(2))
+
+-- A left click on it selects it (ray against the drawn geometry).
+stage("click", function() return ed:selected() and ed:selected():name() == "bunny2" end)
+
+-- A left drag orbits: the eye moves, and the release after a drag picks nothing new.
+local before_drag = position()
+stage("drag", function() return distance(position(), before_drag) > 1e-3 end)
+assert(ed:selected():name() == "bunny2", "the drag changed the selection")
+
+-- F switches to fly mode; holding W flies forward, toward the model.
+local before_fly = position()
+stage("fly", function() return distance(position(), { 0, 0, 0 }) < distance(before_fly, { 0, 0, 0 }) - 1e-3 end)
+
+-- A click in the console's input line, then a typed line and Return: it runs against the live scene.
+stage("type", function() return typed == "bunny2" end)
+
+print("editor input: ok")
+ed:close()
