@@ -33,7 +33,7 @@ const char* const kHelpText =
     "       middle drag pans\n"
     "keys:  F fly/orbit, W A S D Q E move in fly mode (Shift: faster), R reset the view\n"
     "       1 shaded, 2 colour by level, 3 wireframe, B cube boxes, M morph on/off (every model)\n"
-    "panels: outliner, inspector, camera and bookmarks, path (keys, timeline), Lua console\n";
+    "panels: outliner, inspector, camera and bookmarks, path (keys, timeline), Lua console; Tab hides them\n";
 
 bool is_scene_script(const std::vector<std::string>& files) {
     return files.size() == 1 && std::filesystem::path(files[0]).extension() == ".lua";

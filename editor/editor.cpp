@@ -132,6 +132,7 @@ void on_key(GLFWwindow*, int key, int, int action, int) {
     case GLFW_KEY_3: view(HlodDebugView::wireframe); break;
     case GLFW_KEY_B: for_each_model(scene, [](HlodModel& m) { m.set_show_cube_boxes(!m.show_cube_boxes()); }); break;
     case GLFW_KEY_M: for_each_model(scene, [](HlodModel& m) { m.set_morph(!m.morph()); }); break;
+    case GLFW_KEY_TAB: the_editor->show_panels(!the_editor->panels_shown()); break;
     default: break;
     }
 }
@@ -392,6 +393,7 @@ void Editor::draw_panels() {
         ImGui::SetNextWindowSize(size, ImGuiCond_FirstUseEver);
     };
     const float column = display.y - console_height;
+    if (!panels_shown_) return draw_overlays();
     place({0, 0}, {side, column * 0.5f});
     if (ImGui::Begin("Outliner")) draw_outliner();
     ImGui::End();
@@ -407,6 +409,11 @@ void Editor::draw_panels() {
     place({0, column}, {display.x, console_height});
     if (ImGui::Begin("Console")) console_.draw_panel();
     ImGui::End();
+    draw_overlays();
+}
+
+void Editor::draw_overlays() {
+    const ImVec2 display = ImGui::GetIO().DisplaySize;
     draw_stats_overlay();
     path_.draw_overlay(*ImGui::GetBackgroundDrawList(), display.x, display.y);
 }

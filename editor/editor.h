@@ -67,6 +67,10 @@ public:
     // Waits for the GPU between the scene and the panels each frame, so timings() split them exactly
     // (benchmarks; it costs the overlap of CPU and GPU work).
     void set_measure(bool on) { measure_ = on; }
+    // Hidden panels (Tab) leave the view clear for a presentation or a screenshot; the stats overlay and
+    // the path stay.
+    void show_panels(bool on) { panels_shown_ = on; }
+    bool panels_shown() const { return panels_shown_; }
 
     NodePtr selected() const { return selected_.lock(); }
     void select(const NodePtr& node) { selected_ = node; }
@@ -99,6 +103,7 @@ private:
     void draw_outliner_node(const NodePtr& node);
     void draw_inspector();
     void draw_camera_panel();
+    void draw_overlays();  // over the view, panels shown or not: the stats and the path
     void draw_stats_overlay();
     void handle_navigation(double seconds);
     void capture_back_buffer(int width, int height);
@@ -119,6 +124,7 @@ private:
     EditorTimings timings_;
     bool capture_ = false;
     bool measure_ = false;
+    bool panels_shown_ = true;
     std::vector<uint8_t> captured_;
     int last_width_ = 0, last_height_ = 0;
     std::chrono::steady_clock::time_point last_frame_;

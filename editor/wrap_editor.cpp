@@ -297,6 +297,13 @@ int editor_measure(lua_State* L) {  // ed:measure(on): exact split of the scene'
     return 0;
 }
 
+int editor_panels(lua_State* L) {  // ed:panels([on]) → whether the panels are shown (Tab toggles them)
+    Editor& editor = check_editor(L);
+    if (!lua_isnone(L, 2)) editor.show_panels(lua_toboolean(L, 2));
+    lua_pushboolean(L, editor.panels_shown());
+    return 1;
+}
+
 const luaL_Reg kEditorMethods[] = {
     {"frame", editor_frame},       {"is_open", editor_is_open},       {"close", editor_close},
     {"select", editor_select},     {"selected", editor_selected},     {"add", editor_add},
@@ -308,6 +315,7 @@ const luaL_Reg kEditorMethods[] = {
     {"bookmark", editor_bookmark}, {"go", editor_go},                 {"bookmarks", editor_bookmarks},
     {"console", editor_console},   {"screenshot", editor_screenshot}, {"stats", editor_stats},
     {"measure", editor_measure},   {"save", editor_save},             {"click", editor_click},
+    {"panels", editor_panels},
     {nullptr, nullptr}};
 
 // strata.view([scene [, camera]]): without arguments, the scene script's globals (scene, camera,

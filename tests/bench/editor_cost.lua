@@ -27,9 +27,18 @@ local function report(name, values, target)
     print(("%-22s median %7.3f ms   p95 %7.3f ms   max %7.3f ms%s"):format(name, s.median, s.p95, s.max,
           target and ("   (target ≤ %g ms)"):format(target) or ""))
 end
+-- With the panels hidden (Tab): the stats overlay alone.
+ed:panels(false)
+local hidden = {}
+for i = 1, frames do
+    ed:frame()
+    hidden[#hidden + 1] = ed:stats().ui_ms
+end
+
 print(("editor cost over %d frames at %dx%d, %d triangles drawn"):format(frames, width, height, ed:stats().triangles))
 report("panels (build + draw)", ui, 1)
 report("  of which build (CPU)", build)
+report("panels hidden (Tab)", hidden, 1)
 report("pick (a click)", picks, 5)
 report("scene (for scale)", scene_ms)
 ed:close()

@@ -55,7 +55,8 @@ checks=$((checks + 1))
 if [ -z "$window" ]; then
     fail "no editor window appeared"
 else
-    step click click_model && step drag drag && step fly fly_forward && step type type_line
+    step click click_model && step drag drag && step fly fly_forward &&
+        step tab xdotool key Tab && step "tab again" xdotool key Tab && step type type_line
 fi
 checks=$((checks + 1))
 wait $editor || { fail "the editor exited non-zero:"; cat "$WORK/err.txt"; }

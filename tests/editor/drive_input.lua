@@ -36,6 +36,10 @@ assert(ed:selected():name() == "bunny2", "the drag changed the selection")
 local before_fly = position()
 stage("fly", function() return distance(position(), { 0, 0, 0 }) < distance(before_fly, { 0, 0, 0 }) - 1e-3 end)
 
+-- Tab hides the panels, and shows them again.
+stage("tab", function() return not ed:panels() end)
+stage("tab again", function() return ed:panels() end)
+
 -- A click in the console's input line, then a typed line and Return: it runs against the live scene.
 stage("type", function() return typed == "bunny2" end)
 

@@ -25,6 +25,15 @@ assert(count(0, 0, 290, 250, bright) > 50, "no text in the outliner")
 assert(count(400, 150, 880, 500, bright) > 2000, "the scene is not drawn")
 -- The console along the bottom.
 assert(count(0, 560, 1279, 715, dark) > 20000, "no console")
+-- Hidden panels (Tab) leave the scene's background where the outliner was; shown again, it is back.
+assert(editor:panels() == true)
+assert(editor:panels(false) == false)
+pixels = editor:screenshot()
+assert(count(0, 0, 290, 250, dark) < 100, "the outliner is drawn while the panels are hidden")
+assert(count(400, 150, 880, 500, bright) > 2000, "the scene is not drawn without the panels")
+assert(editor:panels(true) == true)
+pixels = editor:screenshot()
+assert(count(0, 0, 290, 250, dark) > 5000, "the panels did not come back")
 
 -- Outliner and inspector.
 assert(editor:select("place2"):name() == "place2")
