@@ -21,10 +21,14 @@ void Console::enter(const std::string& line) {
     append(std::string(interpreter_.prompt()) + line, false, true);
     if (!line.empty() && (history_.empty() || history_.back() != line)) history_.push_back(line);
     history_position_ = -1;
-    // Output and errors of this line come to the log instead of the terminal.
-    runtime_.set_output_sink([this](std::string_view text, bool error) { append(text, error, false); });
+    // Output and errors of this line come to the log instead of where they went (the terminal, or
+    // another console's line that runs this one), and go back there afterwards, whatever happens.
+    struct RestoreSink {
+        Runtime& runtime;
+        Runtime::OutputSink previous;
+        ~RestoreSink() { runtime.set_output_sink(std::move(previous)); }
+    } restore{runtime_, runtime_.set_output_sink([this](std::string_view text, bool error) { append(text, error, false); })};
     interpreter_.feed(line);
-    runtime_.set_output_sink(nullptr);
 }
 
 std::string Console::text(size_t from) const {

@@ -151,11 +151,12 @@ Pose pose_of(const Camera& camera) { return {camera.position, camera.orientation
 
 // ---- lifetime ------------------------------------------------------------------------------------
 
-std::shared_ptr<Group> checked_group(const NodePtr& scene) {
-    auto group = std::dynamic_pointer_cast<Group>(scene);
-    if (!group) throw std::invalid_argument("the scene must be a group (strata.scene())");
-    return group;
-}
+// Raises a count for a scope, whatever way it ends.
+struct Raised {
+    int& count;
+    explicit Raised(int& c) : count(++c) {}
+    ~Raised() { --count; }
+};
 
 SceneState with_camera(SceneState state) {
     if (!state.camera) state.camera = std::make_shared<Camera>();
@@ -167,7 +168,7 @@ SceneState with_camera(SceneState state) {
 Editor::Editor(Runtime& runtime, SceneState state)
     : runtime_(runtime),
       state_(with_camera(std::move(state))),
-      scene_(checked_group(state_.scene)),
+      scene_(checked_scene(state_.scene)),
       window_(runtime.window_context()),
       navigator_(*state_.camera, scene_->bound()),
       path_(*state_.camera),
@@ -213,6 +214,17 @@ Editor::~Editor() {
     the_editor = nullptr;
 }
 
+std::shared_ptr<Group> Editor::checked_scene(const NodePtr& scene) {
+    auto group = std::dynamic_pointer_cast<Group>(scene);
+    if (!group) throw std::invalid_argument("the scene must be a group (strata.scene())");
+    return group;
+}
+
+void Editor::enter_console_line(const std::string& line) {
+    const Raised running(console_lines_);
+    console_.enter(line);
+}
+
 void Editor::close() {
     if (!open_) return;
     open_ = false;
@@ -228,6 +240,8 @@ void Editor::handle_navigation(double seconds) {
 
 bool Editor::frame() {
     if (!open_) return false;
+    if (drawing_ > 0) throw std::logic_error("the editor is drawing a frame: frame() and screenshot() cannot run from its console");
+    const Raised drawing(drawing_);
     window_.make_current();
     const Pose before_events = pose_of(camera());
     release_held_keys(window_.window());

@@ -46,10 +46,17 @@ public:
     Editor& operator=(const Editor&) = delete;
 
     // Draws one frame (events, navigation, path playback, scene, panels). False once the window was
-    // closed; the window is then hidden and frame() does nothing more.
+    // closed; the window is then hidden and frame() does nothing more. Throws std::logic_error when
+    // called inside a frame (from the console: ImGui's frames do not nest).
     bool frame();
     bool open() const { return open_; }
     void close();
+    // Drawing a frame or running a console line: Lua run from there may not replace the editor.
+    bool busy() const { return drawing_ > 0 || console_lines_ > 0; }
+    // A line run in the console as if typed (scripts, tests).
+    void enter_console_line(const std::string& line);
+    // The scene an editor can open: a group (strata.scene()). Throws std::invalid_argument otherwise.
+    static std::shared_ptr<Group> checked_scene(const NodePtr& scene);
 
     // The state as edited, with the path editor's path in `paths` (none when it has no keys). Throws
     // std::runtime_error when its keys make no valid path (one key, two keys at one place…).
@@ -123,6 +130,7 @@ private:
     FrameStats stats_;
     EditorTimings timings_;
     bool capture_ = false;
+    int drawing_ = 0, console_lines_ = 0;  // frames and console lines in progress (busy())
     bool measure_ = false;
     bool panels_shown_ = true;
     std::vector<uint8_t> captured_;

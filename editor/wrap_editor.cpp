@@ -49,7 +49,7 @@ size_t check_key(lua_State* L, int index, const Editor& editor) {
 }
 
 int editor_frame(lua_State* L) {  // ed:frame([n]) → open
-    const std::shared_ptr<Editor>& editor = check_handle(L);
+    const std::shared_ptr<Editor> editor = check_handle(L);  // a copy: the handle is the Lua state's
     const lua_Integer frames = luaL_optinteger(L, 2, 1);
     bool open = editor && editor->open();
     for (lua_Integer i = 0; i < frames && open; ++i) open = guarded(L, [&] { return int(editor->frame()); });
@@ -225,10 +225,11 @@ int editor_bookmarks(lua_State* L) {  // → { "name", … } in order
 }
 
 int editor_console(lua_State* L) {  // ed:console(line) → what the console showed for it
-    Console& console = check_editor(L).console();
-    const size_t before = console.log().size();
-    console.enter(luaL_checkstring(L, 2));
-    lua_pushstring(L, console.text(before).c_str());
+    Editor& editor = check_editor(L);
+    const std::string line = luaL_checkstring(L, 2);
+    const size_t before = editor.console().log().size();
+    editor.enter_console_line(line);
+    lua_pushstring(L, editor.console().text(before).c_str());
     return 1;
 }
 
@@ -342,8 +343,12 @@ std::shared_ptr<Editor> open_editor(Runtime& runtime, SceneState state) {
     lua_State* L = runtime.state();
     // One editor at a time: the previous one (open or closed) goes first.
     lua_getfield(L, LUA_REGISTRYINDEX, kOpenEditor);
-    if (auto* previous = static_cast<std::shared_ptr<Editor>*>(luaL_testudata(L, -1, kEditorType))) previous->reset();
-    lua_pop(L, 1);
+    auto* previous = static_cast<std::shared_ptr<Editor>*>(luaL_testudata(L, -1, kEditorType));
+    lua_pop(L, 1);  // the registry keeps it
+    if (previous && *previous && (*previous)->busy())
+        throw std::runtime_error("strata.view cannot replace the open editor from its own console");
+    Editor::checked_scene(state.scene);  // a scene it cannot open leaves the previous editor open
+    if (previous) previous->reset();
     auto editor = std::make_shared<Editor>(runtime, std::move(state));
     // The Lua state owns it: it is destroyed when the state closes, before the GL context goes.
     lua::push_shared(L, editor, kEditorType);

@@ -8,6 +8,7 @@
 #include <memory>
 #include <string_view>
 #include <string>
+#include <utility>
 #include <vector>
 
 struct lua_State;
@@ -42,9 +43,10 @@ public:
     bool protected_call(int arguments, int results);
 
     // Where `print` and error messages go: stdout and stderr, unless a sink is set (the editor's
-    // console sets one while it runs a line). `error` is true for error messages.
+    // console sets one while it runs a line). `error` is true for error messages. Returns the sink it
+    // replaces, to be put back.
     using OutputSink = std::function<void(std::string_view text, bool error)>;
-    void set_output_sink(OutputSink sink) { sink_ = std::move(sink); }
+    OutputSink set_output_sink(OutputSink sink) { return std::exchange(sink_, std::move(sink)); }
     void write_output(std::string_view text, bool error) const;
 
     // Windows that stay open beside the script or the REPL (the editor): each frame() draws one frame

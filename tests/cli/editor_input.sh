@@ -47,7 +47,8 @@ drag() {
 fly_forward() { xdotool mousemove --window "$window" 640 300 key f keydown w && sleep 0.5 && xdotool keyup w; }
 type_line() {
     xdotool mousemove --window "$window" 640 700 click 1 && sleep 0.2 &&
-        xdotool type --delay 20 'typed = editor:selected():name()' && xdotool key Return
+        xdotool type --delay 10 'nested_ok, nested_error = pcall(editor.frame, editor); typed = editor:selected():name()' &&
+        xdotool key Return
 }
 
 window=$(timeout 60 xdotool search --sync --onlyvisible --name '^strata$' | head -1)

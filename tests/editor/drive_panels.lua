@@ -107,6 +107,14 @@ shown = editor:console("end")
 assert(twice(21) == 42, "multi-line function not defined")
 shown = editor:console("nosuch.field = 1")
 assert(shown:find("attempt to index a nil value"), shown)
+-- The editor cannot be replaced from its own console, nor by a scene it cannot open: it stays open.
+shown = editor:console("strata.view()")
+assert(shown:find("cannot replace the open editor from its own console"), shown)
+assert(not pcall(strata.view, strata.plane{ width = 1, depth = 1 }), "a mesh is not a scene to open")
+assert(editor:is_open() and editor:frame())
+-- Output goes back where it went after a console line run from another one.
+shown = editor:console("editor:console('print(1 + 1)'); print('after')")
+assert(shown:find("2") and shown:find("after"), shown)
 
 -- Its own cost: the panels are cheap next to the scene.
 local stats = editor:stats()
