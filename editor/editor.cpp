@@ -193,6 +193,7 @@ Editor::Editor(Runtime& runtime, SceneState state)
     the_editor = this;
     if (same_pose(camera(), Pose{})) navigator_.reset();  // a camera never placed: frame the scene
     else navigator_.follow_camera();
+    drawn_pose_ = pose_of(camera());
     if (!state_.paths.empty()) {
         path_name_ = state_.paths.front().first;
         path_.set_path(*state_.paths.front().second);
@@ -235,7 +236,9 @@ void Editor::close() {
 
 void Editor::handle_navigation(double seconds) {
     if (navigator_.flying() && !ImGui::GetIO().WantCaptureKeyboard) navigator_.fly(fly_direction(window_.window()), seconds);
+    const Pose before_path = pose_of(camera());
     path_.advance(seconds);
+    if (!same_pose(camera(), before_path)) navigator_.follow_camera();
 }
 
 bool Editor::frame() {
@@ -243,7 +246,10 @@ bool Editor::frame() {
     if (drawing_ > 0) throw std::logic_error("the editor is drawing a frame: frame() and screenshot() cannot run from its console");
     const Raised drawing(drawing_);
     window_.make_current();
-    const Pose before_events = pose_of(camera());
+    navigator_.set_bounds(scene_->bound());
+    // Moved since the last frame by a script or the REPL: orbit about the point ahead of the new pose.
+    // (The navigator's own moves keep its orbit point.)
+    if (!same_pose(camera(), drawn_pose_)) navigator_.follow_camera();
     release_held_keys(window_.window());
     window_.poll_events();
     if (window_.should_close()) {
@@ -257,7 +263,10 @@ bool Editor::frame() {
     handle_navigation(seconds);
 
     const glm::ivec2 size = window_.framebuffer_size();
-    if (size.x == 0 || size.y == 0) return true;  // minimized
+    if (size.x == 0 || size.y == 0) {  // minimized
+        drawn_pose_ = pose_of(camera());
+        return true;
+    }
     if (!target_ || target_->width() != size.x || target_->height() != size.y)
         target_ = std::make_unique<gl::Framebuffer>(gl::FramebufferFormat{.width = size.x, .height = size.y, .samples = 4});
     camera().width = size.x;
@@ -283,9 +292,8 @@ bool Editor::frame() {
     }
     const Pose before_panels = pose_of(camera());
     draw_panels();
-    // The camera moved by something other than the mouse (a bookmark, the timeline, the console):
-    // orbit about the point ahead of its new pose.
-    if (!same_pose(camera(), before_panels) || !same_pose(camera(), before_events)) navigator_.follow_camera();
+    // Moved by the panels (a bookmark, the timeline, the console): orbit about the point ahead.
+    if (!same_pose(camera(), before_panels)) navigator_.follow_camera();
     ImGui::Render();
     timings_.ui_build_ms = milliseconds_since(ui_start) - picking_ms;
     glBindFramebuffer(GL_FRAMEBUFFER, 0);
@@ -295,6 +303,7 @@ bool Editor::frame() {
     timings_.ui_ms = milliseconds_since(ui_start) - picking_ms;
     last_width_ = size.x;
     last_height_ = size.y;
+    drawn_pose_ = pose_of(camera());
     if (capture_) capture_back_buffer(size.x, size.y);  // before the swap leaves it undefined
     window_.swap_buffers();
     ++frames_;
@@ -336,7 +345,6 @@ NodePtr Editor::add_file(const std::filesystem::path& file) {
     else node = Geometry::load(file);
     node->set_name(file.stem().string());
     scene_->add(node);
-    navigator_.set_bounds(scene_->bound());
     selected_ = node;
     return node;
 }

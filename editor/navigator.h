@@ -15,8 +15,10 @@ public:
 
     // Looks at the scene from the front-right, framed.
     void reset();
-    // The camera was moved from outside (a bookmark, the path): orbit about the point ahead of it.
+    // The camera was moved from outside (a bookmark, the path, a script): orbit about the point ahead
+    // of it, as far as the scene's centre.
     void follow_camera();
+    // The scene's bounds, refreshed each frame: models come and go.
     void set_bounds(const Box& bounds) { bounds_ = bounds; }
 
     void toggle_fly() { fly_ = !fly_; }
@@ -29,6 +31,9 @@ public:
     void fly(const glm::dvec3& direction, double seconds);
 
 private:
+    double scene_radius() const;  // the scale of every speed
+    glm::dvec3 scene_center() const;
+
     Camera& camera_;
     Box bounds_;
     glm::dvec3 target_{0};

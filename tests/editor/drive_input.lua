@@ -31,6 +31,9 @@ stage("click", function() return ed:selected() and ed:selected():name() == "bunn
 local before_drag = position()
 stage("drag", function() return distance(position(), before_drag) > 1e-3 end)
 assert(ed:selected():name() == "bunny2", "the drag changed the selection")
+-- It orbits about the point ahead of where the script put the camera, not about an older one.
+local from_origin = distance(position(), { 0, 0, 0 })
+assert(math.abs(from_origin - distance(before_drag, { 0, 0, 0 })) < 0.25, "the drag moved the eye to " .. from_origin)
 
 -- F switches to fly mode; holding W flies forward, toward the model.
 local before_fly = position()
