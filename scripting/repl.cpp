@@ -43,13 +43,16 @@ void collect_completions(lua_State* L, const std::string& text) {
             offer(keyword);
         lua_pushglobaltable(L);
     } else {
-        // Evaluate the head (without its separator) as a path of names from the globals.
+        // Evaluate the head (without its separator) as a path of names from the globals. Raw lookups:
+        // completing runs no __index of the user's (which might fail, or do anything).
         lua_pushglobaltable(L);
         size_t start = 0;
         const std::string path = head.substr(0, head.size() - 1);
         while (start <= path.size() && lua_istable(L, -1)) {
             const size_t end = path.find_first_of(".:", start);
-            lua_getfield(L, -1, path.substr(start, end - start).c_str());
+            const std::string name = path.substr(start, end - start);
+            lua_pushlstring(L, name.data(), name.size());
+            lua_rawget(L, -2);
             lua_remove(L, -2);
             if (end == std::string::npos) break;
             start = end + 1;
@@ -112,8 +115,13 @@ char* next_completion(const char*, int state) {
 }
 
 char** complete(const char* text, int start, int) {
-    if (in_find_argument(start)) collect_node_names(completion_state, text);
-    else collect_completions(completion_state, text);
+    // Called from libedit (C): nothing may be thrown through it. A failure offers no completions.
+    try {
+        if (in_find_argument(start)) collect_node_names(completion_state, text);
+        else collect_completions(completion_state, text);
+    } catch (...) {
+        completions.clear();
+    }
     rl_completion_append_character = '\0';
     return rl_completion_matches(text, next_completion);
 }

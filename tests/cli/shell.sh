@@ -51,6 +51,10 @@ expect_screen "expression" "3"
 tmux_ send-keys -t shell 'f = strata.loa' Tab
 expect_screen "API completion" "strata> f = strata.load"
 tmux_ send-keys -t shell C-u
+# Completing runs no __index of the user's: one that fails leaves the shell alive.
+tmux_ send-keys -t shell 't = setmetatable({}, { __index = function(_, k) error(k) end })' Enter
+tmux_ send-keys -t shell 't.x.y' Tab C-u 'print(40 + 2)' Enter
+expect_screen "completion past a failing __index" "42"
 # Completion of a method on a node, then of a node name inside find("…").
 tmux_ send-keys -t shell 'scene:fi' Tab '("bu' Tab '"):name()' Enter
 expect_screen "node name completion" 'scene:find("bunny"):name()'
