@@ -479,6 +479,37 @@ void Editor::draw_outliner() {
     if (!save_message_.empty()) ImGui::TextWrapped("%s", save_message_.c_str());
 }
 
+namespace {
+
+// Translation, rotation (Euler degrees, XYZ) and uniform scale, as the Lua API composes them. Another
+// matrix (a stretch, a shear, a mirror from a scene script) would be lost by rebuilding it from these:
+// only its translation is edited.
+void draw_transform_fields(Transform& transform) {
+    const glm::dmat4& m = transform.matrix();
+    glm::dvec3 translation(m[3]);
+    if (!is_rotation_and_uniform_scale(m)) {
+        if (ImGui::InputScalarN("translate", ImGuiDataType_Double, &translation.x, 3, nullptr, nullptr, "%.4f")) {
+            glm::dmat4 moved = m;
+            moved[3] = glm::dvec4(translation, m[3][3]);
+            transform.set_matrix(moved);
+        }
+        ImGui::TextDisabled("general matrix: translation only");
+        return;
+    }
+    const double scale = glm::length(glm::dvec3(m[0]));
+    glm::dvec3 euler = glm::degrees(glm::eulerAngles(glm::quat_cast(glm::dmat3(m) / scale)));
+    double s = scale;
+    bool changed = ImGui::InputScalarN("translate", ImGuiDataType_Double, &translation.x, 3, nullptr, nullptr, "%.4f");
+    changed |= ImGui::InputScalarN("rotate °", ImGuiDataType_Double, &euler.x, 3, nullptr, nullptr, "%.2f");
+    changed |= ImGui::InputScalar("scale", ImGuiDataType_Double, &s, nullptr, nullptr, "%.4f");
+    if (changed && s > 0) {
+        const glm::dmat4 rotation = glm::mat4_cast(glm::dquat(glm::radians(euler)));
+        transform.set_matrix(glm::translate(glm::dmat4(1.0), translation) * rotation * glm::scale(glm::dmat4(1.0), glm::dvec3(s)));
+    }
+}
+
+}  // namespace
+
 void Editor::draw_inspector() {
     const NodePtr node = selected();
     if (!node) {
@@ -488,21 +519,7 @@ void Editor::draw_inspector() {
     std::string name = node->name();
     if (ImGui::InputText("name", &name)) node->set_name(name);
     ImGui::Text("type: %s", type_name(*node));
-    if (auto* transform = dynamic_cast<Transform*>(node.get())) {
-        // Translation, rotation (Euler degrees, XYZ) and uniform scale, as the Lua API composes them.
-        const glm::dmat4& m = transform->matrix();
-        glm::dvec3 translation(m[3]);
-        const double scale = glm::length(glm::dvec3(m[0]));
-        glm::dvec3 euler = glm::degrees(glm::eulerAngles(glm::quat_cast(glm::dmat3(m) / scale)));
-        double s = scale;
-        bool changed = ImGui::InputScalarN("translate", ImGuiDataType_Double, &translation.x, 3, nullptr, nullptr, "%.4f");
-        changed |= ImGui::InputScalarN("rotate °", ImGuiDataType_Double, &euler.x, 3, nullptr, nullptr, "%.2f");
-        changed |= ImGui::InputScalar("scale", ImGuiDataType_Double, &s, nullptr, nullptr, "%.4f");
-        if (changed && s > 0) {
-            const glm::dmat4 rotation = glm::mat4_cast(glm::dquat(glm::radians(euler)));
-            transform->set_matrix(glm::translate(glm::dmat4(1.0), translation) * rotation * glm::scale(glm::dmat4(1.0), glm::dvec3(s)));
-        }
-    }
+    if (auto* transform = dynamic_cast<Transform*>(node.get())) draw_transform_fields(*transform);
     if (auto* model = dynamic_cast<HlodModel*>(node.get())) {
         // Detail by a screen-space error in pixels (Eq. 4.5 sets κ0 per view), or by κ0 itself.
         int by_kappa0 = model->pixel_error() > 0 ? 0 : 1;

@@ -1,6 +1,7 @@
 #include "engine/scene/node.h"
 
 #include <algorithm>
+#include <cmath>
 #include <stdexcept>
 
 #include "engine/scene/visitor.h"
@@ -111,6 +112,18 @@ NodePtr find_node(const NodePtr& root, const Node* node) {
         for (const NodePtr& child : group->children())
             if (NodePtr found = find_node(child, node)) return found;
     return nullptr;
+}
+
+bool is_rotation_and_uniform_scale(const glm::dmat4& matrix) {
+    const glm::dmat3 linear(matrix);
+    const double scale = glm::length(linear[0]);
+    if (!(scale > 0) || matrix[0][3] != 0 || matrix[1][3] != 0 || matrix[2][3] != 0 || matrix[3][3] != 1) return false;
+    const glm::dmat3 rotation = linear / scale;
+    const glm::dmat3 error = glm::transpose(rotation) * rotation - glm::dmat3(1.0);
+    for (int column = 0; column < 3; ++column)
+        for (int row = 0; row < 3; ++row)
+            if (!(std::abs(error[column][row]) <= 1e-9)) return false;
+    return glm::determinant(rotation) > 0;
 }
 
 }  // namespace strata

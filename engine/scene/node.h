@@ -117,6 +117,10 @@ private:
     glm::dmat4 matrix_{1.0};
 };
 
+// A rotation times a uniform scale and a translation (no shear, mirror, stretch or projection), to a
+// relative 1e-9: what translate / rotate / scale fields can show and rebuild without changing it.
+bool is_rotation_and_uniform_scale(const glm::dmat4& matrix);
+
 // The first node named `name` at or below `root`, depth first; nullptr if none.
 Node* find_node(Node& root, const std::string& name);
 // The same, sharing ownership of what it finds.

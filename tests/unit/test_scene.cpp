@@ -77,6 +77,22 @@ TEST(Graph, GroupBoundFollowsItsChildren) {
     EXPECT_TRUE(moved->parents().empty());
 }
 
+TEST(Graph, RotationAndUniformScaleIsToldFromGeneralMatrices) {
+    const glm::dmat4 trs = glm::scale(glm::rotate(glm::translate(glm::dmat4(1.0), glm::dvec3(1, 2, 3)), 0.7, glm::dvec3(1, 1, 0)),
+                                      glm::dvec3(2.5));
+    EXPECT_TRUE(is_rotation_and_uniform_scale(glm::dmat4(1.0)));
+    EXPECT_TRUE(is_rotation_and_uniform_scale(trs));
+    EXPECT_FALSE(is_rotation_and_uniform_scale(glm::scale(glm::dmat4(1.0), glm::dvec3(2, 1, 1))));  // stretch
+    EXPECT_FALSE(is_rotation_and_uniform_scale(glm::scale(glm::dmat4(1.0), glm::dvec3(-1, -1, -1))));  // mirror
+    glm::dmat4 shear(1.0);
+    shear[1][0] = 0.3;
+    EXPECT_FALSE(is_rotation_and_uniform_scale(shear));
+    EXPECT_FALSE(is_rotation_and_uniform_scale(glm::dmat4(0.0)));
+    glm::dmat4 projective(1.0);
+    projective[0][3] = 0.1;
+    EXPECT_FALSE(is_rotation_and_uniform_scale(projective));
+}
+
 TEST(Graph, ACycleIsRefused) {
     auto a = std::make_shared<Group>(), b = std::make_shared<Group>();
     a->set_name("a");
