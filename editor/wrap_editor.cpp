@@ -4,6 +4,7 @@
 // scripted tests and capture set-ups use.
 #include "editor/wrap_editor.h"
 
+#include <cmath>
 #include <stdexcept>
 #include <string>
 
@@ -165,7 +166,9 @@ int editor_duration(lua_State* L) {  // ed:duration() → seconds, or nil and wh
 }
 
 int editor_scrub(lua_State* L) {
-    check_editor(L).path().scrub(luaL_checknumber(L, 2));
+    const lua_Number seconds = luaL_checknumber(L, 2);
+    luaL_argcheck(L, std::isfinite(seconds), 2, "a finite time in seconds expected");
+    check_editor(L).path().scrub(seconds);
     return 0;
 }
 

@@ -113,7 +113,10 @@ bool Runtime::protected_call(int arguments, int results) {
     const int status = lua_pcall(L_, arguments, results, handler);
     lua_remove(L_, handler);
     if (status == LUA_OK) return true;
-    write_output(std::string(lua_tostring(L_, -1)) + "\n", true);
+    // A message, or whatever was raised (an error object, or nothing readable when a C++ exception
+    // unwound through Lua): never a null string.
+    const char* message = lua_tostring(L_, -1);
+    write_output(std::string(message ? message : "(an error without a message)") + "\n", true);
     lua_pop(L_, 1);
     return false;
 }

@@ -76,6 +76,8 @@ editor:scrub(0)
 assert(near(cam:pose().position[1], home.position[1], 1e-9))
 editor:scrub(2.0)
 assert(near(cam:pose().position[1], 0.4, 1e-9) and near(editor:time(), 2.0))
+assert(not pcall(editor.scrub, editor, 0 / 0), "a NaN time must be refused")
+assert(near(editor:time(), 2.0))
 editor:scrub(total)
 assert(near(cam:pose().position[1], -0.4, 1e-9))
 -- Move key 2 to a new place and check the path goes through it.
