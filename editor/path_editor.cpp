@@ -148,7 +148,8 @@ void PathEditor::draw_panel() {
             if (i + 1 < keys_.size()) {
                 float seconds = float(keys_[i].duration.value_or(0.0));
                 ImGui::SetNextItemWidth(60);
-                if (ImGui::InputFloat("##duration", &seconds, 0, 0, "%.2f", ImGuiInputTextFlags_EnterReturnsTrue))
+                // Applied as typed, like the inspector's fields: clicking away keeps what was typed.
+                if (ImGui::InputFloat("##duration", &seconds, 0, 0, "%.2f"))
                     set_duration(i, seconds > 0 ? std::optional<double>(seconds) : std::nullopt);
             }
             ImGui::TableNextColumn();
