@@ -78,7 +78,12 @@ int run_view(const ViewOptions& o) {
         runtime.pump_live_windows();
         if (o.frames > 0 && frame >= o.frames) break;
     }
-    if (!o.screenshot.empty() && editor->open()) {
+    if (!o.screenshot.empty()) {
+        // Asked for and not written is a failure, not a quiet success.
+        if (!editor->open()) {
+            std::fprintf(stderr, "strata view: %s: not written, the window was closed before the last frame\n", o.screenshot.c_str());
+            return kFailed;
+        }
         try {
             int w = 0, h = 0;
             const std::vector<uint8_t> pixels = editor->screenshot(w, h);

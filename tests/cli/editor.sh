@@ -40,6 +40,8 @@ printf 'scene = strata.scene()\nerror("broken scene")\n' >"$WORK/broken.lua"
 expect_failure "failing scene script" "broken.lua:2: broken scene" xvfb "$STRATA" view "$WORK/broken.lua" --frames 1
 printf 'local x = 1\n' >"$WORK/noscene.lua"
 expect_failure "no scene global" "noscene.lua: 'scene' must be a strata node" xvfb "$STRATA" view "$WORK/noscene.lua" --frames 1
+printf 'editor:close()\n' >"$WORK/closing.lua"
+expect_failure "screenshot of a closed window" "shot.png: not written, the window was closed" xvfb "$STRATA" view "$WORK/scene.lua" --script "$WORK/closing.lua" --frames 1 --screenshot "$WORK/shot.png"
 printf 'editor:select("missing")\n' >"$WORK/baddrive.lua"
 expect_failure "failing drive script" "no node named 'missing'" xvfb "$STRATA" view "$WORK/scene.lua" --script "$WORK/baddrive.lua"
 finish
