@@ -147,8 +147,6 @@ bool same_pose(const Camera& camera, const Pose& pose) {
     return camera.position == pose.position && camera.orientation == pose.orientation;
 }
 
-Pose pose_of(const Camera& camera) { return {camera.position, camera.orientation, camera.fov_y_degrees}; }
-
 // ---- lifetime ------------------------------------------------------------------------------------
 
 // Raises a count for a scope, whatever way it ends.
@@ -193,7 +191,6 @@ Editor::Editor(Runtime& runtime, SceneState state)
     the_editor = this;
     if (same_pose(camera(), Pose{})) navigator_.reset();  // a camera never placed: frame the scene
     else navigator_.follow_camera();
-    drawn_pose_ = pose_of(camera());
     if (!state_.paths.empty()) {
         path_name_ = state_.paths.front().first;
         path_.set_path(*state_.paths.front().second);
@@ -236,9 +233,7 @@ void Editor::close() {
 
 void Editor::handle_navigation(double seconds) {
     if (navigator_.flying() && !ImGui::GetIO().WantCaptureKeyboard) navigator_.fly(fly_direction(window_.window()), seconds);
-    const Pose before_path = pose_of(camera());
     path_.advance(seconds);
-    if (!same_pose(camera(), before_path)) navigator_.follow_camera();
 }
 
 bool Editor::frame() {
@@ -247,9 +242,7 @@ bool Editor::frame() {
     const Raised drawing(drawing_);
     window_.make_current();
     navigator_.set_bounds(scene_->bound());
-    // Moved since the last frame by a script or the REPL: orbit about the point ahead of the new pose.
-    // (The navigator's own moves keep its orbit point.)
-    if (!same_pose(camera(), drawn_pose_)) navigator_.follow_camera();
+    navigator_.follow_if_moved();  // by a script or the REPL since the last frame
     release_held_keys(window_.window());
     window_.poll_events();
     if (window_.should_close()) {
@@ -263,10 +256,7 @@ bool Editor::frame() {
     handle_navigation(seconds);
 
     const glm::ivec2 size = window_.framebuffer_size();
-    if (size.x == 0 || size.y == 0) {  // minimized
-        drawn_pose_ = pose_of(camera());
-        return true;
-    }
+    if (size.x == 0 || size.y == 0) return true;  // minimized
     if (!target_ || target_->width() != size.x || target_->height() != size.y)
         target_ = std::make_unique<gl::Framebuffer>(gl::FramebufferFormat{.width = size.x, .height = size.y, .samples = 4});
     camera().width = size.x;
@@ -290,10 +280,8 @@ bool Editor::frame() {
         click(at->x, at->y);
         picking_ms = timings_.pick_ms;
     }
-    const Pose before_panels = pose_of(camera());
     draw_panels();
-    // Moved by the panels (a bookmark, the timeline, the console): orbit about the point ahead.
-    if (!same_pose(camera(), before_panels)) navigator_.follow_camera();
+    navigator_.follow_if_moved();  // by the path playing, or the panels (a bookmark, the timeline, the console)
     ImGui::Render();
     timings_.ui_build_ms = milliseconds_since(ui_start) - picking_ms;
     glBindFramebuffer(GL_FRAMEBUFFER, 0);
@@ -303,7 +291,6 @@ bool Editor::frame() {
     timings_.ui_ms = milliseconds_since(ui_start) - picking_ms;
     last_width_ = size.x;
     last_height_ = size.y;
-    drawn_pose_ = pose_of(camera());
     if (capture_) capture_back_buffer(size.x, size.y);  // before the swap leaves it undefined
     window_.swap_buffers();
     ++frames_;
@@ -361,7 +348,6 @@ bool Editor::go_to_bookmark(const std::string& name) {
         camera().position = bookmark.position;
         camera().orientation = bookmark.orientation;
         camera().fov_y_degrees = bookmark.fov_degrees;
-        navigator_.follow_camera();
         return true;
     }
     return false;

@@ -131,7 +131,6 @@ private:
     EditorTimings timings_;
     bool capture_ = false;
     int drawing_ = 0, console_lines_ = 0;  // frames and console lines in progress (busy())
-    Pose drawn_pose_;                      // the camera's pose in the last frame drawn
     bool measure_ = false;
     bool panels_shown_ = true;
     std::vector<uint8_t> captured_;

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <glm/glm.hpp>
+#include <glm/gtc/quaternion.hpp>
 
 #include "engine/scene/bounds.h"
 #include "engine/scene/camera.h"
@@ -18,6 +19,9 @@ public:
     // The camera was moved from outside (a bookmark, the path, a script): orbit about the point ahead
     // of it, as far as the scene's centre.
     void follow_camera();
+    // follow_camera() if anything but the navigator moved the camera since its own last move: its own
+    // moves keep the orbit point.
+    void follow_if_moved();
     // The scene's bounds, refreshed each frame: models come and go.
     void set_bounds(const Box& bounds) { bounds_ = bounds; }
 
@@ -33,12 +37,15 @@ public:
 private:
     double scene_radius() const;  // the scale of every speed
     glm::dvec3 scene_center() const;
+    void placed();  // after each of its own moves: the pose it left the camera in
 
     Camera& camera_;
     Box bounds_;
     glm::dvec3 target_{0};
     double distance_ = 1;
     bool fly_ = false;
+    glm::dvec3 placed_position_{0};
+    glm::dquat placed_orientation_{1, 0, 0, 0};
 };
 
 }  // namespace strata
