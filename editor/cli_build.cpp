@@ -30,6 +30,12 @@ int run_build(const BuildOptions& o) {
             return kUsage;
         }
     }
+    try {
+        check_settings(settings);
+    } catch (const InputError& e) {
+        std::fprintf(stderr, "strata build: %s\n", e.what());
+        return kUsage;
+    }
     const std::atomic<bool>* cancel = install_interrupt_flag();
     ProgressBar bar(!o.quiet);
     Progress progress = bar.progress(cancel);

@@ -115,7 +115,7 @@ Command add_render(CLI::App& app) {
     sub->add_option("--fov", o->fov, "Vertical field of view, degrees")->check(CLI::Range(1.0, 170.0))->capture_default_str();
     sub->add_flag("--ortho", o->orthographic, "Orthographic projection (elevations, orthophotos): framed to the scene");
     sub->add_option("--pixel-error", o->scene.pixel_error, "Screen-space error the HLOD models may show, in pixels")
-        ->check(CLI::PositiveNumber)->capture_default_str();
+        ->check(positive_number())->capture_default_str();
     sub->add_option("--channels", o->channels, "EXR channels: RGBA, Z (eye-space depth), N (world normals), level, id")
         ->capture_default_str();
     sub->add_option("--compression", o->compression, "EXR compression: none, rle, zips, zip, piz, pxr24, b44, b44a, dwaa, dwab")

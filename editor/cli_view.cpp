@@ -106,9 +106,9 @@ Command add_view(CLI::App& app) {
         ->required();
     sub->add_option("--size", o->size, "Window size, WIDTHxHEIGHT")->capture_default_str();
     sub->add_option("--pixel-error", o->scene.pixel_error, "Screen-space error the HLOD models may show, in pixels")
-        ->check(CLI::PositiveNumber)->capture_default_str();
+        ->check(positive_number())->capture_default_str();
     sub->add_option("--script", o->script, "A Lua script run once the window is open, with the global `editor`");
-    sub->add_option("--frames", o->frames, "Quit after this many frames (for scripts and tests)")->check(CLI::PositiveNumber);
+    sub->add_option("--frames", o->frames, "Quit after this many frames (for scripts and tests)")->check(positive_number());
     sub->add_option("--screenshot", o->screenshot, "With --frames: write the window's last frame to this PNG")->needs("--frames");
     return {sub, [o] { return run_view(*o); }};
 }

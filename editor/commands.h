@@ -12,6 +12,18 @@ inline constexpr int kFailed = 1;       // bad input, I/O failure, invariant vio
 inline constexpr int kUsage = 2;        // wrong arguments
 inline constexpr int kInterrupted = 130;
 
+// A check for options that take a number above zero, worded for people (CLI11's PositiveNumber prints
+// its range as 0 to 1.797...e308 written out in full).
+inline CLI::Validator positive_number() {
+    return CLI::Validator(
+        [](std::string& input) -> std::string {
+            double value = 0;
+            if (!CLI::detail::lexical_cast(input, value) || !(value > 0)) return "must be a number above 0, not '" + input + "'";
+            return {};
+        },
+        "POSITIVE");
+}
+
 struct Command {
     CLI::App* app;
     std::function<int()> run;

@@ -233,7 +233,7 @@ void Editor::close() {
 
 void Editor::handle_navigation(double seconds) {
     if (navigator_.flying() && !ImGui::GetIO().WantCaptureKeyboard) navigator_.fly(fly_direction(window_.window()), seconds);
-    path_.advance(seconds);
+    path_.advance();
 }
 
 bool Editor::frame() {

@@ -1,6 +1,7 @@
 // strata: the command line. `strata --help` lists the commands; `strata COMMAND --help` each one.
 #include "editor/commands.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <exception>
 #include <vector>
@@ -20,7 +21,12 @@ int main(int argc, char** argv) {
     } catch (const CLI::CallForVersion& e) {
         return app.exit(e);
     } catch (const CLI::ParseError& e) {
-        std::fprintf(stderr, "strata: %s\nRun 'strata --help' for usage.\n", e.what());
+        // CLI11 reads an unknown command as a missing one.
+        const auto named = [&](const Command& c) { return c.app->get_name() == argv[1]; };
+        if (argc > 1 && argv[1][0] != '-' && std::none_of(commands.begin(), commands.end(), named))
+            std::fprintf(stderr, "strata: unknown command '%s'\nRun 'strata --help' for usage.\n", argv[1]);
+        else
+            std::fprintf(stderr, "strata: %s\nRun 'strata --help' for usage.\n", e.what());
         return kUsage;
     }
     for (const Command& c : commands)

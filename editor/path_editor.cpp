@@ -97,8 +97,16 @@ void PathEditor::scrub(double seconds) {
     camera_.fov_y_degrees = pose.fov_degrees;
 }
 
-void PathEditor::advance(double seconds) {
+void PathEditor::play(bool on) {
+    playing_ = on && path_;
+    last_advance_ = std::chrono::steady_clock::now();
+}
+
+void PathEditor::advance() {
     if (!playing_ || !path_) return;
+    const auto now = std::chrono::steady_clock::now();
+    const double seconds = std::chrono::duration<double>(now - last_advance_).count();
+    last_advance_ = now;
     scrub(time_ + seconds);
     if (time_ >= path_->duration()) playing_ = false;
 }

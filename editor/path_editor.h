@@ -3,6 +3,7 @@
 // scene, JSON save and load (engine/path).
 #pragma once
 
+#include <chrono>
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -36,10 +37,13 @@ public:
     double time() const { return time_; }
     // Puts the camera where the path is at `seconds` (clamped to the path).
     void scrub(double seconds);
-    void play(bool on) { playing_ = on && path_; }
+    // The playing time runs on the wall clock from this call: not from the last frame drawn, which a
+    // script may have drawn long before it pressed Play.
+    void play(bool on);
     bool playing() const { return playing_; }
-    // While playing: moves the time on and the camera with it; stops at the end.
-    void advance(double seconds);
+    // While playing: moves the time on by the wall-clock time since Play or the last advance, and the
+    // camera with it; stops at the end.
+    void advance();
 
     // Throws std::runtime_error naming the file (and the key at fault for a bad file).
     void save(const std::filesystem::path& file) const;
@@ -60,6 +64,7 @@ private:
     std::string error_;
     double time_ = 0;
     bool playing_ = false;
+    std::chrono::steady_clock::time_point last_advance_;
     std::string file_ = "path.json";
     std::string file_message_;
 };

@@ -86,16 +86,6 @@ private:
 
 // ---- setting up level L -------------------------------------------------------------------
 
-void check_settings(const BuildSettings& s) {
-    auto fail = [](const std::string& what) { throw InputError("build settings: " + what); };
-    if (s.levels < -1 || s.levels > kMaxLevels) fail("--levels must be auto or 0.." + std::to_string(kMaxLevels));
-    if (s.block < 4 || s.block % 4 != 0 || s.block > 64) fail("--block must be a multiple of 4 from 4 to 64");
-    if (!(s.ratio > 0 && s.ratio < 1)) fail("--ratio must lie strictly between 0 and 1");
-    if (!(s.sigma0 >= 0.1f && s.sigma0 <= kMaxSigma0)) fail("--sigma0 must lie in [0.1, 0.45]");
-    if (!(s.error == -1 || s.error > 0)) fail("--error must be positive");
-    if (s.threads < 0) fail("--threads must be 0 (all cores) or more");
-    if (s.leaf_triangles < 16) fail("leaf size must be at least 16 triangles");
-}
 
 Frame make_frame(const Mesh& mesh, const std::string& source) {
     double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
@@ -619,6 +609,17 @@ std::vector<Extra> write_level(const Level& level, const Level& parent_level, co
 }
 
 }  // namespace
+
+void check_settings(const BuildSettings& s) {
+    auto fail = [](const std::string& what) { throw InputError("build settings: " + what); };
+    if (s.levels < -1 || s.levels > kMaxLevels) fail("--levels must be auto or 0.." + std::to_string(kMaxLevels));
+    if (s.block < 4 || s.block % 4 != 0 || s.block > 64) fail("--block must be a multiple of 4 from 4 to 64");
+    if (!(s.ratio > 0 && s.ratio < 1)) fail("--ratio must lie strictly between 0 and 1");
+    if (!(s.sigma0 >= 0.1f && s.sigma0 <= kMaxSigma0)) fail("--sigma0 must lie in [0.1, 0.45]");
+    if (!(s.error == -1 || s.error > 0)) fail("--error must be positive");
+    if (s.threads < 0) fail("--threads must be 0 (all cores) or more");
+    if (s.leaf_triangles < 16) fail("leaf size must be at least 16 triangles");
+}
 
 BuildReport build_hlod(Mesh&& mesh, const std::filesystem::path& output, const BuildSettings& settings,
                        const std::string& source_name, const Progress& progress) {

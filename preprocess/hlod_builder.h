@@ -37,6 +37,10 @@ struct BuildReport {
     double partition_seconds = 0, simplify_seconds = 0, normals_seconds = 0, write_seconds = 0;
 };
 
+// Throws InputError naming the first setting out of range (checked before any input is read, so a
+// command line can tell wrong arguments from bad input).
+void check_settings(const BuildSettings& settings);
+
 // Consumes the mesh (its arrays become level L), which must be welded as read_mesh returns it: a
 // position repeats only on vertices whose attributes differ. Throws InputError for input it cannot build
 // (empty, flat to a point, settings out of range), Cancelled when progress.cancel is raised, and

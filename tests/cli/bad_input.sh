@@ -52,7 +52,7 @@ checks=$((checks + 1))
     fail "unwritable output: left $(ls "$WORK")"
 
 expect_failure "levels too fine for the edges" "use fewer --levels" "$STRATA" build "$WORK/octahedron.off" -o "$out" --levels 3; no_output "levels too fine"
-expect_failure "bad option value" "levels" "$STRATA" build "$WORK/octahedron.off" -o "$out" --levels many
-expect_failure "bad block size" "block" "$STRATA" build "$WORK/octahedron.off" -o "$out" --block 6
-expect_failure "no arguments" "input" "$STRATA" build
+expect_usage "bad option value" "levels" "$STRATA" build "$WORK/octahedron.off" -o "$out" --levels many
+expect_usage "bad block size" "block" "$STRATA" build "$WORK/octahedron.off" -o "$out" --block 6
+expect_usage "no arguments" "input" "$STRATA" build
 finish

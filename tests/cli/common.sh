@@ -6,18 +6,45 @@ trap 'rm -rf "$WORK"' EXIT
 failures=0
 checks=0
 
+# with_x WxH CMD...: CMD on a private virtual X server of that size, whose display no other test shares.
+WITH_XVFB="$(cd "$(dirname "${BASH_SOURCE[0]}")/../support" && pwd)/with_xvfb.sh"
+with_x() {
+    local size=$1
+    shift
+    bash "$WITH_XVFB" "${size}x24" "$@"
+}
+
 fail() { echo "FAIL: $*"; failures=$((failures + 1)); }
 
-# expect_failure NAME PATTERN CMD...: CMD exits non-zero (not by a signal) and says PATTERN on stderr.
-expect_failure() {
-    local name=$1 pattern=$2
-    shift 2
+# expect_status NAME STATUS PATTERN CMD...: CMD exits with exactly STATUS and says PATTERN on stderr (if not "").
+# Exit statuses are part of the interface (README): 1 bad input, 2 wrong arguments, 130 interrupted.
+expect_status() {
+    local name=$1 expected=$2 pattern=$3
+    shift 3
     checks=$((checks + 1))
     "$@" >"$WORK/out.txt" 2>"$WORK/err.txt"
     local status=$?
-    if [ $status -eq 0 ]; then fail "$name: exited 0"; return; fi
-    if [ $status -ge 128 ]; then fail "$name: died with status $status"; cat "$WORK/err.txt"; return; fi
+    if [ $status -ne "$expected" ]; then
+        fail "$name: exited $status, not $expected"
+        cat "$WORK/err.txt"
+        return
+    fi
+    [ -z "$pattern" ] && return
     if ! grep -q -- "$pattern" "$WORK/err.txt"; then fail "$name: stderr lacks '$pattern':"; cat "$WORK/err.txt"; fi
+}
+
+# expect_failure NAME PATTERN CMD...: CMD fails as on bad input (status 1) and says PATTERN on stderr.
+expect_failure() {
+    local name=$1
+    shift
+    expect_status "$name" 1 "$@"
+}
+
+# expect_usage NAME PATTERN CMD...: CMD refuses its arguments (status 2) and says PATTERN on stderr.
+expect_usage() {
+    local name=$1
+    shift
+    expect_status "$name" 2 "$@"
 }
 
 expect_success() {

@@ -5,11 +5,11 @@
 source "$(dirname "$0")/common.sh"
 root=$2
 [ -s "$root/data/bunny.off" ] || { echo "sample missing: run scripts/setup.sh"; exit 1; }
-command -v xvfb-run >/dev/null || { echo "xvfb-run missing: run scripts/setup.sh"; exit 1; }
+command -v Xvfb >/dev/null || { echo "Xvfb missing: run scripts/setup.sh"; exit 1; }
 "$STRATA" build "$root/data/bunny.off" -o "$WORK/bunny.hlod" -q || { echo "build failed"; exit 1; }
 cp "$root/tests/editor/scene.lua" "$WORK/scene.lua"
 export WORK
-xvfb() { xvfb-run -a -s "-screen 0 1400x900x24" "$@"; }
+xvfb() { with_x 1400x900 "$@"; }
 
 expect_success "panels" xvfb "$STRATA" view "$WORK/scene.lua" --script "$root/tests/editor/drive_panels.lua"
 checks=$((checks + 1)); grep -q "editor panels: ok" "$WORK/out.txt" || { fail "the panel script did not finish"; cat "$WORK/out.txt"; }

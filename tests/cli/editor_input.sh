@@ -2,10 +2,10 @@
 # The editor driven by real input: xdotool sends clicks, a drag, keys and typing through the X server
 # (Xvfb) to the GLFW window, so the whole path (X events → GLFW callbacks → ImGui or the navigator and
 # picking) is what is tested. tests/editor/drive_input.lua checks each effect and paces the stages.
-# The editor and xdotool must share one display: the script reruns itself under xvfb-run.
+# The editor and xdotool must share one display, of their own: the script reruns itself on a private one.
 if [ -z "${EDITOR_INPUT_UNDER_X:-}" ]; then
-    command -v xvfb-run >/dev/null || { echo "xvfb-run missing: run scripts/setup.sh"; exit 1; }
-    exec env EDITOR_INPUT_UNDER_X=1 xvfb-run -a -s "-screen 0 1400x900x24" bash "$0" "$@"
+    command -v Xvfb >/dev/null || { echo "Xvfb missing: run scripts/setup.sh"; exit 1; }
+    exec env EDITOR_INPUT_UNDER_X=1 bash "$(dirname "$0")/../support/with_xvfb.sh" 1400x900x24 bash "$0" "$@"
 fi
 source "$(dirname "$0")/common.sh"
 root=$2
@@ -35,18 +35,31 @@ step() {
     shift
     checks=$((checks + 1))
     if ! await "$stage"; then fail "the editor never got to the $stage stage"; return 1; fi
-    "$@" || { fail "$stage: xdotool failed"; return 1; }
+    "$@" || { fail "$stage: xdotool failed or the editor ended"; return 1; }
+}
+
+# frames_drawn: how many frames the drive script has drawn so far.
+frames_drawn() { cat "$WORK/frames" 2>/dev/null || echo 0; }
+# after_frames N: returns once the editor has drawn N more frames (input between them is seen apart).
+after_frames() {
+    local until=$(($(frames_drawn) + $1))
+    for _ in $(seq 3000); do
+        [ "$(frames_drawn)" -ge "$until" ] && return 0
+        kill -0 $editor 2>/dev/null || return 1
+        sleep 0.02
+    done
+    return 1
 }
 
 click_model() { xdotool mousemove --window "$window" 640 360 click 1; }
 drag() {
-    xdotool mousemove --window "$window" 640 200 mousedown 1
-    for x in 660 680 700 720; do sleep 0.05; xdotool mousemove --window "$window" "$x" 200; done
+    xdotool mousemove --window "$window" 640 200 mousedown 1 && after_frames 2 || return 1
+    for x in 660 680 700 720; do xdotool mousemove --window "$window" "$x" 200 && after_frames 2 || return 1; done
     xdotool mouseup 1
 }
-fly_forward() { xdotool mousemove --window "$window" 640 300 key f keydown w && sleep 0.5 && xdotool keyup w; }
+fly_forward() { xdotool mousemove --window "$window" 640 300 key f keydown w && after_frames 3 && xdotool keyup w; }
 type_line() {
-    xdotool mousemove --window "$window" 640 700 click 1 && sleep 0.2 &&
+    xdotool mousemove --window "$window" 640 700 click 1 && after_frames 2 &&
         xdotool type --delay 10 'nested_ok, nested_error = pcall(editor.frame, editor); typed = editor:selected():name()' &&
         xdotool key Return
 }

@@ -13,7 +13,10 @@ checks=$((checks + 1))
 # One SIGINT to the process, as Ctrl-C sends it (timeout(1) would signal its whole group a second time).
 "$STRATA" build "$WORK/grid.off" -o "$WORK/grid.hlod" >"$WORK/out.txt" 2>"$WORK/err.txt" &
 pid=$!
-sleep 0.4
+# Signalled once it catches SIGINT (bit 2 of SigCgt in /proc): earlier, the default action would kill it
+# (also status 130, but by the signal, with no message and no clean-up to test).
+catches_sigint() { local mask; mask=$(awk '/^SigCgt:/ { print $2 }' /proc/$pid/status 2>/dev/null) && [ $((0x$mask & 2)) -ne 0 ]; }
+for _ in $(seq 600); do catches_sigint && break; sleep 0.05; done
 kill -INT $pid
 wait $pid
 status=$?

@@ -33,9 +33,9 @@ for view in levels boxes wire target ortho; do
 done
 
 expect_failure "missing file" "missing.hlod" "$STRATA" render "$WORK/missing.hlod" -o "$WORK/x.png"
-expect_failure "bad extension" ".png or .exr" "$STRATA" render "$WORK/bunny.hlod" -o "$WORK/x.jpg"
-expect_failure "bad size" "WIDTHxHEIGHT" "$STRATA" render "$WORK/bunny.hlod" -o "$WORK/x.png" --size 12by3
-expect_failure "unknown channel" "Q" "$STRATA" render "$WORK/bunny.hlod" -o "$WORK/x.exr" --channels RGBA,Q
+expect_usage "bad extension" ".png or .exr" "$STRATA" render "$WORK/bunny.hlod" -o "$WORK/x.jpg"
+expect_usage "bad size" "WIDTHxHEIGHT" "$STRATA" render "$WORK/bunny.hlod" -o "$WORK/x.png" --size 12by3
+expect_usage "unknown channel" "Q" "$STRATA" render "$WORK/bunny.hlod" -o "$WORK/x.exr" --channels RGBA,Q
 expect_failure "unwritable output" "cannot write" "$STRATA" render "$WORK/bunny.hlod" -o "$WORK/octa.off/x.png" --size 32x32
 checks=$((checks + 1)); [ -z "$(ls "$WORK" | grep '^x\.')" ] || fail "a failed render left $(ls "$WORK" | grep '^x\.')"
 finish

@@ -6,13 +6,30 @@ local ed = editor
 local scene = ed:scene()
 local cam = ed:camera()
 
+-- Once the effect is seen, two more frames settle the UI before the next stage's input: ImGui tests what
+-- the pointer is over against the windows of the frame before, so a click sent as soon as Tab has shown
+-- the panels again would go through the console, not yet drawn, to the view (and pick nothing there).
+-- Each frame drawn is counted in the file "frames", so that the sender paces its input by frames (a press,
+-- two frames, a move...) rather than by time, which a busy machine stretches.
+local frames = 0
+local function frame()
+    assert(ed:frame(), "the window closed")
+    frames = frames + 1
+    local file = assert(io.open(work .. "/frames.tmp", "w"))
+    file:write(frames, "\n")
+    file:close()
+    assert(os.rename(work .. "/frames.tmp", work .. "/frames"))
+end
+
 local function stage(name, done)
     io.open(work .. "/" .. name, "w"):close()
     local deadline = os.time() + 60
     while not done() do
-        assert(ed:frame(), "the window closed during " .. name)
+        frame()
         assert(os.time() < deadline, "no effect of the input within a minute: " .. name)
     end
+    frame()
+    frame()
 end
 
 local function position() return cam:pose().position end

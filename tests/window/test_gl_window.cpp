@@ -1,4 +1,4 @@
-// A GLFW window context on a real X server (ctest runs this under xvfb-run): draw into the default
+// A GLFW window context on a real X server (ctest runs it on a private Xvfb, tests/support/with_xvfb.sh): draw into the default
 // framebuffer, read it back, swap.
 #include <gtest/gtest.h>
 
