@@ -56,6 +56,35 @@ namespace {
 
 // ---- reading the file -----------------------------------------------------------------------------
 
+// Large arrays straight from mmap (weld's scratch): already zeroed (no fill pass)
+// and on huge pages.
+template <class T>
+class PageArray {
+public:
+    explicit PageArray(size_t count) : count_(count), bytes_(count * sizeof(T) + kHuge) {
+        void* mapped = ::mmap(nullptr, bytes_, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+        if (mapped == MAP_FAILED) throw std::bad_alloc();
+        base_ = mapped;
+        const uintptr_t aligned = (reinterpret_cast<uintptr_t>(mapped) + kHuge - 1) & ~(kHuge - 1);
+        data_ = reinterpret_cast<T*>(aligned);
+        detail::advise_huge_pages(data_, count * sizeof(T));
+    }
+    ~PageArray() { ::munmap(base_, bytes_); }
+    PageArray(const PageArray&) = delete;
+    PageArray& operator=(const PageArray&) = delete;
+
+    T& operator[](size_t i) { return data_[i]; }
+    T* data() { return data_; }
+    size_t size() const { return count_; }
+
+private:
+    static constexpr size_t kHuge = size_t(2) << 20;
+    size_t count_;
+    size_t bytes_;
+    void* base_ = nullptr;
+    T* data_ = nullptr;
+};
+
 // The whole input mapped read-only: one "read" with no copy, and the page cache does the buffering.
 class MappedFile {
 public:
@@ -108,10 +137,13 @@ bool is_binary_stl(const char* data, size_t size) {
     return 84 + 50 * uint64_t(count) == size;
 }
 
-// "OFF" with Geomview's optional prefixes: ST (uv), C (colour), N (normal), 4 (4D), n (dimension).
+// "OFF" with Geomview's optional prefixes: ST (uv), C (colour), N (normal), 4 (4D), n (dimension),
+// perhaps with the vertex count glued on ("OFF1234 ...": ModelNet's files).
 bool is_off_keyword(std::string_view token) {
-    if (token.size() < 3 || token.substr(token.size() - 3) != "OFF") return false;
-    return token.substr(0, token.size() - 3).find_first_not_of("STCN4n") == std::string_view::npos;
+    const size_t off = token.find("OFF");
+    if (off == std::string_view::npos) return false;
+    return token.substr(0, off).find_first_not_of("STCN4n") == std::string_view::npos &&
+           token.substr(off + 3).find_first_not_of("0123456789") == std::string_view::npos;
 }
 
 bool is_obj_keyword(std::string_view token) {
@@ -139,7 +171,7 @@ Format sniff_content(const char* data, size_t size) {
     if (is_binary_stl(data, size)) return Format::stl;
     std::string_view keyword = first_keyword(data, size);
     if (is_off_keyword(keyword)) return Format::off;
-    if (keyword == "solid") return Format::stl;
+    if (detail::is_keyword(keyword, "solid")) return Format::stl;
     if (is_obj_keyword(keyword)) return Format::obj;
     return Format::unknown;
 }
@@ -153,6 +185,9 @@ Format format_from_extension(const std::filesystem::path& path) {
     if (ext == ".stl") return Format::stl;
     return Format::unknown;
 }
+
+// A UTF-8 byte order mark before a text format's first keyword, as Windows editors write it.
+constexpr std::string_view kByteOrderMark = "\xEF\xBB\xBF";
 
 Mesh read_format(Format format, const detail::ReadInput& input) {
     switch (format) {
@@ -215,33 +250,6 @@ struct VertexBytes {
     }
 };
 
-// Scratch arrays for weld, straight from mmap: already zeroed (no fill pass) and on huge pages.
-template <class T>
-class PageArray {
-public:
-    explicit PageArray(size_t count) : count_(count), bytes_(count * sizeof(T) + kHuge) {
-        void* mapped = ::mmap(nullptr, bytes_, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
-        if (mapped == MAP_FAILED) throw std::bad_alloc();
-        base_ = mapped;
-        const uintptr_t aligned = (reinterpret_cast<uintptr_t>(mapped) + kHuge - 1) & ~(kHuge - 1);
-        data_ = reinterpret_cast<T*>(aligned);
-        detail::advise_huge_pages(data_, count * sizeof(T));
-    }
-    ~PageArray() { ::munmap(base_, bytes_); }
-    PageArray(const PageArray&) = delete;
-    PageArray& operator=(const PageArray&) = delete;
-
-    T& operator[](size_t i) { return data_[i]; }
-    T* data() { return data_; }
-    size_t size() const { return count_; }
-
-private:
-    static constexpr size_t kHuge = size_t(2) << 20;
-    size_t count_;
-    size_t bytes_;
-    void* base_ = nullptr;
-    T* data_ = nullptr;
-};
 
 bool any_index_at_least(const std::vector<uint32_t>& indices, uint32_t n) {
     // Fixed-size blocks of branch-free compares, which GCC vectorizes at -O2.
@@ -511,17 +519,19 @@ void write_ascii_body(TempFile& file, const Mesh& mesh) {
 
 }  // namespace
 
-Mesh read_mesh(const std::filesystem::path& path, const Progress& progress) {
+Mesh read_mesh(const std::filesystem::path& path, const Progress& progress, std::vector<std::string>& warnings) {
     const std::string name = path.string();
     Mesh mesh;
     double size = 0;
     {
-        // The mapping ends before weld, so the file's pages and weld's tables are never resident at once.
+        // The file's bytes are freed before weld, so they and weld's tables are never resident at once.
         MappedFile file(path, name);
-        const detail::ReadInput input{path, name, file.data(), file.size(), progress};
-        Format format = sniff_content(file.data(), file.size());
+        std::string_view bytes(file.data(), file.size());
+        if (bytes.starts_with(kByteOrderMark)) bytes.remove_prefix(kByteOrderMark.size());
+        const detail::ReadInput input{path, name, bytes.data(), bytes.size(), progress, &warnings};
+        Format format = sniff_content(bytes.data(), bytes.size());
         if (format == Format::unknown) format = format_from_extension(path);
-        size = double(file.size());
+        size = double(bytes.size());
         progress("read", 0, size, "B");
         progress.check();
         mesh = read_format(format, input);
@@ -529,6 +539,11 @@ Mesh read_mesh(const std::filesystem::path& path, const Progress& progress) {
     weld(mesh);
     progress("read", size, size, "B");
     return mesh;
+}
+
+Mesh read_mesh(const std::filesystem::path& path, const Progress& progress) {
+    std::vector<std::string> ignored;
+    return read_mesh(path, progress, ignored);
 }
 
 void weld(Mesh& mesh) {

@@ -3,6 +3,8 @@
 #pragma once
 
 #include <filesystem>
+#include <string>
+#include <vector>
 
 #include "preprocess/mesh.h"
 #include "preprocess/progress.h"
@@ -14,6 +16,11 @@ namespace strata {
 // Throws InputError naming the file and the problem for anything unreadable or malformed, and Cancelled
 // when progress.cancel is raised. Reports progress as ("read", bytes done, bytes total, "B").
 Mesh read_mesh(const std::filesystem::path& path, const Progress& progress = {});
+
+// The same, and appends to `warnings` what the file holds that was read past rather than refused (an
+// unknown PLY header line, a binary STL whose triangle count disagrees with its size), one message
+// each, starting with the file's name: for the caller to show, since preprocessing never prints.
+Mesh read_mesh(const std::filesystem::path& path, const Progress& progress, std::vector<std::string>& warnings);
 
 // Merges vertices equal in position and every attribute (+0.0 and -0.0 count as equal), drops triangles
 // with two corners at the same position (degenerate, even when those corners are different seam copies),
