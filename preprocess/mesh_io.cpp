@@ -16,6 +16,7 @@
 #include <cstdio>
 #include <cstring>
 #include <new>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -56,7 +57,7 @@ namespace {
 
 // ---- reading the file -----------------------------------------------------------------------------
 
-// Large arrays straight from mmap (weld's scratch): already zeroed (no fill pass)
+// Large arrays straight from mmap (the file being read, weld's scratch): already zeroed (no fill pass)
 // and on huge pages.
 template <class T>
 class PageArray {
@@ -85,44 +86,77 @@ private:
     T* data_ = nullptr;
 };
 
-// The whole input mapped read-only: one "read" with no copy, and the page cache does the buffering.
-class MappedFile {
+// The whole input, read into memory. Read rather than mapped: a mapped file that is truncated while it
+// is parsed kills the process with SIGBUS, whereas read() returns fewer bytes than expected, which is an
+// error naming the file; once read, the bytes cannot change under the parser. Copying from the page
+// cache costs little next to parsing (bench_ply_read).
+class FileBytes {
 public:
-    MappedFile(const std::filesystem::path& path, const std::string& name) {
-        int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-        if (fd < 0) fail(name, "cannot open", errno);
-        struct stat info {};
-        if (::fstat(fd, &info) != 0) close_and_fail(fd, name, "cannot stat", errno);
-        if (S_ISDIR(info.st_mode)) close_and_fail(fd, name, "is a directory, not a mesh file", 0);
-        if (!S_ISREG(info.st_mode)) close_and_fail(fd, name, "is not a regular file", 0);
-        if (info.st_size == 0) close_and_fail(fd, name, "empty file", 0);
-        size_ = size_t(info.st_size);
-        void* mapped = ::mmap(nullptr, size_, PROT_READ, MAP_PRIVATE, fd, 0);
-        int mmap_errno = errno;
-        ::close(fd);  // the mapping keeps the file open
-        if (mapped == MAP_FAILED) fail(name, "cannot read", mmap_errno);
-        data_ = static_cast<const char*>(mapped);
-        ::madvise(mapped, size_, MADV_SEQUENTIAL);  // readers walk it front to back: read ahead
+    // Reports "load" progress in bytes after each chunk (a slow disk takes a while) and polls cancel.
+    FileBytes(const std::filesystem::path& path, const std::string& name, const Progress& progress) : name_(name) {
+        const Descriptor file{::open(path.c_str(), O_RDONLY | O_CLOEXEC)};
+        if (file.fd < 0) fail("cannot open", errno);
+        const size_t size = regular_file_size(file.fd);
+        try {
+            bytes_.emplace(size);
+        } catch (const std::bad_alloc&) {
+            fail("not enough memory to read its " + std::to_string(size) + " bytes", 0);
+        }
+        read_all(file.fd, progress);
     }
-    ~MappedFile() { ::munmap(const_cast<char*>(data_), size_); }
-    MappedFile(const MappedFile&) = delete;
-    MappedFile& operator=(const MappedFile&) = delete;
 
-    const char* data() const { return data_; }
-    size_t size() const { return size_; }
+    const char* data() { return bytes_->data(); }
+    size_t size() const { return bytes_->size(); }
 
 private:
-    [[noreturn]] static void fail(const std::string& name, const char* what, int error) {
-        std::string message = name + ": " + what;
+    static constexpr size_t kChunk = size_t(4) << 20;
+
+    struct Descriptor {
+        int fd;
+        ~Descriptor() {
+            if (fd >= 0) ::close(fd);
+        }
+    };
+
+    size_t regular_file_size(int fd) const {
+        struct stat info {};
+        if (::fstat(fd, &info) != 0) fail("cannot stat", errno);
+        if (S_ISDIR(info.st_mode)) fail("is a directory, not a mesh file", 0);
+        if (!S_ISREG(info.st_mode)) fail("is not a regular file", 0);
+        if (info.st_size == 0) fail("empty file", 0);
+        return size_t(info.st_size);
+    }
+
+    void read_all(int fd, const Progress& progress) {
+        const size_t size = bytes_->size();
+        ::posix_fadvise(fd, 0, 0, POSIX_FADV_SEQUENTIAL);  // a hint: read ahead
+        for (size_t done = 0; done < size;) {
+            const ssize_t got = ::pread(fd, bytes_->data() + done, std::min(kChunk, size - done), off_t(done));
+            if (got < 0 && errno == EINTR) continue;
+            if (got < 0) fail("cannot read", errno);
+            if (got == 0) changed("it ends after " + std::to_string(done) + " of its " + std::to_string(size) + " bytes");
+            done += size_t(got);
+            progress("load", double(done), double(size), "B");
+            progress.check();
+        }
+        // Grown meanwhile (or cut and grown again): what was read is no one version of the file.
+        struct stat info {};
+        if (::fstat(fd, &info) != 0) fail("cannot stat", errno);
+        if (size_t(info.st_size) != size) changed("it is " + std::to_string(info.st_size) + " bytes now, not " +
+                                                  std::to_string(size));
+    }
+
+    [[noreturn]] void changed(const std::string& what) const {
+        fail("the file changed while it was being read: " + what, 0);
+    }
+    [[noreturn]] void fail(const std::string& what, int error) const {
+        std::string message = name_ + ": " + what;
         if (error) message += std::string(" (") + std::strerror(error) + ")";
         throw InputError(message);
     }
-    [[noreturn]] static void close_and_fail(int fd, const std::string& name, const char* what, int error) {
-        ::close(fd);
-        fail(name, what, error);
-    }
-    const char* data_ = nullptr;
-    size_t size_ = 0;
+
+    std::string name_;
+    std::optional<PageArray<char>> bytes_;
 };
 
 // ---- choosing the reader --------------------------------------------------------------------------
@@ -525,7 +559,7 @@ Mesh read_mesh(const std::filesystem::path& path, const Progress& progress, std:
     double size = 0;
     {
         // The file's bytes are freed before weld, so they and weld's tables are never resident at once.
-        MappedFile file(path, name);
+        FileBytes file(path, name, progress);
         std::string_view bytes(file.data(), file.size());
         if (bytes.starts_with(kByteOrderMark)) bytes.remove_prefix(kByteOrderMark.size());
         const detail::ReadInput input{path, name, bytes.data(), bytes.size(), progress, &warnings};

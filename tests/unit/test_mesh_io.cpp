@@ -505,23 +505,65 @@ TEST(MeshIoWeld, RejectsInconsistentMeshes) {
 
 // ---- progress -------------------------------------------------------------------------------------
 
-TEST_F(MeshIo, ReportsReadProgressInBytesAndHonoursCancel) {
+TEST_F(MeshIo, ReportsLoadThenReadProgressInBytesAndHonoursCancel) {
     write_ply(dir_ / "cube.ply", attributed_cube());
     const double size = double(std::filesystem::file_size(dir_ / "cube.ply"));
-    std::vector<std::pair<double, double>> calls;
+    std::vector<std::pair<std::string, std::pair<double, double>>> calls;
     Progress progress;
     progress.report = [&](std::string_view stage, double done, double total, std::string_view unit) {
-        EXPECT_EQ(stage, "read");
         EXPECT_EQ(unit, "B");
-        calls.emplace_back(done, total);
+        calls.emplace_back(std::string(stage), std::make_pair(done, total));
     };
     read_mesh(dir_ / "cube.ply", progress);
-    ASSERT_GE(calls.size(), 2u);
-    EXPECT_EQ(calls.back(), std::make_pair(size, size));
+    ASSERT_GE(calls.size(), 3u);
+    EXPECT_EQ(calls.front(), std::make_pair(std::string("load"), std::make_pair(size, size)));  // one chunk
+    for (size_t i = 1; i < calls.size(); ++i) EXPECT_EQ(calls[i].first, "read");
+    EXPECT_EQ(calls.back().second, std::make_pair(size, size));
 
     std::atomic<bool> cancel{true};
     progress.cancel = &cancel;
     EXPECT_THROW(read_mesh(dir_ / "cube.ply", progress), Cancelled);
+}
+
+// A binary PLY of several load chunks (4 MB): many vertices, one triangle.
+std::string large_binary_ply(size_t vertices) {
+    Bytes b;
+    b.text(ply_header("binary_little_endian", "element vertex " + std::to_string(vertices) +
+                                                  "\nproperty float x\nproperty float y\nproperty float z\n"
+                                                  "element face 1\nproperty list uchar int vertex_indices\n"));
+    for (size_t v = 0; v < vertices; ++v) b.put(float(v)).put(float(v % 7)).put(0.0f);
+    b.put(uint8_t(3)).put(0).put(1).put(2);
+    return b.data;
+}
+
+// A file cut or grown while it is being read is an error naming the file, never a SIGBUS. The load
+// progress report after the first chunk is the moment in between: no timing is involved.
+TEST_F(MeshIo, FileChangedWhileBeingReadIsAnInputError) {
+    const auto path = write("big.ply", large_binary_ply(500'000));  // 6 MB
+    const auto size = std::filesystem::file_size(path);
+    EXPECT_EQ(read_mesh(path).triangle_count(), 1u);  // intact, it reads
+    for (const auto new_size : {size / 2, size + 1}) {
+        SCOPED_TRACE(new_size);
+        std::filesystem::resize_file(path, size);
+        bool changed = false;
+        Progress progress;
+        progress.report = [&](std::string_view stage, double, double, std::string_view) {
+            if (stage != "load" || changed) return;
+            changed = true;
+            std::filesystem::resize_file(path, new_size);
+        };
+        try {
+            read_mesh(path, progress);
+            ADD_FAILURE() << "no InputError";
+        } catch (const InputError& e) {
+            EXPECT_THAT(e.what(), StartsWith(path.string() + ": the file changed while it was being read: "));
+            EXPECT_THAT(e.what(), HasSubstr(new_size < size ? "it ends after 4194304 of its" : "bytes now, not"));
+        }
+        EXPECT_TRUE(changed);
+    }
+    // Cut before it is read, the header promises more than is there.
+    std::filesystem::resize_file(path, size / 2);
+    expect_error(path, "expected 500000 vertices, file ends after");
 }
 
 // ---- files from other programs ---------------------------------------------------------------------
