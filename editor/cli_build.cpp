@@ -41,7 +41,10 @@ int run_build(const BuildOptions& o) {
     Progress progress = bar.progress(cancel);
     auto start = std::chrono::steady_clock::now();
     try {
-        Mesh mesh = read_mesh(o.input, progress);
+        std::vector<std::string> warnings;
+        Mesh mesh = read_mesh(o.input, progress, warnings);
+        bar.finish();  // clears the bar's line for the warnings; the next report draws it again
+        for (const std::string& warning : warnings) std::fprintf(stderr, "strata build: warning: %s\n", warning.c_str());
         const double read_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         const size_t triangles = mesh.triangle_count();
         BuildReport report = build_hlod(std::move(mesh), o.output, settings,

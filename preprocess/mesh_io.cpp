@@ -16,6 +16,7 @@
 #include <cstdio>
 #include <cstring>
 #include <new>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -56,44 +57,106 @@ namespace {
 
 // ---- reading the file -----------------------------------------------------------------------------
 
-// The whole input mapped read-only: one "read" with no copy, and the page cache does the buffering.
-class MappedFile {
+// Large arrays straight from mmap (the file being read, weld's scratch): already zeroed (no fill pass)
+// and on huge pages.
+template <class T>
+class PageArray {
 public:
-    MappedFile(const std::filesystem::path& path, const std::string& name) {
-        int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-        if (fd < 0) fail(name, "cannot open", errno);
-        struct stat info {};
-        if (::fstat(fd, &info) != 0) close_and_fail(fd, name, "cannot stat", errno);
-        if (S_ISDIR(info.st_mode)) close_and_fail(fd, name, "is a directory, not a mesh file", 0);
-        if (!S_ISREG(info.st_mode)) close_and_fail(fd, name, "is not a regular file", 0);
-        if (info.st_size == 0) close_and_fail(fd, name, "empty file", 0);
-        size_ = size_t(info.st_size);
-        void* mapped = ::mmap(nullptr, size_, PROT_READ, MAP_PRIVATE, fd, 0);
-        int mmap_errno = errno;
-        ::close(fd);  // the mapping keeps the file open
-        if (mapped == MAP_FAILED) fail(name, "cannot read", mmap_errno);
-        data_ = static_cast<const char*>(mapped);
-        ::madvise(mapped, size_, MADV_SEQUENTIAL);  // readers walk it front to back: read ahead
+    explicit PageArray(size_t count) : count_(count), bytes_(count * sizeof(T) + kHuge) {
+        void* mapped = ::mmap(nullptr, bytes_, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+        if (mapped == MAP_FAILED) throw std::bad_alloc();
+        base_ = mapped;
+        const uintptr_t aligned = (reinterpret_cast<uintptr_t>(mapped) + kHuge - 1) & ~(kHuge - 1);
+        data_ = reinterpret_cast<T*>(aligned);
+        detail::advise_huge_pages(data_, count * sizeof(T));
     }
-    ~MappedFile() { ::munmap(const_cast<char*>(data_), size_); }
-    MappedFile(const MappedFile&) = delete;
-    MappedFile& operator=(const MappedFile&) = delete;
+    ~PageArray() { ::munmap(base_, bytes_); }
+    PageArray(const PageArray&) = delete;
+    PageArray& operator=(const PageArray&) = delete;
 
-    const char* data() const { return data_; }
-    size_t size() const { return size_; }
+    T& operator[](size_t i) { return data_[i]; }
+    T* data() { return data_; }
+    size_t size() const { return count_; }
 
 private:
-    [[noreturn]] static void fail(const std::string& name, const char* what, int error) {
-        std::string message = name + ": " + what;
+    static constexpr size_t kHuge = size_t(2) << 20;
+    size_t count_;
+    size_t bytes_;
+    void* base_ = nullptr;
+    T* data_ = nullptr;
+};
+
+// The whole input, read into memory. Read rather than mapped: a mapped file that is truncated while it
+// is parsed kills the process with SIGBUS, whereas read() returns fewer bytes than expected, which is an
+// error naming the file; once read, the bytes cannot change under the parser. Copying from the page
+// cache costs little next to parsing (bench_ply_read).
+class FileBytes {
+public:
+    // Reports "load" progress in bytes after each chunk (a slow disk takes a while) and polls cancel.
+    FileBytes(const std::filesystem::path& path, const std::string& name, const Progress& progress) : name_(name) {
+        const Descriptor file{::open(path.c_str(), O_RDONLY | O_CLOEXEC)};
+        if (file.fd < 0) fail("cannot open", errno);
+        const size_t size = regular_file_size(file.fd);
+        try {
+            bytes_.emplace(size);
+        } catch (const std::bad_alloc&) {
+            fail("not enough memory to read its " + std::to_string(size) + " bytes", 0);
+        }
+        read_all(file.fd, progress);
+    }
+
+    const char* data() { return bytes_->data(); }
+    size_t size() const { return bytes_->size(); }
+
+private:
+    static constexpr size_t kChunk = size_t(4) << 20;
+
+    struct Descriptor {
+        int fd;
+        ~Descriptor() {
+            if (fd >= 0) ::close(fd);
+        }
+    };
+
+    size_t regular_file_size(int fd) const {
+        struct stat info {};
+        if (::fstat(fd, &info) != 0) fail("cannot stat", errno);
+        if (S_ISDIR(info.st_mode)) fail("is a directory, not a mesh file", 0);
+        if (!S_ISREG(info.st_mode)) fail("is not a regular file", 0);
+        if (info.st_size == 0) fail("empty file", 0);
+        return size_t(info.st_size);
+    }
+
+    void read_all(int fd, const Progress& progress) {
+        const size_t size = bytes_->size();
+        ::posix_fadvise(fd, 0, 0, POSIX_FADV_SEQUENTIAL);  // a hint: read ahead
+        for (size_t done = 0; done < size;) {
+            const ssize_t got = ::pread(fd, bytes_->data() + done, std::min(kChunk, size - done), off_t(done));
+            if (got < 0 && errno == EINTR) continue;
+            if (got < 0) fail("cannot read", errno);
+            if (got == 0) changed("it ends after " + std::to_string(done) + " of its " + std::to_string(size) + " bytes");
+            done += size_t(got);
+            progress("load", double(done), double(size), "B");
+            progress.check();
+        }
+        // Grown meanwhile (or cut and grown again): what was read is no one version of the file.
+        struct stat info {};
+        if (::fstat(fd, &info) != 0) fail("cannot stat", errno);
+        if (size_t(info.st_size) != size) changed("it is " + std::to_string(info.st_size) + " bytes now, not " +
+                                                  std::to_string(size));
+    }
+
+    [[noreturn]] void changed(const std::string& what) const {
+        fail("the file changed while it was being read: " + what, 0);
+    }
+    [[noreturn]] void fail(const std::string& what, int error) const {
+        std::string message = name_ + ": " + what;
         if (error) message += std::string(" (") + std::strerror(error) + ")";
         throw InputError(message);
     }
-    [[noreturn]] static void close_and_fail(int fd, const std::string& name, const char* what, int error) {
-        ::close(fd);
-        fail(name, what, error);
-    }
-    const char* data_ = nullptr;
-    size_t size_ = 0;
+
+    std::string name_;
+    std::optional<PageArray<char>> bytes_;
 };
 
 // ---- choosing the reader --------------------------------------------------------------------------
@@ -108,10 +171,13 @@ bool is_binary_stl(const char* data, size_t size) {
     return 84 + 50 * uint64_t(count) == size;
 }
 
-// "OFF" with Geomview's optional prefixes: ST (uv), C (colour), N (normal), 4 (4D), n (dimension).
+// "OFF" with Geomview's optional prefixes: ST (uv), C (colour), N (normal), 4 (4D), n (dimension),
+// perhaps with the vertex count glued on ("OFF1234 ...": ModelNet's files).
 bool is_off_keyword(std::string_view token) {
-    if (token.size() < 3 || token.substr(token.size() - 3) != "OFF") return false;
-    return token.substr(0, token.size() - 3).find_first_not_of("STCN4n") == std::string_view::npos;
+    const size_t off = token.find("OFF");
+    if (off == std::string_view::npos) return false;
+    return token.substr(0, off).find_first_not_of("STCN4n") == std::string_view::npos &&
+           token.substr(off + 3).find_first_not_of("0123456789") == std::string_view::npos;
 }
 
 bool is_obj_keyword(std::string_view token) {
@@ -139,7 +205,7 @@ Format sniff_content(const char* data, size_t size) {
     if (is_binary_stl(data, size)) return Format::stl;
     std::string_view keyword = first_keyword(data, size);
     if (is_off_keyword(keyword)) return Format::off;
-    if (keyword == "solid") return Format::stl;
+    if (detail::is_keyword(keyword, "solid")) return Format::stl;
     if (is_obj_keyword(keyword)) return Format::obj;
     return Format::unknown;
 }
@@ -153,6 +219,9 @@ Format format_from_extension(const std::filesystem::path& path) {
     if (ext == ".stl") return Format::stl;
     return Format::unknown;
 }
+
+// A UTF-8 byte order mark before a text format's first keyword, as Windows editors write it.
+constexpr std::string_view kByteOrderMark = "\xEF\xBB\xBF";
 
 Mesh read_format(Format format, const detail::ReadInput& input) {
     switch (format) {
@@ -215,33 +284,6 @@ struct VertexBytes {
     }
 };
 
-// Scratch arrays for weld, straight from mmap: already zeroed (no fill pass) and on huge pages.
-template <class T>
-class PageArray {
-public:
-    explicit PageArray(size_t count) : count_(count), bytes_(count * sizeof(T) + kHuge) {
-        void* mapped = ::mmap(nullptr, bytes_, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
-        if (mapped == MAP_FAILED) throw std::bad_alloc();
-        base_ = mapped;
-        const uintptr_t aligned = (reinterpret_cast<uintptr_t>(mapped) + kHuge - 1) & ~(kHuge - 1);
-        data_ = reinterpret_cast<T*>(aligned);
-        detail::advise_huge_pages(data_, count * sizeof(T));
-    }
-    ~PageArray() { ::munmap(base_, bytes_); }
-    PageArray(const PageArray&) = delete;
-    PageArray& operator=(const PageArray&) = delete;
-
-    T& operator[](size_t i) { return data_[i]; }
-    T* data() { return data_; }
-    size_t size() const { return count_; }
-
-private:
-    static constexpr size_t kHuge = size_t(2) << 20;
-    size_t count_;
-    size_t bytes_;
-    void* base_ = nullptr;
-    T* data_ = nullptr;
-};
 
 bool any_index_at_least(const std::vector<uint32_t>& indices, uint32_t n) {
     // Fixed-size blocks of branch-free compares, which GCC vectorizes at -O2.
@@ -511,17 +553,19 @@ void write_ascii_body(TempFile& file, const Mesh& mesh) {
 
 }  // namespace
 
-Mesh read_mesh(const std::filesystem::path& path, const Progress& progress) {
+Mesh read_mesh(const std::filesystem::path& path, const Progress& progress, std::vector<std::string>& warnings) {
     const std::string name = path.string();
     Mesh mesh;
     double size = 0;
     {
-        // The mapping ends before weld, so the file's pages and weld's tables are never resident at once.
-        MappedFile file(path, name);
-        const detail::ReadInput input{path, name, file.data(), file.size(), progress};
-        Format format = sniff_content(file.data(), file.size());
+        // The file's bytes are freed before weld, so they and weld's tables are never resident at once.
+        FileBytes file(path, name, progress);
+        std::string_view bytes(file.data(), file.size());
+        if (bytes.starts_with(kByteOrderMark)) bytes.remove_prefix(kByteOrderMark.size());
+        const detail::ReadInput input{path, name, bytes.data(), bytes.size(), progress, &warnings};
+        Format format = sniff_content(bytes.data(), bytes.size());
         if (format == Format::unknown) format = format_from_extension(path);
-        size = double(file.size());
+        size = double(bytes.size());
         progress("read", 0, size, "B");
         progress.check();
         mesh = read_format(format, input);
@@ -529,6 +573,11 @@ Mesh read_mesh(const std::filesystem::path& path, const Progress& progress) {
     weld(mesh);
     progress("read", size, size, "B");
     return mesh;
+}
+
+Mesh read_mesh(const std::filesystem::path& path, const Progress& progress) {
+    std::vector<std::string> ignored;
+    return read_mesh(path, progress, ignored);
 }
 
 void weld(Mesh& mesh) {

@@ -3,6 +3,8 @@
 #pragma once
 
 #include <filesystem>
+#include <string>
+#include <vector>
 
 #include "preprocess/mesh.h"
 #include "preprocess/progress.h"
@@ -11,9 +13,15 @@ namespace strata {
 
 // Reads PLY (ascii and binary), OBJ (+ .mtl texture name), OFF or STL (ascii and binary), chosen by the
 // file's content (magic/header), falling back to the extension. Returns the mesh welded (see weld()).
-// Throws InputError naming the file and the problem for anything unreadable or malformed, and Cancelled
-// when progress.cancel is raised. Reports progress as ("read", bytes done, bytes total, "B").
+// Throws InputError naming the file and the problem for anything unreadable or malformed (a file that
+// changes size while it is read included), and Cancelled when progress.cancel is raised. Reports
+// progress as ("load", bytes read from disk, file size, "B"), then ("read", bytes parsed, size, "B").
 Mesh read_mesh(const std::filesystem::path& path, const Progress& progress = {});
+
+// The same, and appends to `warnings` what the file holds that was read past rather than refused (an
+// unknown PLY header line, a binary STL whose triangle count disagrees with its size), one message
+// each, starting with the file's name: for the caller to show, since preprocessing never prints.
+Mesh read_mesh(const std::filesystem::path& path, const Progress& progress, std::vector<std::string>& warnings);
 
 // Merges vertices equal in position and every attribute (+0.0 and -0.0 count as equal), drops triangles
 // with two corners at the same position (degenerate, even when those corners are different seam copies),

@@ -17,16 +17,21 @@
 
 namespace strata::detail {
 
-// One whole input file, mapped into memory, plus what every reader needs to report about it.
+// One whole input file, in memory, plus what every reader needs to report about it.
 struct ReadInput {
     const std::filesystem::path& path;
     std::string name;  // path as the user gave it; every error message starts with it
     const char* data = nullptr;
     size_t size = 0;
     const Progress& progress;
+    std::vector<std::string>* warnings = nullptr;  // where warn() goes; null: nobody asked
 
     [[noreturn]] void fail(std::string_view what) const {
         throw InputError(name + ": " + std::string(what));
+    }
+    // Something read past rather than refused, which the user may want to know about.
+    void warn(std::string_view what) const {
+        if (warnings) warnings->push_back(name + ": " + std::string(what));
     }
 };
 
@@ -78,10 +83,19 @@ private:
 inline bool is_space(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\n' || c == '\f' || c == '\v'; }
 inline bool is_blank(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\f' || c == '\v'; }
 
-// 1-based line number of `at` within [begin, ...): only computed when an error needs it.
+// Whether `token` is `lower_case` in any case: some writers shout keywords ("SOLID", "FACET NORMAL").
+inline bool is_keyword(std::string_view token, std::string_view lower_case) {
+    if (token.size() != lower_case.size()) return false;
+    for (size_t i = 0; i < token.size(); ++i)
+        if ((token[i] >= 'A' && token[i] <= 'Z' ? char(token[i] - 'A' + 'a') : token[i]) != lower_case[i]) return false;
+    return true;
+}
+
+// 1-based line number of `at` within [begin, ...), lines ending in LF, CRLF or CR alone: only computed
+// when an error needs it.
 inline size_t line_number(const char* begin, const char* at) {
     size_t line = 1;
-    for (const char* p = begin; p < at; ++p) line += (*p == '\n');
+    for (const char* p = begin; p < at; ++p) line += (*p == '\n') || (*p == '\r' && (p + 1 == at || p[1] != '\n'));
     return line;
 }
 
@@ -121,28 +135,38 @@ private:
     const char* end_;
 };
 
-// Splits text into lines; the returned line excludes the '\n' and a trailing '\r'.
+// Splits text into lines ending in LF, CRLF or CR alone (classic Mac OS, Rhino 6's PLY headers); the
+// returned line excludes its ending.
 class Lines {
 public:
-    Lines(const char* begin, const char* end) : p_(begin), end_(end) {}
+    Lines(const char* begin, const char* end) : p_(begin), end_(end), next_lf_(find(begin, end, '\n')) {}
 
     bool next(std::string_view& line) {
         if (p_ >= end_) return false;
+        if (next_lf_ < p_) next_lf_ = find(p_, end_, '\n');  // kept across lines: a CR-only file is one scan
         const char* start = p_;
-        const void* nl = std::memchr(p_, '\n', size_t(end_ - p_));
-        const char* stop = nl ? static_cast<const char*>(nl) : end_;
-        p_ = nl ? stop + 1 : end_;
+        const char* stop = find(p_, next_lf_, '\r');
+        ending_ = stop;
+        if (stop == end_) p_ = end_;
+        else if (*stop == '\r' && stop + 1 < end_ && stop[1] == '\n') p_ = stop + 2;
+        else p_ = stop + 1;
         ++line_;
-        if (stop > start && stop[-1] == '\r') --stop;
         line = {start, size_t(stop - start)};
         return true;
     }
     size_t line() const { return line_; }  // 1-based number of the line last returned
     const char* position() const { return p_; }
+    const char* ending() const { return ending_; }  // where the last line's ending starts (or the end)
 
 private:
+    static const char* find(const char* from, const char* to, char c) {
+        const void* hit = std::memchr(from, c, size_t(to - from));
+        return hit ? static_cast<const char*>(hit) : to;
+    }
     const char* p_;
     const char* end_;
+    const char* next_lf_;  // the first LF at or after p_, or end_
+    const char* ending_ = nullptr;
     size_t line_ = 0;
 };
 

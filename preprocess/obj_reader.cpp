@@ -93,8 +93,9 @@ public:
         : input_(input), lines_(input.data, input.data + input.size), ticker_(input.progress, input.size) {}
 
     Mesh parse() {
-        std::string_view line;
-        while (lines_.next(line)) {
+        std::string_view physical;
+        while (lines_.next(physical)) {
+            const std::string_view line = continued(physical);
             Tokens tokens(line.substr(0, line.find('#')));  // some writers end lines with a comment
             std::string_view keyword = tokens.next();
             if (keyword.empty()) continue;
@@ -109,6 +110,25 @@ public:
 private:
     [[noreturn]] void fail(const std::string& what) const {
         input_.fail("line " + std::to_string(lines_.line()) + ": " + what);
+    }
+
+    // A line whose last non-blank is a backslash goes on in the next one (Rhino wraps long face lines so:
+    // trimesh #1103, helix-toolkit #152).
+    static size_t continuation_at(std::string_view line) {
+        size_t end = line.size();
+        while (end > 0 && is_blank(line[end - 1])) --end;
+        return end > 0 && line[end - 1] == '\\' ? end - 1 : std::string_view::npos;
+    }
+    std::string_view continued(std::string_view line) {
+        size_t backslash = continuation_at(line);
+        if (backslash == std::string_view::npos) return line;
+        joined_.clear();
+        for (;;) {
+            joined_.append(line.substr(0, backslash)).push_back(' ');
+            if (!lines_.next(line)) return joined_;
+            backslash = continuation_at(line);
+            if (backslash == std::string_view::npos) return joined_.append(line);
+        }
     }
 
     void dispatch(std::string_view keyword, Tokens& tokens) {
@@ -189,7 +209,9 @@ private:
             const size_t length = slash2 == std::string_view::npos ? slash2 : slash2 - slash1 - 1;
             const std::string_view t = token.substr(slash1 + 1, length);
             if (!t.empty()) vt = resolve(t, uvs_.size() / 2, "texture coordinate");
-            if (slash2 != std::string_view::npos) vn = resolve(token.substr(slash2 + 1), normals_.size() / 3, "normal");
+            // An empty normal field is no normal: Wings3D writes "1//", others "1/1/" (trimesh #808).
+            const std::string_view n = slash2 == std::string_view::npos ? std::string_view() : token.substr(slash2 + 1);
+            if (!n.empty()) vn = resolve(n, normals_.size() / 3, "normal");
         }
         return wedge(v, vt, vn);
     }
@@ -265,6 +287,7 @@ private:
     size_t face_count_ = 0;
     std::vector<std::string> mtllibs_, used_materials_;
     std::string first_unknown_;
+    std::string joined_;  // a line continued over several
 };
 
 }  // namespace

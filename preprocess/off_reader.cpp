@@ -58,20 +58,21 @@ private:
         if (!content_line(line)) input_.fail("no OFF header");
         Tokens tokens(line);
         std::string_view keyword = tokens.next();
-        if (keyword.size() < 3 || keyword.substr(keyword.size() - 3) != "OFF")
-            fail("expected an OFF header, found " + quoted(keyword));
-        const std::string_view prefix = keyword.substr(0, keyword.size() - 3);
+        const size_t off = keyword.find("OFF");
+        if (off == std::string_view::npos) fail("expected an OFF header, found " + quoted(keyword));
+        const std::string_view prefix = keyword.substr(0, off);
+        const std::string_view glued = keyword.substr(off + 3);  // "OFF1234 5678 0": ModelNet's files
         if (prefix.find('4') != std::string_view::npos) fail("4D OFF is not supported");
         header_.uvs = prefix.find("ST") != std::string_view::npos;
         header_.colors = prefix.find('C') != std::string_view::npos;
         header_.normals = prefix.find('N') != std::string_view::npos;
         if (prefix.find('n') != std::string_view::npos) dimension(tokens);
         if (Tokens peek = tokens; peek.next() == "BINARY") fail("binary OFF is not supported");
-        if (tokens.at_end()) {
+        if (glued.empty() && tokens.at_end()) {
             if (!content_line(line)) input_.fail("OFF header has no vertex and face counts");
             tokens = Tokens(line);
         }
-        header_.vertices = count(tokens.next(), "vertex");
+        header_.vertices = count(glued.empty() ? tokens.next() : glued, "vertex");
         header_.faces = count(tokens.next(), "face");
         if (header_.vertices >= UINT32_MAX) fail("too many vertices (" + std::to_string(header_.vertices) + ")");
     }
@@ -92,10 +93,15 @@ private:
         return value;
     }
 
-    // At most one line per `min_line_bytes` of what is left: a lying count cannot drive the allocation.
-    size_t plausible(uint64_t count, size_t min_line_bytes) const {
+    // Checked before anything is allocated, so a lying header count fails at once, never by running out
+    // of memory: every value takes two bytes at least (a digit and a separator; the file's last value
+    // needs no separator).
+    void require_room(uint64_t count, size_t values, const char* noun) const {
         const size_t left = size_t(input_.data + input_.size - lines_.position());
-        return size_t(std::min<uint64_t>(count, left / min_line_bytes + 1));
+        const uint64_t room = (uint64_t(left) + 1) / (2 * values);
+        if (count > room)
+            input_.fail("expected " + std::to_string(count) + " " + noun + ", but only " + std::to_string(left) +
+                        " bytes are left, room for at most " + std::to_string(room));
     }
 
     float number(Tokens& tokens, uint64_t vertex) const {
@@ -108,11 +114,13 @@ private:
     }
 
     void vertices(Mesh& mesh) {
-        const size_t reserve = plausible(header_.vertices, 6);  // "0 0 0\n"
-        mesh.positions.reserve(3 * reserve);
-        if (header_.normals) mesh.normals.reserve(3 * reserve);
-        if (header_.colors) mesh.colors.reserve(4 * reserve);
-        if (header_.uvs) mesh.uvs.reserve(2 * reserve);
+        require_room(header_.vertices, 3 + (header_.normals ? 3 : 0) + (header_.colors ? 3 : 0) + (header_.uvs ? 2 : 0),
+                     "vertices");
+        const size_t count = size_t(header_.vertices);
+        mesh.positions.reserve(3 * count);
+        if (header_.normals) mesh.normals.reserve(3 * count);
+        if (header_.colors) mesh.colors.reserve(4 * count);
+        if (header_.uvs) mesh.uvs.reserve(2 * count);
         for (uint64_t v = 0; v < header_.vertices; ++v) {
             Tokens tokens(required_line(header_.vertices, v, "vertices"));
             for (int k = 0; k < 3; ++k) mesh.positions.push_back(number(tokens, v));
@@ -139,7 +147,8 @@ private:
     }
 
     void faces(Mesh& mesh) {
-        mesh.indices.reserve(3 * plausible(header_.faces, 8));  // "3 0 1 2\n"
+        require_room(header_.faces, 2, "faces");  // "n i": a face with too few corners fails on its own, more clearly
+        mesh.indices.reserve(3 * size_t(header_.faces));
         std::vector<uint32_t> corners;
         for (uint64_t f = 0; f < header_.faces; ++f) {
             Tokens tokens(required_line(header_.faces, f, "faces"));

@@ -84,20 +84,27 @@ struct PlyHeader {
     std::string texture;  // "comment TextureFile name", as MeshLab writes it
 };
 
+// Reads the header as the widely used readers do (rply, tinyply, vcglib, plyfile): lines may end in
+// LF, CRLF or CR alone, keywords may be separated by any blanks, and a line that is none of the
+// keywords (Blender 2.47 wrote "Created by Blender3D 247 ..." without "comment") is skipped with one
+// warning per file.
 class HeaderParser {
 public:
     explicit HeaderParser(const ReadInput& input) : input_(input), lines_(input.data, input.data + input.size) {}
 
     PlyHeader parse() {
         std::string_view line;
-        lines_.next(line);  // "ply", checked by the caller
+        lines_.next(line);
+        if (Tokens(line).rest() != "ply") fail("not a PLY file: the first line is not 'ply'");
+        const bool cr_endings = ends_in_cr_alone();
         bool have_format = false;
         while (lines_.next(line)) {
             Tokens tokens(line);
             std::string_view keyword = tokens.next();
             if (keyword == "end_header") {
                 if (!have_format) fail("header has no 'format' line");
-                header_.body_offset = size_t(lines_.position() - input_.data);
+                header_.body_offset = body_offset(cr_endings);
+                warn_skipped();
                 return std::move(header_);
             }
             if (keyword.empty() || keyword == "obj_info") continue;
@@ -111,13 +118,38 @@ public:
             } else if (keyword == "property") {
                 property(tokens);
             } else {
-                fail("unexpected header line " + quoted(line));
+                skipped(line);
             }
         }
         fail("header has no 'end_header' line");
     }
 
 private:
+    // The line ending of the "ply" line is the file's.
+    bool ends_in_cr_alone() const {
+        const char* ending = lines_.ending();
+        const char* end = input_.data + input_.size;
+        return ending < end && *ending == '\r' && (ending + 1 == end || ending[1] != '\n');
+    }
+    // Binary data follows end_header's line ending, and may well start with a byte 0x0A: a file whose
+    // lines end in CR alone (Rhino 6) loses no byte to an LF after it.
+    size_t body_offset(bool cr_endings) const {
+        const char* ending = lines_.ending();
+        const char* end = input_.data + input_.size;
+        size_t length = ending < end ? 1 : 0;
+        if (!cr_endings && ending + 1 < end && ending[0] == '\r' && ending[1] == '\n') length = 2;
+        return size_t(ending - input_.data) + length;
+    }
+    void skipped(std::string_view line) {
+        if (skipped_lines_++ == 0) first_skipped_ = "PLY header line " + std::to_string(lines_.line()) + ": skipped " +
+                                                    quoted(line) + ", which is not a PLY header keyword";
+    }
+    void warn_skipped() const {
+        if (skipped_lines_ == 0) return;
+        std::string message = first_skipped_;
+        if (skipped_lines_ > 1) message += " (and " + std::to_string(skipped_lines_ - 1) + " more such lines)";
+        input_.warn(message);
+    }
     [[noreturn]] void fail(const std::string& what) const {
         input_.fail("PLY header line " + std::to_string(lines_.line()) + ": " + what);
     }
@@ -166,6 +198,8 @@ private:
     const ReadInput& input_;
     Lines lines_;
     PlyHeader header_;
+    size_t skipped_lines_ = 0;
+    std::string first_skipped_;
 };
 
 // ---- which vertex property feeds which attribute ---------------------------------------------------
@@ -277,6 +311,14 @@ private:
     std::vector<uint32_t>& out_;
     size_t used_ = 0;
 };
+
+// Checked before anything is allocated, so a lying header count fails at once, never by running out of
+// memory: `room` is how many records of the element the bytes left could hold at most.
+void require_room(const ReadInput& input, const PlyElement& element, size_t bytes_left, uint64_t room) {
+    if (element.count > room)
+        input.fail("expected " + std::to_string(element.count) + " " + element.noun() + ", but only " +
+                   std::to_string(bytes_left) + " bytes are left, room for at most " + std::to_string(room));
+}
 
 // ---- binary ---------------------------------------------------------------------------------------
 
@@ -425,10 +467,7 @@ private:
         if (element.count > remaining() / record_bytes) truncated(element, remaining() / record_bytes);
     }
     void require_min_records(const PlyElement& element, size_t min_record_bytes) const {
-        if (element.count > remaining() / min_record_bytes)
-            input_.fail("expected " + std::to_string(element.count) + " " + element.noun() + ", but only " +
-                        std::to_string(remaining()) + " bytes are left, room for at most " +
-                        std::to_string(remaining() / min_record_bytes));
+        require_room(input_, element, remaining(), remaining() / min_record_bytes);
     }
     void need(size_t bytes, const PlyElement& element, uint64_t record) const {
         if (bytes > remaining()) truncated(element, record);
@@ -604,7 +643,8 @@ public:
         : input_(input), tokens_(input.data + header.body_offset, input.data + input.size), ticker_(ticker) {}
 
     void vertices(const PlyElement& element, const VertexLayout& layout, Mesh& mesh) {
-        size_attributes(mesh, layout, plausible_count(element));
+        require_values(element, 0);
+        size_attributes(mesh, layout, element.count);
         for (uint64_t v = 0; v < element.count; ++v) {
             for (size_t i = 0; i < element.properties.size(); ++i) {
                 const PlyProperty& p = element.properties[i];
@@ -621,7 +661,8 @@ public:
 
     void faces(const PlyElement& element, size_t list, uint32_t vertex_count, Mesh& mesh) {
         TriangleSink sink(mesh.indices);
-        sink.reserve_triangles(plausible_count(element));
+        require_values(element, 1);  // a corner at least: a face with too few fails on its own, more clearly
+        sink.reserve_triangles(element.count);
         std::vector<uint32_t> corners;
         for (uint64_t face = 0; face < element.count; ++face) {
             for (size_t i = 0; i < element.properties.size(); ++i) {
@@ -645,6 +686,7 @@ public:
 
     void skip(const PlyElement& element) {
         if (element.properties.empty()) return;
+        require_values(element, 0);
         for (uint64_t i = 0; i < element.count; ++i) {
             for (const PlyProperty& p : element.properties) skip_property(p, element, i);
             ticker_.at(offset());
@@ -663,12 +705,12 @@ private:
         input_.fail("line " + std::to_string(line_number(input_.data, tokens_.position())) + ": " + what);
     }
 
-    // At most one record per two bytes left (a digit and a separator), so a lying header count cannot
-    // make us allocate more than the file could hold; a real shortfall fails when the tokens run out.
-    size_t plausible_count(const PlyElement& element) const {
-        const size_t tokens = std::max<size_t>(1, element.properties.size());
-        const size_t bound = (input_.size - offset()) / (2 * tokens) + 1;
-        return size_t(std::min<uint64_t>(element.count, bound));
+    // Every value takes two bytes at least (a digit and a separator; the file's last value needs no
+    // separator), a list at least its count, and `extra` more values per record.
+    void require_values(const PlyElement& element, size_t extra) const {
+        const size_t values = element.properties.size() + extra;
+        const size_t left = input_.size - offset();
+        require_room(input_, element, left, (uint64_t(left) + 1) / (2 * values));
     }
 
     double number(PlyType type, const PlyElement& element, uint64_t record) {

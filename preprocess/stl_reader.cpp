@@ -1,6 +1,7 @@
-// STL reader, binary and ASCII. STL is a triangle soup (every triangle has its own three corners), so
-// this emits three vertices per triangle and leaves it to weld() to make the mesh indexed. Facet normals
-// are ignored: they are often wrong and the corners' order already gives the orientation.
+// STL reader, binary and ASCII (keywords in any case: admesh's block.stl is all capitals). STL is a
+// triangle soup (every triangle has its own three corners), so this emits three vertices per triangle
+// and leaves it to weld() to make the mesh indexed. Facet normals are ignored: they are often wrong and
+// the corners' order already gives the orientation.
 #include <algorithm>
 #include <bit>
 #include <cstring>
@@ -22,15 +23,16 @@ uint32_t triangle_count(const ReadInput& input) {
     return count;
 }
 
-// Binary STLs may start with "solid" too; a size that matches the count settles it, otherwise an
-// ASCII file says "facet" early on.
+// Binary STLs may start with "solid" too (SolidWorks writes that): a size that matches the count settles
+// it, otherwise an ASCII file's second line starts with "facet" (or "endsolid", when it is empty).
 bool is_ascii(const ReadInput& input) {
     if (input.size >= kHeaderBytes && kHeaderBytes + kTriangleBytes * uint64_t(triangle_count(input)) == input.size)
         return false;
     Tokens tokens(input.data, input.data + input.size);
-    if (tokens.next() != "solid") return false;
-    const std::string_view start(input.data, std::min<size_t>(input.size, 1024));
-    return start.find("facet") != std::string_view::npos || start.find("endsolid") != std::string_view::npos;
+    if (!is_keyword(tokens.next(), "solid")) return false;
+    tokens.skip_line();  // the solid's name, however long
+    const std::string_view next = tokens.next();
+    return is_keyword(next, "facet") || is_keyword(next, "endsolid") || is_keyword(next, "end");
 }
 
 void check_corners(const ReadInput& input, const Mesh& mesh) {
@@ -45,13 +47,25 @@ void sequential_indices(Mesh& mesh) {
     std::iota(mesh.indices.begin(), mesh.indices.end(), 0u);
 }
 
-Mesh read_binary(const ReadInput& input) {
+// The triangles a binary STL holds. Some writers leave the header's count wrong (ZanderCAD writes 0:
+// MeshLab #1281): when the size is exactly a whole number of triangles, the size is believed.
+uint64_t binary_triangles(const ReadInput& input) {
     if (input.size < kHeaderBytes)
         input.fail("too small for a binary STL (" + std::to_string(input.size) + " bytes) and not an ASCII STL");
     const uint64_t count = triangle_count(input);
     const uint64_t present = (input.size - kHeaderBytes) / kTriangleBytes;
+    if (count != present && (input.size - kHeaderBytes) % kTriangleBytes == 0) {
+        input.warn("the header says " + std::to_string(count) + " triangles, but the file's size is exactly " +
+                   std::to_string(present) + ": read " + std::to_string(present));
+        return present;
+    }
     if (present < count)  // extra bytes after the triangles are tolerated; missing ones are not
         input.fail("expected " + std::to_string(count) + " triangles, file ends after " + std::to_string(present));
+    return count;
+}
+
+Mesh read_binary(const ReadInput& input) {
+    const uint64_t count = binary_triangles(input);
     if (3 * count >= UINT32_MAX) input.fail("too many triangles (" + std::to_string(count) + ")");
     Mesh mesh;
     reserve_huge(mesh.positions, 9 * count);
@@ -80,12 +94,13 @@ public:
 
     Mesh parse() {
         for (std::string_view token = tokens_.next(); !token.empty(); token = tokens_.next()) {
-            if (token == "solid" || token == "endsolid") tokens_.skip_line();  // followed by a free-form name
-            else if (token == "facet") facet_normal();
-            else if (token == "outer") expect("loop"), corners_ = 0;
-            else if (token == "vertex") vertex();
-            else if (token == "endloop") end_loop();
-            else if (token != "endfacet") fail("unexpected " + quoted(token));
+            if (is_keyword(token, "end")) token = ended(tokens_.next());  // "end loop", "end solid"
+            if (is_keyword(token, "solid") || is_keyword(token, "endsolid")) tokens_.skip_line();  // then a free-form name
+            else if (is_keyword(token, "facet")) facet_normal();
+            else if (is_keyword(token, "outer")) expect("loop"), corners_ = 0;
+            else if (is_keyword(token, "vertex")) vertex();
+            else if (is_keyword(token, "endloop")) end_loop();
+            else if (!is_keyword(token, "endfacet")) fail("unexpected " + quoted(token));
             ticker_.at(size_t(tokens_.position() - input_.data));
         }
         if (corners_ != 0) input_.fail("file ends inside a facet");
@@ -99,7 +114,13 @@ private:
     }
     void expect(std::string_view word) {
         std::string_view token = tokens_.next();
-        if (token != word) fail("expected '" + std::string(word) + "', found " + quoted(token));
+        if (!is_keyword(token, word)) fail("expected '" + std::string(word) + "', found " + quoted(token));
+    }
+    // "end loop", "end facet" and "end solid" as two words (MeshLab #194, numpy-stl #206).
+    std::string_view ended(std::string_view word) const {
+        for (std::string_view keyword : {"endloop", "endfacet", "endsolid"})
+            if (is_keyword(word, keyword.substr(3))) return keyword;
+        fail("unexpected 'end' before " + quoted(word));
     }
     float number() {
         std::string_view token = tokens_.next();
@@ -107,9 +128,11 @@ private:
         if (!parse_number(token, value)) fail("expected a number, found " + quoted(token));
         return value;
     }
+    // The normal is not used, so it is not parsed either: writers put NaN there in every spelling
+    // ("nan", "-nan", "NaN", "-1.#IND": OpenSCAD #1225, helix-toolkit #1150).
     void facet_normal() {
         expect("normal");
-        for (int k = 0; k < 3; ++k) number();
+        for (int k = 0; k < 3; ++k) tokens_.next();
     }
     void vertex() {
         for (int k = 0; k < 3; ++k) mesh_.positions.push_back(number());

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <atomic>
 #include <cmath>
 #include <cstring>
@@ -504,23 +505,222 @@ TEST(MeshIoWeld, RejectsInconsistentMeshes) {
 
 // ---- progress -------------------------------------------------------------------------------------
 
-TEST_F(MeshIo, ReportsReadProgressInBytesAndHonoursCancel) {
+TEST_F(MeshIo, ReportsLoadThenReadProgressInBytesAndHonoursCancel) {
     write_ply(dir_ / "cube.ply", attributed_cube());
     const double size = double(std::filesystem::file_size(dir_ / "cube.ply"));
-    std::vector<std::pair<double, double>> calls;
+    std::vector<std::pair<std::string, std::pair<double, double>>> calls;
     Progress progress;
     progress.report = [&](std::string_view stage, double done, double total, std::string_view unit) {
-        EXPECT_EQ(stage, "read");
         EXPECT_EQ(unit, "B");
-        calls.emplace_back(done, total);
+        calls.emplace_back(std::string(stage), std::make_pair(done, total));
     };
     read_mesh(dir_ / "cube.ply", progress);
-    ASSERT_GE(calls.size(), 2u);
-    EXPECT_EQ(calls.back(), std::make_pair(size, size));
+    ASSERT_GE(calls.size(), 3u);
+    EXPECT_EQ(calls.front(), std::make_pair(std::string("load"), std::make_pair(size, size)));  // one chunk
+    for (size_t i = 1; i < calls.size(); ++i) EXPECT_EQ(calls[i].first, "read");
+    EXPECT_EQ(calls.back().second, std::make_pair(size, size));
 
     std::atomic<bool> cancel{true};
     progress.cancel = &cancel;
     EXPECT_THROW(read_mesh(dir_ / "cube.ply", progress), Cancelled);
+}
+
+// A binary PLY of several load chunks (4 MB): many vertices, one triangle.
+std::string large_binary_ply(size_t vertices) {
+    Bytes b;
+    b.text(ply_header("binary_little_endian", "element vertex " + std::to_string(vertices) +
+                                                  "\nproperty float x\nproperty float y\nproperty float z\n"
+                                                  "element face 1\nproperty list uchar int vertex_indices\n"));
+    for (size_t v = 0; v < vertices; ++v) b.put(float(v)).put(float(v % 7)).put(0.0f);
+    b.put(uint8_t(3)).put(0).put(1).put(2);
+    return b.data;
+}
+
+// A file cut or grown while it is being read is an error naming the file, never a SIGBUS. The load
+// progress report after the first chunk is the moment in between: no timing is involved.
+TEST_F(MeshIo, FileChangedWhileBeingReadIsAnInputError) {
+    const auto path = write("big.ply", large_binary_ply(500'000));  // 6 MB
+    const auto size = std::filesystem::file_size(path);
+    EXPECT_EQ(read_mesh(path).triangle_count(), 1u);  // intact, it reads
+    for (const auto new_size : {size / 2, size + 1}) {
+        SCOPED_TRACE(new_size);
+        std::filesystem::resize_file(path, size);
+        bool changed = false;
+        Progress progress;
+        progress.report = [&](std::string_view stage, double, double, std::string_view) {
+            if (stage != "load" || changed) return;
+            changed = true;
+            std::filesystem::resize_file(path, new_size);
+        };
+        try {
+            read_mesh(path, progress);
+            ADD_FAILURE() << "no InputError";
+        } catch (const InputError& e) {
+            EXPECT_THAT(e.what(), StartsWith(path.string() + ": the file changed while it was being read: "));
+            EXPECT_THAT(e.what(), HasSubstr(new_size < size ? "it ends after 4194304 of its" : "bytes now, not"));
+        }
+        EXPECT_TRUE(changed);
+    }
+    // Cut before it is read, the header promises more than is there.
+    std::filesystem::resize_file(path, size / 2);
+    expect_error(path, "expected 500000 vertices, file ends after");
+}
+
+// ---- files from other programs ---------------------------------------------------------------------
+// Each quirk below is one that a widely used reader's bug tracker or test suite documents; the samples
+// in tests/data/meshes reproduce them (its README names the source of each).
+
+const std::filesystem::path kSamples = std::filesystem::path(STRATA_SOURCE_DIR) / "tests" / "data" / "meshes";
+
+// The samples are all one tetrahedron: four corners, four triangles, closed.
+void expect_tetrahedron(const Mesh& mesh) {
+    EXPECT_EQ(mesh.vertex_count(), 4u);
+    EXPECT_EQ(mesh.triangle_count(), 4u);
+    EXPECT_TRUE(is_closed(mesh));
+}
+
+// The binary PLY samples' first value, whose first byte is 0x0A (LF): eating one byte too many or too
+// few after end_header shifts it and everything after it.
+const float kLfFirstByte = std::bit_cast<float>(uint32_t(0x3F80000A));
+
+Mesh read_with_warnings(const std::filesystem::path& path, std::vector<std::string>& warnings) {
+    return read_mesh(path, {}, warnings);
+}
+
+TEST_F(MeshIo, PlyFreeTextHeaderLineIsSkippedWithOneWarning) {  // Blender 2.47's exporter
+    const auto path = kSamples / "blender247_free_text_header.ply";
+    std::vector<std::string> warnings;
+    expect_tetrahedron(read_with_warnings(path, warnings));
+    ASSERT_EQ(warnings.size(), 1u);
+    EXPECT_THAT(warnings[0], StartsWith(path.string() + ": PLY header line 3: skipped 'Created by Blender3D"));
+
+    // Several such lines: still one warning, which counts the others.
+    const std::string header = "ply\nformat ascii 1.0\nmade by hand\nelement vertex 3\nproperty float x\n"
+                               "property float y\nproperty float z\nelement face 1\nnot a keyword either\n"
+                               "property list uchar int vertex_indices\nend_header\n";
+    warnings.clear();
+    read_with_warnings(write("two.ply", header + "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"), warnings);
+    ASSERT_EQ(warnings.size(), 1u);
+    EXPECT_THAT(warnings[0], HasSubstr("line 3: skipped 'made by hand'"));
+    EXPECT_THAT(warnings[0], HasSubstr("(and 1 more such lines)"));
+    warnings.clear();
+    write_ply(dir_ / "clean.ply", attributed_cube());
+    read_with_warnings(dir_ / "clean.ply", warnings);
+    EXPECT_TRUE(warnings.empty());
+}
+
+TEST_F(MeshIo, BinaryPlyAfterHeadersEndingInCrAloneCrLfOrLf) {
+    // Rhino 6 ends header lines in CR alone (MeshLab #463, Open3D #5091, draco #613); PCL on Windows in
+    // CRLF (OpenCTM #6, assimp #3929, three.js #15099). The data starts with a 0x0A byte in both.
+    for (const char* sample : {"rhino6_cr_header.ply", "pcl_crlf_header.ply"}) {
+        SCOPED_TRACE(sample);
+        Mesh mesh = read_mesh(kSamples / sample);
+        expect_tetrahedron(mesh);
+        EXPECT_EQ(position(mesh, 0), (std::array<float, 3>{kLfFirstByte, 0, 0}));
+    }
+    // LF, data starting with 0x0A: the one LF after end_header is the header's (assimp #3929).
+    Bytes b;
+    b.text(ply_header("binary_little_endian",
+                      "element vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                      "element face 1\nproperty list uchar int vertex_indices\n"));
+    b.put(kLfFirstByte).put(0.0f).put(0.0f).put(1.0f).put(0.0f).put(0.0f).put(0.0f).put(1.0f).put(0.0f);
+    b.put(uint8_t(3)).put(0).put(1).put(2);
+    EXPECT_EQ(position(read_mesh(write("lf.ply", b.data)), 0), (std::array<float, 3>{kLfFirstByte, 0, 0}));
+}
+
+TEST_F(MeshIo, PlyHeaderSpacingCommentsAndTypeAliases) {
+    // An empty comment (assimp #819), a comment between an element and its properties (assimp #4866),
+    // tabs, runs of spaces and trailing blanks (splat-transform #256), the sized type names and list
+    // count types other than uchar (the PLY types both ways, as rply and tinyply read them), properties
+    // in any order, colours as floats, and a blank CR line before the data (happly #45).
+    const std::string header = "ply\nformat\tascii  1.0 \ncomment\nelement  vertex\t3\ncomment points\n"
+                               "property float32 z\nproperty\tfloat64 y\nproperty float32   x \n"
+                               "property float32 red\nproperty float32 green\nproperty float32 blue\n"
+                               "property int16 flags\n"
+                               "element face 1\nproperty list uint32 int32 vertex_indices\nproperty uint8 tag\n"
+                               "element edge 1\nproperty list int16 uint vertex_index\n"
+                               "end_header\n\r\n";
+    const std::string body = "0 0 0  1 0 0 -1\n0 0 1  0 1 0 2\n0 1 0  0 0 1 3\n3 0 1 2 9\n2 0 1\n";
+    std::vector<std::string> warnings;
+    Mesh mesh = read_with_warnings(write("spaced.ply", header + body), warnings);
+    EXPECT_TRUE(warnings.empty());
+    ASSERT_EQ(mesh.vertex_count(), 3u);
+    EXPECT_EQ(position(mesh, 1), (std::array<float, 3>{1, 0, 0}));  // x is the third property
+    EXPECT_EQ(position(mesh, 2), (std::array<float, 3>{0, 1, 0}));
+    EXPECT_EQ(mesh.colors, (std::vector<uint8_t>{255, 0, 0, 255, 0, 255, 0, 255, 0, 0, 255, 255}));
+    EXPECT_EQ(mesh.indices, (std::vector<uint32_t>{0, 1, 2}));
+}
+
+TEST_F(MeshIo, PlyWithoutThePlyLineIsRefused) {
+    expect_error(write("fake.ply", "format ascii 1.0\nelement vertex 0\nend_header\n"), "not a PLY file");
+}
+
+TEST_F(MeshIo, ObjLineContinuationsEmptyFieldsAndWindowsText) {
+    // Rhino wraps long lines with a backslash (trimesh #1103, helix-toolkit #152); Wings3D writes
+    // "1//" for a corner without uv or normal (wings #391; "1/1/" in trimesh #808); Windows tools write
+    // a byte order mark (tinyobjloader #394, assimp #6253) and CRLF, and some no final line ending
+    // (assimp #2297, tinyobjloader-c #12).
+    for (const char* sample : {"rhino_continued_lines.obj", "wings3d_empty_fields.obj", "bom_crlf_no_final_newline.obj"}) {
+        SCOPED_TRACE(sample);
+        Mesh mesh = read_mesh(kSamples / sample);
+        expect_tetrahedron(mesh);
+        EXPECT_FALSE(mesh.has_normals() || mesh.has_uvs());
+    }
+    Mesh uv = read_mesh(write("uv.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nf 1/1/ 2/2/ 3/3/\n"));
+    EXPECT_TRUE(uv.has_uvs());
+    EXPECT_FALSE(uv.has_normals());
+}
+
+TEST_F(MeshIo, ObjTabsCrAloneNamesWithSpacesAndIgnoredStatements) {
+    // A tab after the keyword (MeshLab #267), CR-alone line endings (classic Mac OS), names with spaces,
+    // smoothing groups, lines, points and parameter-space vertices, a comment at a line's end.
+    const std::string obj = "o my object\rg left side\rs off\rusemtl red paint\rvp 0.5\r"
+                            "v\t0 0 0\rv 1\t0 0\rv 0 1 0 # apex\rv 0 0 1\r"
+                            "l 1 2\rp 3\rf 1 3 2\rf 1 2 4\rf\t1 4 3\rf 2 3 4\r";
+    expect_tetrahedron(read_mesh(write("mac.obj", obj)));
+}
+
+TEST_F(MeshIo, OffWithTheVertexCountGluedToTheKeyword) {  // ModelNet: trimesh #753, PyMesh #162
+    expect_tetrahedron(read_mesh(kSamples / "modelnet_glued_counts.off"));
+    expect_error(write("4d.off", "4OFF\n3 1 0\n0 0 0 0\n1 0 0 0\n0 1 0 0\n3 0 1 2\n"), "4D OFF is not supported");
+    expect_error(write("other.off", "OFFSET 3 1 0\n"), "bad vertex count 'SET'");
+}
+
+TEST_F(MeshIo, BinaryStlThatSaysSolidOrHasAWrongCount) {
+    // SolidWorks starts binary headers with "solid" (stl_reader #3, meshio #530).
+    std::vector<std::string> warnings;
+    expect_tetrahedron(read_with_warnings(kSamples / "solidworks_binary_solid.stl", warnings));
+    EXPECT_TRUE(warnings.empty());
+    // ZanderCAD leaves the triangle count 0 (MeshLab #1281): the size, a whole number of triangles, wins.
+    const auto zero = kSamples / "zandercad_zero_count.stl";
+    expect_tetrahedron(read_with_warnings(zero, warnings));
+    ASSERT_EQ(warnings.size(), 1u);
+    EXPECT_EQ(warnings[0], zero.string() + ": the header says 0 triangles, but the file's size is exactly 4: read 4");
+    // A count too large and a size that is not whole triangles is a cut file.
+    std::ifstream in(zero, std::ios::binary);
+    std::string bytes((std::istreambuf_iterator<char>(in)), {});
+    bytes[80] = 9;
+    expect_error(write("cut.stl", bytes.substr(0, bytes.size() - 7)), "expected 9 triangles, file ends after 3");
+}
+
+TEST_F(MeshIo, AsciiStlInCapitalsWithNanNormalsAndTwoWordEnds) {
+    // All capitals (numpy-stl #154, Slic3r #2971), "END LOOP" (MeshLab #194), NaN normals in several
+    // spellings (OpenSCAD #1225, helix-toolkit #1150), an endsolid name that differs, CRLF.
+    expect_tetrahedron(read_mesh(kSamples / "uppercase_nan_normals.stl"));
+}
+
+TEST_F(MeshIo, AsciiStlWithALongNameNoNameOrSeveralSolids) {
+    const std::string facets = "facet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\n"
+                               "endloop\nendfacet\n";
+    // A name longer than any sniffing window (MeshLab #734), "solid" alone (fstl #33), "end solid"
+    // (numpy-stl #206), two solids in one file.
+    EXPECT_EQ(read_mesh(write("long.stl", "solid " + std::string(3000, '/') + "\n" + facets + "endsolid x\n"))
+                  .triangle_count(), 1u);
+    EXPECT_EQ(read_mesh(write("bare.stl", "solid\n" + facets + "end solid\n")).triangle_count(), 1u);
+    const std::string second = "facet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 0 1 0\nvertex 0 0 1\n"
+                               "endloop\nendfacet\n";
+    EXPECT_EQ(read_mesh(write("two.stl", "solid a\n" + facets + "endsolid a\nsolid b\n" + second + "endsolid b\n"))
+                  .triangle_count(), 2u);
 }
 
 // ---- bad input ------------------------------------------------------------------------------------
@@ -567,6 +767,44 @@ TEST_F(MeshIo, LyingBinaryPlyCountFailsFastWithoutAllocating) {
     expect_error(write("liar_faces.ply", faces.data), "expected 4000000000 faces");
 }
 
+// A header count of ten billion is an error naming the file before anything is allocated, in every
+// reader: never an out-of-memory kill.
+TEST_F(MeshIo, CountsBeyondWhatTheFileCanHoldFailBeforeAllocating) {
+    const std::string xyz = "property float x\nproperty float y\nproperty float z\n";
+    const std::string face = "property list uchar int vertex_indices\n";
+    const std::string triangle = "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
+    expect_error(write("vertices.ply", ply_header("ascii", "element vertex 9999999999\n" + xyz) + triangle),
+                 "too many vertices (9999999999)");
+    expect_error(write("faces.ply", ply_header("ascii", "element vertex 3\n" + xyz + "element face 9999999999\n" + face) +
+                                        triangle),
+                 "expected 9999999999 faces, but only 9 bytes are left, room for at most 2");
+    expect_error(write("ascii_vertices.ply", ply_header("ascii", "element vertex 99999999\n" + xyz) + triangle),
+                 "expected 99999999 vertices, but only 26 bytes are left, room for at most 4");
+    expect_error(write("edges.ply", ply_header("ascii", "element vertex 3\n" + xyz + "element face 1\n" + face +
+                                                        "element edge 9999999999\nproperty int a\nproperty int b\n") +
+                                        triangle + "0 1\n"),
+                 "expected 9999999999 'edge' elements, but only 5 bytes are left");
+    Bytes binary;
+    binary.text(ply_header("binary_little_endian", "element vertex 3\n" + xyz + "element face 9999999999\n" + face));
+    for (int i = 0; i < 9; ++i) binary.put(0.0f);
+    binary.put(uint8_t(3)).put(0).put(1).put(2);
+    expect_error(write("binary_faces.ply", binary.data), "expected 9999999999 faces, but only 13 bytes are left");
+
+    const std::string vertices = "0 0 0\n1 0 0\n0 1 0\n";
+    expect_error(write("vertices.off", "OFF\n9999999999 1 0\n" + vertices), "too many vertices (9999999999)");
+    expect_error(write("faces.off", "OFF\n3 9999999999 0\n" + vertices + "3 0 1 2\n"),
+                 "expected 9999999999 faces, but only 8 bytes are left, room for at most 2");
+    expect_error(write("colours.off", "COFF 1000000 1 0\n" + vertices), "expected 1000000 vertices, but only 18");
+
+    expect_error(write("index.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9999999999\n"),
+                 "indexes vertex 9999999999 of 3");
+
+    std::string stl = binary_stl("binary");
+    const uint32_t most = UINT32_MAX;
+    std::memcpy(stl.data() + 80, &most, 4);
+    expect_error(write("count.stl", stl + "x"), "expected 4294967295 triangles, file ends after 12");
+}
+
 TEST_F(MeshIo, MalformedPlyHeadersAndAsciiBodies) {
     const std::string xyz = "element vertex 3\nproperty float x\nproperty float y\nproperty float z\n";
     const std::string face = "element face 1\nproperty list uchar int vertex_indices\n";
@@ -578,7 +816,10 @@ TEST_F(MeshIo, MalformedPlyHeadersAndAsciiBodies) {
     expect_error(write("no_xyz.ply", ply_header("ascii", "element vertex 1\nproperty float x\n") + "1\n"), "x, y or z");
     expect_error(write("short.ply", ply_header("ascii", "element vertex 5\nproperty float x\nproperty float y\n"
                                                         "property float z\n" + face) + vertices),
-                 "expected 5 vertices, file ends after 3");
+                 "expected 5 vertices, but only 18 bytes are left, room for at most 3");
+    expect_error(write("cut.ply", ply_header("ascii", "element vertex 4\nproperty float x\nproperty float y\n"
+                                                      "property float z\n" + face) + "0.000 0.000 0.000\n1.000 0.000 0.000\n"),
+                 "expected 4 vertices, file ends after 2");
     expect_error(write("word.ply", ply_header("ascii", xyz + face) + "0 0 0\n1 zero 0\n0 1 0\n3 0 1 2\n"),
                  "found 'zero'");
     expect_error(write("index.ply", ply_header("ascii", xyz + face) + vertices + "3 0 1 7\n"),
@@ -625,8 +866,11 @@ TEST_F(MeshIo, MalformedObj) {
 TEST_F(MeshIo, MalformedOff) {
     const std::string vertices = "0 0 0\n1 0 0\n0 1 0\n";
     expect_error(write("negative.off", "OFF\n-3 1 0\n" + vertices + "3 0 1 2\n"), "negative vertex count");
-    expect_error(write("short.off", "OFF\n4 1 0\n" + vertices), "expected 4 vertices, file ends after 3");
+    expect_error(write("short.off", "OFF\n4 1 0\n" + vertices), "expected 4 vertices, but only 18 bytes are left");
+    expect_error(write("cut.off", "OFF\n4 1 0\n0.000 0.000 0.000\n1.000 0.000 0.000\n"),
+                 "expected 4 vertices, file ends after 2");
     expect_error(write("faces.off", "OFF\n3 2 0\n" + vertices + "3 0 1 2\n"), "expected 2 faces, file ends after 1");
+    expect_error(write("room.off", "OFF\n3 3 0\n" + vertices + "3 0 1 2\n"), "expected 3 faces, but only 8 bytes");
     expect_error(write("index.off", "OFF\n3 1 0\n" + vertices + "3 0 1 5\n"), "face 0 indexes vertex 5 of 3");
     expect_error(write("word.off", "OFF\n3 1 0\n0 0 0\n1 x 0\n0 1 0\n3 0 1 2\n"), "found 'x'");
     expect_error(write("count.off", "OFF\nmany 1 0\n"), "bad vertex count");
