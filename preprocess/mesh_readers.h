@@ -2,6 +2,7 @@
 // they share (error reporting, progress ticks, text scanning, number parsing). Not a public API.
 #pragma once
 
+#include <algorithm>
 #include <charconv>
 #include <cstddef>
 #include <cstdint>
@@ -186,6 +187,14 @@ inline uint8_t unit_to_byte(double value) {
     if (!(value > 0.0)) return 0;
     if (value >= 1.0) return 255;
     return uint8_t(value * 255.0 + 0.5);
+}
+
+// A colour channel as a byte: a 0..255 value when `bytes` (a writer's integers), else a 0..1 one; clamped,
+// NaN as 0 (a float-to-byte cast of NaN or of a value out of range is undefined).
+inline uint8_t color_byte(double value, bool bytes) {
+    if (!bytes) return unit_to_byte(value);
+    if (!(value > 0.0)) return 0;
+    return uint8_t(std::min(value, 255.0));
 }
 
 // Quotes a token for an error message, shortened so a binary blob cannot flood the message.

@@ -167,7 +167,7 @@ private:
             colors_.resize(4 * (first_wedge_.size() - 1), 255);
             const bool bytes = values[3] > 1 || values[4] > 1 || values[5] > 1;
             for (int k = 3; k < 6; ++k)
-                colors_.push_back(bytes ? uint8_t(std::clamp(values[k], 0.0f, 255.0f)) : unit_to_byte(values[k]));
+                colors_.push_back(color_byte(values[k], bytes));
             colors_.push_back(255);
         } else if (!colors_.empty()) {
             colors_.insert(colors_.end(), 4, 255);

@@ -143,7 +143,7 @@ private:
         for (size_t k = 0; k < channels; ++k) rgba[k] = number(tokens, v);
         const bool bytes = std::any_of(rgba, rgba + 4, [](float c) { return c > 1.0f; });
         if (bytes && channels == 3) rgba[3] = 255;
-        for (float c : rgba) mesh.colors.push_back(bytes ? uint8_t(std::clamp(c, 0.0f, 255.0f)) : unit_to_byte(c));
+        for (float c : rgba) mesh.colors.push_back(color_byte(c, bytes));
     }
 
     void faces(Mesh& mesh) {

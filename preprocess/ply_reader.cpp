@@ -264,10 +264,9 @@ VertexLayout vertex_layout(const ReadInput& input, const PlyElement& element) {
 }
 
 // Colour channels come as bytes, 16-bit, or float 0..1; the mesh keeps bytes.
-uint8_t color_byte(double value, PlyType type) {
-    if (!is_integer(type)) return unit_to_byte(value);
+uint8_t ply_color_byte(double value, PlyType type) {
     if (type == PlyType::uint16 || type == PlyType::int16) value /= 257.0;
-    return uint8_t(std::clamp(value, 0.0, 255.0));
+    return color_byte(value, is_integer(type));
 }
 
 void size_attributes(Mesh& mesh, const VertexLayout& layout, size_t count) {
@@ -281,7 +280,7 @@ void size_attributes(Mesh& mesh, const VertexLayout& layout, size_t count) {
 void store(Mesh& mesh, size_t vertex, Slot slot, double value, PlyType type) {
     if (slot <= kZ) mesh.positions[3 * vertex + size_t(slot)] = float(value);
     else if (slot <= kNz) mesh.normals[3 * vertex + size_t(slot - kNx)] = float(value);
-    else if (slot <= kAlpha) mesh.colors[4 * vertex + size_t(slot - kRed)] = color_byte(value, type);
+    else if (slot <= kAlpha) mesh.colors[4 * vertex + size_t(slot - kRed)] = ply_color_byte(value, type);
     else mesh.uvs[2 * vertex + size_t(slot - kU)] = float(value);
 }
 
@@ -384,7 +383,7 @@ void color_column(const char* src, size_t stride, size_t n, uint8_t* dst) {
                                                             : PlyType::int32;
     for (size_t i = 0; i < n; ++i) {
         if constexpr (std::is_same_v<T, uint8_t>) dst[4 * i] = uint8_t(src[i * stride]);
-        else dst[4 * i] = color_byte(double(load<T, Swap>(src + i * stride)), kType);
+        else dst[4 * i] = ply_color_byte(double(load<T, Swap>(src + i * stride)), kType);
     }
 }
 

@@ -394,6 +394,21 @@ TEST_F(MeshIo, OffCountsOnTheHeaderLineAndColouredVertices) {
     EXPECT_EQ(mesh.colors[5], 255);
 }
 
+// Found by fuzzing (tests/fuzz/regressions/off): a NaN or out-of-range channel in 0..255 colours was cast
+// to a byte, which is undefined. NaN reads as 0, values beyond the range are clamped.
+TEST_F(MeshIo, NanAndOutOfRangeColourChannelsAreClamped) {
+    const std::string off = "COFF 3 1 0\n0 0 0 nan 300 2\n1 0 0 -7 1e30 255\n0 1 0 0 0 0\n3 0 1 2\n";
+    Mesh mesh = read_mesh(write("nan.off", off));
+    ASSERT_TRUE(mesh.has_colors());
+    EXPECT_EQ(std::vector<uint8_t>(mesh.colors.begin(), mesh.colors.begin() + 8),
+              (std::vector<uint8_t>{0, 255, 2, 255, 0, 255, 255, 255}));
+    const std::string obj = "v 0 0 0 nan 300 2\nv 1 0 0 -7 1e30 255\nv 0 1 0 0 0 0\nf 1 2 3\n";
+    Mesh from_obj = read_mesh(write("nan.obj", obj));
+    ASSERT_TRUE(from_obj.has_colors());
+    EXPECT_EQ(std::vector<uint8_t>(from_obj.colors.begin(), from_obj.colors.begin() + 8),
+              (std::vector<uint8_t>{0, 255, 2, 255, 0, 255, 255, 255}));
+}
+
 TEST_F(MeshIo, NoffReadsNormals) {
     const std::string off = "NOFF\n3 1 0\n0 0 0 0 0 1\n1 0 0 0 0 1\n0 1 0 0 0 1\n3 0 1 2\n";
     Mesh mesh = read_mesh(write("n.off", off));
