@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# strata render, headless: a .hlod beside a mesh into PNG and EXR (channels listed by exrheader), the
-# debug views, and bad input: missing file, bad extension, bad size, unknown channel, unwritable output.
+# strata render, headless: a .hlod beside a mesh into PNG and EXR (channels listed by exrheader), what
+# each view option does to the pixels (read by tests/support/png_pixels.py), and bad input: missing
+# file, bad extension, bad size, unknown channel, unwritable output.
 source "$(dirname "$0")/common.sh"
 sample=$2/data/bunny.off
 [ -s "$sample" ] || { echo "sample missing: run scripts/setup.sh"; exit 1; }

@@ -15,7 +15,7 @@
                                                     how many are a level-palette colour times a grey shade,
                                                     and how many are exactly one (unshaded lines)
 Colours given as R,G,B,A are linear floats (as --background takes them), compared after 8-bit sRGB
-encoding. PALETTE_SOURCE is the source file that declares `level_palette` (read, so it cannot drift).
+encoding; a colour given as at:X,Y is that pixel's. PALETTE_SOURCE is the source file that declares `level_palette` (read, so it cannot drift).
 """
 import re
 import struct
@@ -80,7 +80,10 @@ def linear(byte):
     return c / 12.92 if c <= 0.04045 else ((c + 0.055) / 1.055) ** 2.4
 
 
-def colour_bytes(text):
+def colour_bytes(text, path=None):
+    if text.startswith("at:"):
+        x, y = (int(v) for v in text[3:].split(","))
+        return read_png(path)[2][y][x]
     r, g, b, a = (float(v) for v in text.split(","))
     return (srgb_byte(r), srgb_byte(g), srgb_byte(b), int(round(min(max(a, 0.0), 1.0) * 255)))
 
@@ -169,7 +172,7 @@ def main(args):
         return " ".join(str(c) for c in rows[int(args[3])][int(args[2])])
     if command == "box":
         limits = [int(v) for v in args[3:7]]
-        return box(args[1], colour_bytes(args[2]), *limits)
+        return box(args[1], colour_bytes(args[2], args[1]), *limits)
     if command == "runs":
         return runs(args[1], colour_bytes(args[2]))
     if command == "changed":
