@@ -68,7 +68,8 @@ TEST(Builder, OpenGridWithColoursAndUvsVerifies) {
     EXPECT_GT(v.triangles, 2u * 120 * 120);
 }
 
-// The seamed grid's seam at x = 1/2 must survive every level: seam points collapse only along the seam,
+// The seamed grid's seam at x = 3/8 (inside a block at every level, not on a block border, whose
+// points are never removed) must survive every level: seam points collapse only along the seam,
 // each keeping both copies (left chart u = x, right chart u = x + 1), and every triangle lies on one
 // side and uses only its side's copies. A collapse across the seam would give a triangle the other
 // side's copy (a smeared texture) or leave a seam point with one copy.
@@ -76,7 +77,7 @@ TEST(Builder, UvSeamStaysASeamAndVerifies) {
     test::TempDir dir;
     BuildSettings s;
     s.levels = 2;
-    build_hlod(test::seamed_grid(96), dir / "seam.hlod", s, "seam");
+    build_hlod(test::seamed_grid(96, 36), dir / "seam.hlod", s, "seam");
     HlodFile file(dir / "seam.hlod");
     const HlodHeader& h = file.header();
     ASSERT_TRUE(h.has_uvs());
@@ -85,9 +86,9 @@ TEST(Builder, UvSeamStaysASeamAndVerifies) {
     verify_hlod(file);
 
     for (uint32_t level = 0; level <= h.max_level; ++level) {
-        // Seam points by their lattice y (the seam's x, 1/2, is exactly on every level's lattice): the
+        // Seam points by their lattice y (the seam's x, 3/8, is exactly on every level's lattice): the
         // charts of the copies that left and right triangles use there.
-        const int32_t seam_q = int32_t(1) << (kLatticeBits + level - 1);
+        const int32_t seam_q = int32_t(3) << (kLatticeBits + level - 3);
         std::map<int32_t, std::array<std::set<int>, 2>> seam_charts;
         size_t triangles = 0;
         for (const HlodNode& n : file.nodes()) {
