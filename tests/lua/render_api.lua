@@ -27,13 +27,44 @@ assert(math.abs(other:forward()[3] + 1) < 1e-9)
 local frame = strata.render(scene, cam, { channels = "RGBA,Z,id", background = { 0, 0, 0, 0 } })
 local w, h = frame:size()
 assert(w == 200 and h == 150)
--- The middle of the frame is the model: opaque, at a finite depth, with the model's id; a corner is empty.
+-- The middle of the frame is the model: opaque, drawn (its depth is checked against a pick in
+-- pick_api.lua), with the model's id; a corner is empty.
 local r, g, bl, a, depth, id = frame:pixel(100, 75)
-assert(a == 1 and depth > 0 and depth < 10 and id > 0, ("centre: a=%g depth=%g id=%d"):format(a, depth, id))
+assert(a == 1 and depth < math.huge and id > 0, ("centre: a=%g depth=%g id=%d"):format(a, depth, id))
 local _, _, _, a0, depth0, id0 = frame:pixel(0, 0)
 assert(a0 == 0 and depth0 == math.huge and id0 == 0, "corner should be background")
 local stats = frame:stats()
 assert(stats.triangles > 0 and stats.cubes > 0 and stats.draw_calls >= 1 and stats.cull_ms >= 0)
+
+-- Depth is the eye-space distance along the view axis (not along each pixel's ray), whatever the depth
+-- buffer's convention: a plane through the origin tilted 45° about x, seen from 3 units in front, has at
+-- each pixel the depth its ray meets it at, in perspective and in orthographic projection.
+local tilted = strata.scene()
+tilted:add(strata.plane{ center = { 0, 0, 0 }, up = { 0, 1, 1 }, width = 40, depth = 40 })
+local function check_depths(camera, expected, what)
+    local f = strata.render(tilted, camera, { samples = 1, channels = "RGBA,Z" })
+    local fw, fh = f:size()
+    for _, y in ipairs{ 0, fh // 4, fh // 2, fh - 1 } do
+        for _, x in ipairs{ 0, fw // 3, fw - 1 } do
+            -- The pixel centre's normalized device y (up); the plane's depth does not vary along x.
+            local ny = 1 - (y + 0.5) / fh * 2
+            local _, _, _, alpha, z = f:pixel(x, y)
+            local want = expected(ny)
+            -- alpha > 0.99: covered (the plane's interpolated alpha can come out a hair under 1)
+            assert(alpha > 0.99 and math.abs(z - want) <= 2e-5 * want,
+                ("%s depth at %d,%d: %.7g, the plane is at %.7g (alpha %g)"):format(what, x, y, z, want, alpha))
+        end
+    end
+end
+local tan_y = math.tan(math.rad(45 / 2))
+local persp = strata.camera{ width = 200, height = 150, fov = 45 }
+persp:look_at({ 0, 0, 3 }, { 0, 0, 0 })
+-- The ray (tan_x·nx, tan_y·ny, −1)·t from (0, 0, 3) meets y + z = 0 at t = 3/(1 − tan_y·ny): its depth.
+check_depths(persp, function(ny) return 3 / (1 - tan_y * ny) end, "perspective")
+local ortho = strata.camera{ width = 200, height = 150, orthographic = true, ortho_height = 4 }
+ortho:look_at({ 0, 0, 3 }, { 0, 0, 0 })
+-- The ray from (x, 2·ny, 3) along −z meets y + z = 0 at z = −2·ny.
+check_depths(ortho, function(ny) return 3 + 2 * ny end, "orthographic")
 
 -- A finer pixel error draws more triangles.
 model:set_lod{ pixel_error = 8 }

@@ -71,11 +71,10 @@ inline Mesh colored_grid(int n) {
     return m;
 }
 
-// An n×n grid cut by a UV seam down its middle column: the column's vertices exist twice (left chart
-// u, right chart u + 1), and every vertex carries a scanned normal.
-inline Mesh seamed_grid(int n) {
+// An n×n grid cut by a UV seam down column `seam`: the column's vertices exist twice (left chart u,
+// right chart u + 1), and every vertex carries a scanned normal.
+inline Mesh seamed_grid(int n, int seam) {
     Mesh m;
-    const int seam = n / 2;
     auto add = [&](int x, int y, float chart) {
         float u = float(x) / n, v = float(y) / n;
         float z = 0.1f * std::sin(6 * u) * std::cos(5 * v);

@@ -6,8 +6,13 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
+#include <climits>
+#include <cmath>
 #include <fstream>
 #include <iterator>
+#include <map>
+#include <set>
 
 namespace strata {
 namespace {
@@ -63,26 +68,58 @@ TEST(Builder, OpenGridWithColoursAndUvsVerifies) {
     EXPECT_GT(v.triangles, 2u * 120 * 120);
 }
 
+// The seamed grid's seam at x = 3/8 (inside a block at every level, not on a block border, whose
+// points are never removed) must survive every level: seam points collapse only along the seam,
+// each keeping both copies (left chart u = x, right chart u = x + 1), and every triangle lies on one
+// side and uses only its side's copies. A collapse across the seam would give a triangle the other
+// side's copy (a smeared texture) or leave a seam point with one copy.
 TEST(Builder, UvSeamStaysASeamAndVerifies) {
     test::TempDir dir;
     BuildSettings s;
     s.levels = 2;
-    build_hlod(test::seamed_grid(96), dir / "seam.hlod", s, "seam");
+    build_hlod(test::seamed_grid(96, 36), dir / "seam.hlod", s, "seam");
     HlodFile file(dir / "seam.hlod");
-    ASSERT_TRUE(file.header().has_uvs());
+    const HlodHeader& h = file.header();
+    ASSERT_TRUE(h.has_uvs());
+    ASSERT_EQ(h.origin[0], 0.0);
+    ASSERT_EQ(h.root_size, 1.0);
     verify_hlod(file);
-    // No triangle may mix the two charts (u < 0.5 + ε on the left, u ≥ 0.5 on the right copy): a
-    // collapse across the seam would smear the texture.
-    for (const HlodNode& n : file.nodes()) {
-        CubeData cube = file.read_cube(n);
-        for (size_t t = 0; t < cube.indices.size(); t += 3) {
-            int charts[2] = {0, 0};
-            for (int c = 0; c < 3; ++c) {
-                float u = cube.vertices.uvs[2 * size_t(cube.indices[t + c])];
-                if (u < 0.499f) charts[0]++;
-                if (u > 1.001f) charts[1]++;
+
+    for (uint32_t level = 0; level <= h.max_level; ++level) {
+        // Seam points by their lattice y (the seam's x, 3/8, is exactly on every level's lattice): the
+        // charts of the copies that left and right triangles use there.
+        const int32_t seam_q = int32_t(3) << (kLatticeBits + level - 3);
+        std::map<int32_t, std::array<std::set<int>, 2>> seam_charts;
+        size_t triangles = 0;
+        for (const HlodNode& n : file.nodes()) {
+            if (n.level != level) continue;
+            CubeData cube = file.read_cube(n);
+            auto lattice_x = [&](uint32_t v) {
+                return int32_t(cube.vertices.positions[3 * v]) + int32_t(n.i << kLatticeBits) - kLatticeBias;
+            };
+            for (size_t t = 0; t < cube.indices.size(); t += 3, ++triangles) {
+                int32_t lo = INT32_MAX, hi = INT32_MIN;
+                for (int c = 0; c < 3; ++c) lo = std::min(lo, lattice_x(cube.indices[t + c])), hi = std::max(hi, lattice_x(cube.indices[t + c]));
+                ASSERT_TRUE(hi <= seam_q || lo >= seam_q) << describe_cube(n) << " triangle " << t / 3 << " crosses the seam";
+                const int side = lo >= seam_q;  // 0 left, 1 right
+                for (int c = 0; c < 3; ++c) {
+                    const uint32_t v = cube.indices[t + c];
+                    const float x = decode_coordinate(h, 0, level, n.i, cube.vertices.positions[3 * v]);
+                    const float chart = cube.vertices.uvs[2 * v] - x;  // 0 or 1 for a copy of the input
+                    EXPECT_NEAR(chart, float(side), 1e-4f) << describe_cube(n) << " triangle " << t / 3
+                                                          << " uses the other side's copy at x " << x;
+                    if (lattice_x(v) != seam_q) continue;
+                    const int32_t y = int32_t(cube.vertices.positions[3 * v + 1]) + int32_t(n.j << kLatticeBits) - kLatticeBias;
+                    seam_charts[y][side].insert(int(std::lround(chart)));
+                }
             }
-            EXPECT_FALSE(charts[0] && charts[1]) << describe_cube(n) << " triangle " << t / 3;
+        }
+        ASSERT_GT(triangles, 0u) << "level " << level;
+        // Both ends and some of the line between survive at every level, each point used from both sides.
+        EXPECT_GE(seam_charts.size(), 3u) << "level " << level;
+        for (const auto& [y, charts] : seam_charts) {
+            EXPECT_EQ(charts[0], std::set<int>{0}) << "level " << level << " seam point y " << y << ": its left copy";
+            EXPECT_EQ(charts[1], std::set<int>{1}) << "level " << level << " seam point y " << y << ": its right copy";
         }
     }
 }

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <array>
+#include <cmath>
 #include <cstring>
 #include <random>
 #include <set>
@@ -238,15 +239,80 @@ TEST_F(HlodSelection, TheNodeSelectsInItsOwnFrameUnderATransform) {
     far->remove(model_.get());
 }
 
-TEST_F(HlodSelection, PixelErrorSetsKappa0) {
-    model_->set_pixel_error(1.0);
-    const double k = model_->kappa0_for(1920, std::tan(glm::radians(30.0)));
-    EXPECT_NEAR(k, std::max(model_->header().error_q * 1920 / std::tan(glm::radians(30.0)), model_->min_kappa0()), 1e-9);
-    // A coarser target: smaller κ0, never below the clamp.
+// The promise of --pixel-error P (DESIGN.md §3, §8), checked from the geometry, not from Eq. 4.5: with
+// κ0 = kappa0_for(width, tan) every drawn cube's level error ε_l (the largest error stored for a cube of
+// its level), seen from the eye at the nearest point the cube can draw anything (its cull box), spans
+// at most P pixels; and where a vertex morphs toward its parent, the parent level's error does too at
+// that vertex's distance. Eyes from just off the surface to far away, so every level gets drawn.
+TEST_F(HlodSelection, PixelErrorBoundsTheProjectedErrorOfEveryDrawnCube) {
+    const HlodHeader& h = model_->header();
+    const int width = 1920;
+    const double tan_half_fov = std::tan(glm::radians(30.0));
+    const double pixels_per_unit_at_unit_distance = width / (2 * tan_half_fov);
+    std::vector<double> level_error(h.max_level + 1, 0.0);
+    for (const HlodCube& c : model_->cubes()) level_error[c.node.level] = std::max(level_error[c.node.level], double(c.node.error));
+    ASSERT_GT(level_error[0], 0.0);
+
+    std::vector<glm::dvec3> views = eyes(40);
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<double> unit(-1, 1), exponent(-1, std::log(80.0));
+    for (int i = 0; i < 60; ++i) {
+        const glm::dvec3 dir = glm::normalize(glm::dvec3{unit(rng), unit(rng), unit(rng)});
+        views.push_back(0.5 * glm::dvec3(h.root_size) + dir * h.root_size * std::exp(exponent(rng)));
+    }
+    auto distance_to = [](const glm::dvec3& p, const Box& box) {
+        return glm::length(glm::max(glm::dvec3(0.0), glm::max(box.lo - p, p - box.hi)));
+    };
+
+    std::vector<uint64_t> triangles_per_target;
+    std::set<uint32_t> levels_drawn;
+    for (const double pixels : {1.0, 4.0, 16.0}) {
+        model_->set_pixel_error(pixels);
+        const double kappa0 = model_->kappa0_for(width, tan_half_fov);
+        uint64_t triangles = 0;
+        double worst = 0;
+        std::vector<uint32_t> cubes;
+        std::vector<glm::vec3> morphed;
+        for (const glm::dvec3& eye : views) {
+            model_->select({eye, kappa0}, cubes);
+            for (uint32_t c : cubes) {
+                const HlodCube& cube = model_->cubes()[c];
+                const uint32_t level = cube.node.level;
+                levels_drawn.insert(level);
+                triangles += cube.data.triangle_count();
+                const double distance = distance_to(eye, model_->cull_box(cube.node));
+                const double projected = distance > 0 ? level_error[level] * pixels_per_unit_at_unit_distance / distance
+                                                      : (level_error[level] > 0 ? INFINITY : 0.0);
+                EXPECT_LE(projected, pixels) << describe_cube(cube.node) << " for P " << pixels << " from "
+                                             << eye.x << " " << eye.y << " " << eye.z;
+                worst = std::max(worst, projected);
+                if (level == 0) continue;
+                model_->morphed_positions(c, glm::vec3(eye), float(kappa0), morphed);
+                double nearest_morphing = INFINITY;
+                for (uint32_t v = 0; v < cube.data.vertex_count(); ++v) {
+                    const glm::vec3 own = model_->vertex_position(cube, v);
+                    if (morphed[v] != own) nearest_morphing = std::min(nearest_morphing, glm::length(eye - glm::dvec3(own)));
+                }
+                EXPECT_LE(level_error[level - 1] * pixels_per_unit_at_unit_distance / nearest_morphing, pixels)
+                    << describe_cube(cube.node) << " morphing toward its parent, P " << pixels;
+            }
+        }
+        // The bound is not met by drawing everything finer than needed: some cube comes near it.
+        EXPECT_GT(worst, pixels / 4) << "P " << pixels;
+        triangles_per_target.push_back(triangles);
+    }
+    EXPECT_EQ(levels_drawn.size(), h.max_level + 1u);
+    // A coarser target draws fewer triangles.
+    EXPECT_GT(triangles_per_target[0], triangles_per_target[1]);
+    EXPECT_GT(triangles_per_target[1], triangles_per_target[2]);
+
+    // However coarse the target, κ0 stays where the morph works: κ0 ≥ 1 + 3σ0 + 0.25 (DESIGN.md §3).
+    const double morph_minimum = 1.0 + 3.0 * double(h.sigma0) + 0.25;
     model_->set_pixel_error(1e6);
-    EXPECT_EQ(model_->kappa0_for(1920, std::tan(glm::radians(30.0))), model_->min_kappa0());
+    EXPECT_DOUBLE_EQ(model_->kappa0_for(width, tan_half_fov), morph_minimum);
     model_->set_kappa0(0.5);
-    EXPECT_EQ(model_->kappa0_for(1920, 0.5), model_->min_kappa0());
+    EXPECT_DOUBLE_EQ(model_->kappa0(), morph_minimum);
+    EXPECT_DOUBLE_EQ(model_->kappa0_for(width, tan_half_fov), morph_minimum);
     EXPECT_THROW(model_->set_pixel_error(-1), std::invalid_argument);
     model_->set_kappa0(2.0);
 }
