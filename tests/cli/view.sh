@@ -18,7 +18,7 @@ pixels() { python3 "$root/tests/support/png_pixels.py" "$@"; }
 checks=$((checks + 1)); [ "$(pixels size "$WORK/shot.png")" = "320 240" ] || fail "the screenshot is $(pixels size "$WORK/shot.png"), not 320x240"
 # What the screenshot shows: with the panels hidden, the model framed in the middle on the background.
 printf 'editor:panels(false)\n' >"$WORK/no_panels.lua"
-expect_success "window without panels" xvfb-run -a -s "-screen 0 800x600x24" "$STRATA" view "$WORK/bunny.hlod" \
+expect_success "window without panels" with_x 800x600 "$STRATA" view "$WORK/bunny.hlod" \
     --size 320x240 --frames 5 --script "$WORK/no_panels.lua" --screenshot "$WORK/model.png"
 # The bottom corners (the stats line is along the top) are the background, linear 0.06, 0.06, 0.07:
 # 69, 69, 74 in 8-bit sRGB, give or take the rounding.
