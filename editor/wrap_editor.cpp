@@ -23,7 +23,7 @@ constexpr const char* kEditorType = "strata.Editor";
 constexpr const char* kOpenEditor = "strata.open_editor";  // registry key of the one editor
 
 // The handle may be empty: a later strata.view() replaced the editor it held.
-const std::shared_ptr<Editor>& check_handle(lua_State* L) { return lua::check_shared<Editor>(L, 1, kEditorType); }
+const std::shared_ptr<Editor>& check_handle(lua_State* L) { return lua::check_slot<Editor>(L, 1); }
 
 Editor& check_editor(lua_State* L) {
     const std::shared_ptr<Editor>& editor = check_handle(L);
@@ -143,7 +143,7 @@ int editor_set_duration(lua_State* L) {  // ed:set_duration(key, seconds | nil):
     std::optional<double> seconds;
     if (!lua_isnoneornil(L, 3)) {
         seconds = luaL_checknumber(L, 3);
-        luaL_argcheck(L, *seconds > 0, 3, "a duration must be > 0");
+        luaL_argcheck(L, *seconds > 0 && std::isfinite(*seconds), 3, "a duration must be a finite number > 0");
     }
     editor.path().set_duration(key, seconds);
     return 0;
@@ -346,7 +346,7 @@ std::shared_ptr<Editor> open_editor(Runtime& runtime, SceneState state) {
     lua_State* L = runtime.state();
     // One editor at a time: the previous one (open or closed) goes first.
     lua_getfield(L, LUA_REGISTRYINDEX, kOpenEditor);
-    auto* previous = static_cast<std::shared_ptr<Editor>*>(luaL_testudata(L, -1, kEditorType));
+    auto* previous = static_cast<std::shared_ptr<Editor>*>(luaL_testudata(L, -1, lua::type_name_of<Editor>()));
     lua_pop(L, 1);  // the registry keeps it
     if (previous && *previous && (*previous)->busy())
         throw std::runtime_error("strata.view cannot replace the open editor from its own console");
@@ -354,7 +354,7 @@ std::shared_ptr<Editor> open_editor(Runtime& runtime, SceneState state) {
     if (previous) previous->reset();
     auto editor = std::make_shared<Editor>(runtime, std::move(state));
     // The Lua state owns it: it is destroyed when the state closes, before the GL context goes.
-    lua::push_shared(L, editor, kEditorType);
+    lua::push_shared(L, editor);
     lua_setfield(L, LUA_REGISTRYINDEX, kOpenEditor);
     runtime.add_live_window([weak = std::weak_ptr<Editor>(editor)] {
         const std::shared_ptr<Editor> live = weak.lock();
@@ -364,17 +364,11 @@ std::shared_ptr<Editor> open_editor(Runtime& runtime, SceneState state) {
 }
 
 void register_editor(lua_State* L) {
-    if (luaL_newmetatable(L, kEditorType)) {
-        luaL_newlib(L, kEditorMethods);
-        lua_setfield(L, -2, "__index");
-        lua_pushcfunction(L, lua::collect_shared<Editor>);
-        lua_setfield(L, -2, "__gc");
-    }
-    lua_pop(L, 1);
+    lua::register_type<Editor>(L, kEditorType, kEditorMethods);
     luaL_getsubtable(L, LUA_REGISTRYINDEX, LUA_LOADED_TABLE);
     lua_getfield(L, -1, "strata");
-    lua_pushcfunction(L, view);
-    lua_setfield(L, -2, "view");
+    const luaL_Reg functions[] = {{"view", view}, {nullptr, nullptr}};
+    lua::set_functions(L, functions);
     lua_pop(L, 2);
 }
 

@@ -5,6 +5,8 @@
 
 #include <lua.hpp>
 
+#include "scripting/lua_util.h"
+
 namespace strata {
 
 namespace {
@@ -95,7 +97,7 @@ void Interpreter::evaluate(const std::string& source) {
     if (luaL_loadbuffer(L, expression.data(), expression.size(), "=stdin") != LUA_OK) {
         lua_pop(L, 1);
         if (luaL_loadbuffer(L, source.data(), source.size(), "=stdin") != LUA_OK) {
-            runtime_.write_output(std::string(lua_tostring(L, -1)) + "\n", true);
+            runtime_.write_output(lua::error_text(L, -1) + "\n", true);
             lua_settop(L, base);
             return;
         }

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <limits>
 
 namespace strata::lua {
 
@@ -20,6 +21,9 @@ bool table_of_numbers(lua_State* L, int index, int count, double* out) {
     return true;
 }
 
+// Converting a double beyond float's range to float is undefined behaviour, not infinity.
+bool fits_float(double value) { return std::abs(value) <= std::numeric_limits<float>::max(); }
+
 bool absent(lua_State* L, int index) { return lua_isnoneornil(L, index); }
 
 [[noreturn]] void option_error(lua_State* L, const char* key, const char* expected) {
@@ -27,7 +31,95 @@ bool absent(lua_State* L, int index) { return lua_isnoneornil(L, index); }
     std::abort();  // luaL_error does not return
 }
 
+// Runs a guarded function (set_functions): the real one is upvalue 1.
+int guarded_call(lua_State* L) {
+    const lua_CFunction function = lua_tocfunction(L, lua_upvalueindex(1));
+    try {
+        return function(L);
+    } catch (const std::exception& e) {  // not Lua's own errors: those are no std::exception
+        return luaL_error(L, "%s", e.what());
+    }
+}
+
+// luaL_tolstring in a protected call: a __tostring may raise, or return something not a string.
+int to_text(lua_State* L) {
+    luaL_tolstring(L, 1, nullptr);
+    return 1;
+}
+
 }  // namespace
+
+void released_error(lua_State* L, int index, const char* type_name) {
+    luaL_argerror(L, index, lua_pushfstring(L, "%s has been released", type_name));
+    std::abort();  // luaL_argerror does not return
+}
+
+void set_functions(lua_State* L, const luaL_Reg* functions) {
+    for (; functions->name; ++functions) {
+        lua_pushcfunction(L, functions->func);
+        lua_pushcclosure(L, guarded_call, 1);
+        lua_setfield(L, -2, functions->name);
+    }
+}
+
+void account_external(lua_State* L, size_t bytes) {
+    const size_t kilobytes = std::min<size_t>(bytes / 1024, size_t(std::numeric_limits<int>::max()));
+    if (kilobytes > 0) lua_gc(L, LUA_GCSTEP, int(kilobytes));
+}
+
+std::string error_text(lua_State* L, int index) {
+    index = lua_absindex(L, index);
+    const bool readable = lua_type(L, index) == LUA_TSTRING || lua_type(L, index) == LUA_TNUMBER;
+    if (!readable) {
+        if (luaL_getmetafield(L, index, "__tostring") == LUA_TNIL)
+            return std::string("(error object is a ") + luaL_typename(L, index) + " value)";
+        lua_pop(L, 1);
+    }
+    lua_pushcfunction(L, to_text);
+    lua_pushvalue(L, index);
+    const bool converted = lua_pcall(L, 1, 1, 0) == LUA_OK && lua_type(L, -1) == LUA_TSTRING;
+    std::string text = converted ? lua_tostring(L, -1) : "";
+    lua_pop(L, 1);
+    if (!converted) return std::string("(error object is a ") + luaL_typename(L, index) + " value whose __tostring failed)";
+    return text;
+}
+
+lua_Integer opt_integer(lua_State* L, int index, const char* key, lua_Integer fallback) {
+    if (!get_option(L, index, key)) {
+        lua_pop(L, 1);
+        return fallback;
+    }
+    if (lua_type(L, -1) != LUA_TNUMBER) option_error(L, key, "a number");
+    int is_integer = 0;
+    const lua_Integer value = lua_tointegerx(L, -1, &is_integer);
+    if (!is_integer) luaL_error(L, "option '%s': number has no integer representation (%s)", key, lua_tostring(L, -1));
+    lua_pop(L, 1);
+    return value;
+}
+
+float to_float(lua_State* L, double value, const char* what) {
+    if (!fits_float(value)) luaL_error(L, "%s must be a finite number within float range, got %f", what, value);
+    return float(value);
+}
+
+float opt_float(lua_State* L, int index, const char* key, float fallback) {
+    const double value = opt_number(L, index, key, fallback);
+    if (!fits_float(value)) luaL_error(L, "option '%s' must be a finite number within float range, got %f", key, value);
+    return float(value);
+}
+
+glm::vec3 check_color(lua_State* L, int index) {
+    const glm::dvec3 color = check_vec3(L, index);
+    for (int i = 0; i < 3; ++i)
+        if (!fits_float(color[i])) luaL_argerror(L, index, "a color's components must be within float range");
+    return glm::vec3(color);
+}
+
+lua_Integer opt_integer_in(lua_State* L, int index, const char* key, lua_Integer fallback, lua_Integer lo, lua_Integer hi) {
+    const lua_Integer value = opt_integer(L, index, key, fallback);
+    if (value < lo || value > hi) luaL_error(L, "option '%s' must be %I to %I, got %I", key, lo, hi, value);
+    return value;
+}
 
 // "{x, y, z} expected, got a table of 2 values" (or "got nil", …).
 [[noreturn]] void shape_error(lua_State* L, int index, const char* expected) {

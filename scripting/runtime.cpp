@@ -2,6 +2,7 @@
 
 #include <cstdio>
 #include <cstring>
+#include <stdexcept>
 #include <string>
 
 #include <lua.hpp>
@@ -9,6 +10,7 @@
 #include "engine/gl/context.h"
 #include "engine/io/image_writer.h"
 #include "engine/render/renderer.h"
+#include "scripting/lua_util.h"
 
 namespace strata {
 
@@ -31,11 +33,40 @@ int open_strata(lua_State* L) {
 
 // The message handler: the error with a traceback from where it was raised.
 int traceback(lua_State* L) {
-    const char* message = lua_tostring(L, 1);
-    if (!message) message = lua_pushfstring(L, "(error object is a %s value)", luaL_typename(L, 1));
-    luaL_traceback(L, L, message, 1);
+    const std::string message = lua::error_text(L, 1);
+    luaL_traceback(L, L, message.c_str(), 1);
     return 1;
 }
+
+// The debug library, less what lets a script reach memory as something it is not: the registry
+// (whose metatables the type checks trust), metatables of userdata, upvalues of C functions (the
+// guarded bindings' real functions, the standard iterators' unchecked state) and locals of C
+// functions. Tracebacks, hooks, getinfo and the rest stay.
+const char* const kRestrictDebug = R"lua(
+local debug, type, error = debug, type, error
+local getinfo, setmetatable, getupvalue, setupvalue, setlocal =
+    debug.getinfo, debug.setmetatable, debug.getupvalue, debug.setupvalue, debug.setlocal
+local function refuse(what) error("debug." .. what .. " is not available in strata (it could corrupt memory)", 3) end
+debug.getregistry = function() refuse("getregistry") end
+debug.setmetatable = function(value, metatable)
+    if type(value) == "userdata" then refuse("setmetatable on a userdata") end
+    return setmetatable(value, metatable)
+end
+local function lua_function(f, what)
+    if type(f) == "function" and getinfo(f, "S").what == "C" then refuse(what .. " of a C function") end
+end
+debug.getupvalue = function(f, n) lua_function(f, "getupvalue") return getupvalue(f, n) end
+debug.setupvalue = function(f, n, v) lua_function(f, "setupvalue") return setupvalue(f, n, v) end
+debug.setlocal = function(...)
+    local thread = ...
+    local info
+    if type(thread) == "thread" then info = getinfo(thread, select(2, ...), "S")
+    elseif type(thread) == "number" then info = getinfo(thread + 1, "S") end
+    if info and info.what == "C" then refuse("setlocal of a C function") end
+    if type(thread) == "number" then return setlocal(thread + 1, select(2, ...)) end
+    return setlocal(...)
+end
+)lua";
 
 // print, as Lua's own, but through the runtime's output (the editor's console captures it).
 int print(lua_State* L) {
@@ -61,6 +92,7 @@ Runtime::Runtime(RuntimeOptions options) : options_(options), L_(luaL_newstate()
     luaL_requiref(L_, "strata", open_strata, 1);  // package.loaded.strata, and the global
     lua_pop(L_, 1);
     lua_register(L_, "print", print);
+    if (luaL_dostring(L_, kRestrictDebug) != LUA_OK) throw std::logic_error(lua::error_text(L_, -1));
 }
 
 Runtime::~Runtime() {
@@ -115,8 +147,7 @@ bool Runtime::protected_call(int arguments, int results) {
     if (status == LUA_OK) return true;
     // A message, or whatever was raised (an error object, or nothing readable when a C++ exception
     // unwound through Lua): never a null string.
-    const char* message = lua_tostring(L_, -1);
-    write_output(std::string(message ? message : "(an error without a message)") + "\n", true);
+    write_output(lua::error_text(L_, -1) + "\n", true);
     lua_pop(L_, 1);
     return false;
 }
@@ -156,7 +187,7 @@ int Runtime::run_file(const std::filesystem::path& script, const std::vector<std
     lua_setglobal(L_, "arg");
 
     if (luaL_loadfile(L_, script.c_str()) != LUA_OK) {
-        std::fprintf(stderr, "%s\n", lua_tostring(L_, -1));  // "cannot open x.lua" or "x.lua:3: syntax error"
+        std::fprintf(stderr, "%s\n", lua::error_text(L_, -1).c_str());  // "cannot open x.lua" or "x.lua:3: syntax error"
         lua_pop(L_, 1);
         return 1;
     }
@@ -166,7 +197,7 @@ int Runtime::run_file(const std::filesystem::path& script, const std::vector<std
 
 int Runtime::run_string(const std::string& source, const std::string& name) {
     if (luaL_loadbuffer(L_, source.data(), source.size(), ("=" + name).c_str()) != LUA_OK) {
-        std::fprintf(stderr, "%s\n", lua_tostring(L_, -1));
+        std::fprintf(stderr, "%s\n", lua::error_text(L_, -1).c_str());
         lua_pop(L_, 1);
         return 1;
     }

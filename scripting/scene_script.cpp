@@ -112,7 +112,7 @@ public:
 
 private:
     void line(int depth, const std::string& text) { out_ += std::string(4 * size_t(depth), ' ') + text + "\n"; }
-    void count_uses(const Node& node);
+    void count_uses(const Node& node, int depth);
     void children(const Node& node, const std::string& var, int depth);
     void settings(const Node& node, const std::string& var, int depth);
     std::string constructor(const Node& node, int depth) const;
@@ -127,7 +127,7 @@ private:
 };
 
 std::string SceneWriter::tree(const NodePtr& root) {
-    count_uses(*root);
+    count_uses(*root, 0);
     if (std::ranges::any_of(uses_, [](const auto& node_uses) { return node_uses.second > 1; }))
         line(0, "local shared = {}  -- nodes that occur more than once");
     line(0, "scene = " + constructor(*root, 0));
@@ -136,10 +136,17 @@ std::string SceneWriter::tree(const NodePtr& root) {
     return std::move(out_);
 }
 
-void SceneWriter::count_uses(const Node& node) {
+// The script nests a block per level, and Lua reads 200 nested blocks at most ("too many C levels"): a
+// deeper scene is refused here, before the writer recurses as deep.
+constexpr int kMaxScriptDepth = 150;
+
+void SceneWriter::count_uses(const Node& node, int depth) {
+    if (depth > kMaxScriptDepth)
+        cannot_write(node, "lies more than " + std::to_string(kMaxScriptDepth) +
+                               " levels deep: a scene script cannot nest that deep (Lua reads 200 nested blocks at most)");
     if (++uses_[&node] > 1) return;  // its children are counted once: they are written once
     if (const auto* group = dynamic_cast<const Group*>(&node))
-        for (const NodePtr& child : group->children()) count_uses(*child);
+        for (const NodePtr& child : group->children()) count_uses(*child, depth + 1);
 }
 
 // Each child in a block of its own, its local named after its depth (n1, n2, …) so that it can add to

@@ -3,6 +3,7 @@
 // older than the scan.
 #include <atomic>
 #include <chrono>
+#include <climits>
 #include <condition_variable>
 #include <filesystem>
 #include <mutex>
@@ -20,6 +21,8 @@ namespace strata {
 
 namespace {
 
+constexpr lua_Integer kMaxThreads = 1024;  // far beyond any machine's cores; a typo of 1e9 threads is refused
+
 struct BuildJob {
     std::string input, output;
     BuildSettings settings;
@@ -33,12 +36,13 @@ BuildJob check_job(lua_State* L, int index) {
     job.output = lua::opt_string(L, index, "output", "");
     if (job.input.empty()) luaL_error(L, "option 'input' (the scan to build) is required");
     if (job.output.empty()) job.output = std::filesystem::path(job.input).replace_extension(".hlod").string();
-    job.settings.levels = int(lua::opt_number(L, index, "levels", -1));
-    job.settings.block = int(lua::opt_number(L, index, "block", job.settings.block));
-    job.settings.ratio = float(lua::opt_number(L, index, "ratio", job.settings.ratio));
-    job.settings.sigma0 = float(lua::opt_number(L, index, "sigma0", job.settings.sigma0));
-    job.settings.error = float(lua::opt_number(L, index, "error", job.settings.error));
-    job.settings.threads = int(lua::opt_number(L, index, "threads", 0));
+    // The builder checks what the values mean; here only that they fit its types.
+    job.settings.levels = int(lua::opt_integer_in(L, index, "levels", -1, -1, INT_MAX));
+    job.settings.block = int(lua::opt_integer_in(L, index, "block", job.settings.block, 1, INT_MAX));
+    job.settings.ratio = lua::opt_float(L, index, "ratio", job.settings.ratio);
+    job.settings.sigma0 = lua::opt_float(L, index, "sigma0", job.settings.sigma0);
+    job.settings.error = lua::opt_float(L, index, "error", job.settings.error);
+    job.settings.threads = int(lua::opt_integer_in(L, index, "threads", 0, 0, kMaxThreads));
     return job;
 }
 
@@ -55,11 +59,12 @@ struct Shared {
 
 // Runs the build on a worker thread while this one (the only one that may touch Lua) calls
 // on_progress with the latest figures, ten times a second at most. on_progress returning false, or
-// raising an error, cancels the build, which then leaves no output.
+// raising an error (any value: it is reported as text), cancels the build, which then leaves no output.
 int build(lua_State* L) {
     const BuildJob job = check_job(L, 1);
     const bool has_callback = lua::get_option(L, 1, "on_progress");
-    if (has_callback) luaL_checktype(L, -1, LUA_TFUNCTION);
+    if (has_callback && !lua_isfunction(L, -1))
+        return luaL_error(L, "option 'on_progress' must be a function, got %s", luaL_typename(L, -1));
     const int callback = lua_gettop(L);
 
     Shared shared;
@@ -95,6 +100,17 @@ int build(lua_State* L) {
         shared.finished = true;
         shared.changed.notify_all();
     });
+    // A Lua error while passing figures on (out of memory) unwinds this function: the build is
+    // cancelled and waited for first, as a joinable std::thread destroyed would end the process.
+    struct JoinOnUnwind {
+        std::thread& worker;
+        std::atomic<bool>& cancel;
+        ~JoinOnUnwind() {
+            if (!worker.joinable()) return;
+            cancel = true;
+            worker.join();
+        }
+    } join_on_unwind{worker, cancel};
 
     // Passes the latest figures to on_progress; called with the mutex held, released around the call.
     std::string callback_error;
@@ -110,7 +126,7 @@ int build(lua_State* L) {
         lua_pushnumber(L, total);
         lua_pushstring(L, unit.c_str());
         if (lua_pcall(L, 4, 1, 0) != LUA_OK) {
-            callback_error = lua_tostring(L, -1);
+            callback_error = lua::error_text(L, -1);
             cancel = true;
         } else if (lua_isboolean(L, -1) && !lua_toboolean(L, -1)) {
             cancel = true;
@@ -170,8 +186,8 @@ int build(lua_State* L) {
 }  // namespace
 
 void register_build(lua_State* L) {
-    lua_pushcfunction(L, build);
-    lua_setfield(L, -2, "build");
+    const luaL_Reg functions[] = {{"build", build}, {nullptr, nullptr}};
+    lua::set_functions(L, functions);
 }
 
 }  // namespace strata

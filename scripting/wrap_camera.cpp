@@ -1,5 +1,7 @@
 // strata.camera{…} and its methods: pose (position, orientation, fov), look-at, framing a node,
 // perspective or orthographic projection, clip planes (fitted to the scene unless set), image size.
+#include <cmath>
+
 #include <lua.hpp>
 
 #include "engine/scene/camera.h"
@@ -15,19 +17,31 @@ namespace {
 using lua::check_keys;
 using lua::check_vec3;
 
+constexpr lua_Integer kMaxPixels = 16384;  // the largest framebuffer edge GL implementations offer
+
+double check_fov(lua_State* L, int index, double fallback);
+
 // Applies the projection and size options of a table at `index` (those present).
 void apply_settings(lua_State* L, int index, Camera& c) {
-    c.fov_y_degrees = lua::opt_number(L, index, "fov", c.fov_y_degrees);
-    if (!(c.fov_y_degrees > 0 && c.fov_y_degrees < 180)) luaL_error(L, "option 'fov' must be between 0 and 180 degrees");
-    c.width = int(lua::opt_number(L, index, "width", c.width));
-    c.height = int(lua::opt_number(L, index, "height", c.height));
-    if (c.width <= 0 || c.height <= 0 || c.width > 16384 || c.height > 16384)
-        luaL_error(L, "options 'width' and 'height' must be 1 to 16384 pixels");
+    c.fov_y_degrees = check_fov(L, index, c.fov_y_degrees);
+    c.width = int(lua::opt_integer_in(L, index, "width", c.width, 1, kMaxPixels));
+    c.height = int(lua::opt_integer_in(L, index, "height", c.height, 1, kMaxPixels));
     const bool ortho = lua::opt_boolean(L, index, "orthographic", c.projection == ProjectionKind::orthographic);
     c.projection = ortho ? ProjectionKind::orthographic : ProjectionKind::perspective;
     c.ortho_height = lua::opt_number(L, index, "ortho_height", c.ortho_height);
+    if (!(std::isfinite(c.ortho_height) && c.ortho_height > 0)) luaL_error(L, "option 'ortho_height' must be a positive number");
     c.near_clip = lua::opt_number(L, index, "near", c.near_clip);
     c.far_clip = lua::opt_number(L, index, "far", c.far_clip);
+    // An infinite far plane is one (reversed depth draws to infinity).
+    if (!(std::isfinite(c.near_clip) && c.near_clip >= 0 && c.far_clip >= 0))
+        luaL_error(L, "options 'near' and 'far' must be distances, 0 or more (both 0: fitted to the scene), 'near' finite");
+}
+
+// The fov option of a pose or the camera's settings, in degrees.
+double check_fov(lua_State* L, int index, double fallback) {
+    const double fov = lua::opt_number(L, index, "fov", fallback);
+    if (!(fov > 0 && fov < 180)) luaL_error(L, "option 'fov' must be between 0 and 180 degrees");
+    return fov;
 }
 
 int new_camera(lua_State* L) {
@@ -109,27 +123,18 @@ void apply_pose(lua_State* L, int index, Camera& c) {
     lua_pop(L, 1);
     if (lua::get_option(L, index, "target")) c.look_at(c.position, check_vec3(L, lua_gettop(L)), up);
     lua_pop(L, 1);
-    c.fov_y_degrees = lua::opt_number(L, index, "fov", c.fov_y_degrees);
+    c.fov_y_degrees = check_fov(L, index, c.fov_y_degrees);
 }
 
-void push_camera(lua_State* L, std::shared_ptr<Camera> camera) { lua::push_shared(L, std::move(camera), kCameraType); }
+void push_camera(lua_State* L, std::shared_ptr<Camera> camera) { lua::push_shared(L, std::move(camera)); }
 
-const std::shared_ptr<Camera>& check_camera(lua_State* L, int index) {
-    return lua::check_shared<Camera>(L, index, kCameraType);
-}
+const std::shared_ptr<Camera>& check_camera(lua_State* L, int index) { return lua::check_shared<Camera>(L, index); }
 
 void register_camera(lua_State* L) {
-    if (luaL_newmetatable(L, kCameraType)) {
-        luaL_newlib(L, kMethods);
-        lua_setfield(L, -2, "__index");
-        lua_pushcfunction(L, lua::collect_shared<Camera>);
-        lua_setfield(L, -2, "__gc");
-        lua_pushcfunction(L, camera_tostring);
-        lua_setfield(L, -2, "__tostring");
-    }
-    lua_pop(L, 1);
-    lua_pushcfunction(L, new_camera);
-    lua_setfield(L, -2, "camera");
+    const luaL_Reg metamethods[] = {{"__tostring", camera_tostring}, {nullptr, nullptr}};
+    lua::register_type<Camera>(L, kCameraType, kMethods, metamethods);
+    const luaL_Reg functions[] = {{"camera", new_camera}, {nullptr, nullptr}};
+    lua::set_functions(L, functions);
 }
 
 }  // namespace strata

@@ -9,6 +9,7 @@
 
 #include <lua.hpp>
 
+#include "scripting/lua_util.h"
 #include "scripting/runtime.h"
 
 namespace strata {
@@ -73,7 +74,7 @@ int make_folder(lua_State* L) {
 
 void register_files(lua_State* L) {
     const luaL_Reg functions[] = {{"files", files}, {"modified", modified}, {"mkdir", make_folder}, {nullptr, nullptr}};
-    luaL_setfuncs(L, functions, 0);
+    lua::set_functions(L, functions);
 }
 
 }  // namespace strata

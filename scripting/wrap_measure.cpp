@@ -46,7 +46,9 @@ int summary(lua_State* L) {
         int is_number = 0;
         const double v = lua_tonumberx(L, -1, &is_number);
         lua_pop(L, 1);
-        if (!is_number) return luaL_argerror(L, 1, lua_pushfstring(L, "value %d is not a number", int(i)));
+        if (!is_number) return luaL_argerror(L, 1, lua_pushfstring(L, "value %I is not a number", i));
+        // NaN has no place in a sorted order (std::sort would read past the values).
+        if (std::isnan(v)) return luaL_argerror(L, 1, lua_pushfstring(L, "value %I is NaN", i));
         values.push_back(v);
     }
     if (values.empty()) return luaL_argerror(L, 1, "no values");
@@ -129,6 +131,8 @@ int now(lua_State* L) {  // seconds on a steady clock, for timing parts of a scr
 // numbers, strings, booleans; nil is null. Functions and userdata have no JSON form: an error.
 nlohmann::json to_json(lua_State* L, int index, int depth) {
     if (depth > 64) luaL_error(L, "strata.write_json: the table nests too deep (a cycle?)");
+    // Each level holds a key, a value and a copy on the stack: a C function is given 20 slots only.
+    luaL_checkstack(L, 4, "strata.write_json: the table nests too deep");
     switch (lua_type(L, index)) {
     case LUA_TNIL: return nullptr;
     case LUA_TBOOLEAN: return bool(lua_toboolean(L, index));
@@ -179,14 +183,9 @@ int write_json(lua_State* L) {
 }  // namespace
 
 void register_measure(lua_State* L) {
-    lua_pushcfunction(L, write_json);
-    lua_setfield(L, -2, "write_json");
-    lua_pushcfunction(L, now);
-    lua_setfield(L, -2, "now");
-    lua_pushcfunction(L, summary);
-    lua_setfield(L, -2, "summary");
-    lua_pushcfunction(L, write_csv);
-    lua_setfield(L, -2, "write_csv");
+    const luaL_Reg functions[] = {{"write_json", write_json}, {"now", now}, {"summary", summary}, {"write_csv", write_csv},
+                                  {nullptr, nullptr}};
+    lua::set_functions(L, functions);
 }
 
 }  // namespace strata

@@ -1,6 +1,8 @@
 // strata.path{…}: camera flythrough paths (engine/path) as Lua values of type "strata.Path": sampled by
 // time or frame by frame at a frame rate, saved and loaded as JSON, imported from and exported to
 // OpenSceneGraph .path files. Poses are tables {position=, orientation=, fov=} that camera:set_pose takes.
+#include <cmath>
+
 #include <lua.hpp>
 
 #include "engine/path/camera_path.h"
@@ -14,10 +16,10 @@ namespace strata {
 namespace {
 
 void push_path(lua_State* L, CameraPath path) {
-    lua::push_shared(L, std::make_shared<CameraPath>(std::move(path)), kPathType);
+    lua::push_shared(L, std::make_shared<CameraPath>(std::move(path)));
 }
 
-const CameraPath& check_path(lua_State* L, int index) { return *lua::check_shared<CameraPath>(L, index, kPathType); }
+const CameraPath& check_path(lua_State* L, int index) { return *lua::check_shared<CameraPath>(L, index); }
 
 void push_pose(lua_State* L, const Pose& pose) { lua::push_pose(L, pose.position, pose.orientation, pose.fov_degrees); }
 
@@ -116,7 +118,10 @@ int import_osg(lua_State* L) {
 }
 
 int path_sample(lua_State* L) {
-    push_pose(L, check_path(L, 1).sample(luaL_checknumber(L, 2)));
+    const CameraPath& path = check_path(L, 1);
+    const double seconds = luaL_checknumber(L, 2);
+    luaL_argcheck(L, std::isfinite(seconds), 2, "a finite time in seconds expected");
+    push_pose(L, path.sample(seconds));
     return 1;
 }
 
@@ -138,9 +143,10 @@ int path_key_time(lua_State* L) {
     return 1;
 }
 
+// Up to a million: a frame count is duration × fps, which must stay a count.
 double check_fps(lua_State* L, int index) {
     const double fps = lua::opt_number(L, index, "fps", 30);
-    if (!(fps > 0)) luaL_error(L, "option 'fps' must be positive");
+    if (!(fps > 0 && fps <= 1e6)) luaL_error(L, "option 'fps' must be positive, up to 1000000");
     return fps;
 }
 
@@ -155,8 +161,9 @@ int path_frame_count(lua_State* L) {
 int frames_step(lua_State* L) {
     const CameraPath& path = check_path(L, lua_upvalueindex(1));
     const double fps = lua_tonumber(L, lua_upvalueindex(2));
-    const lua_Integer i = luaL_checkinteger(L, 2) + 1;
-    if (size_t(i) > path.frame_count(fps)) return 0;
+    const lua_Integer previous = luaL_checkinteger(L, 2);  // the control value: a script may pass any
+    if (previous < 0 || uint64_t(previous) >= path.frame_count(fps)) return 0;
+    const lua_Integer i = previous + 1;
     lua_pushinteger(L, i);
     push_pose(L, path.sample(double(i - 1) / fps));
     return 2;
@@ -212,16 +219,10 @@ const luaL_Reg kMethods[] = {{"sample", path_sample},       {"duration", path_du
 }  // namespace
 
 void register_path(lua_State* L) {
-    if (luaL_newmetatable(L, kPathType)) {
-        luaL_newlib(L, kMethods);
-        lua_setfield(L, -2, "__index");
-        lua_pushcfunction(L, lua::collect_shared<CameraPath>);
-        lua_setfield(L, -2, "__gc");
-    }
-    lua_pop(L, 1);
+    lua::register_type<CameraPath>(L, kPathType, kMethods);
     const luaL_Reg functions[] = {{"path", new_path}, {"load_path", load_path}, {"import_osg_path", import_osg},
                                   {nullptr, nullptr}};
-    luaL_setfuncs(L, functions, 0);
+    lua::set_functions(L, functions);
 }
 
 }  // namespace strata

@@ -46,8 +46,8 @@ int pick(lua_State* L) {
 }  // namespace
 
 void register_pick(lua_State* L) {
-    lua_pushcfunction(L, pick);
-    lua_setfield(L, -2, "pick");
+    const luaL_Reg functions[] = {{"pick", pick}, {nullptr, nullptr}};
+    lua::set_functions(L, functions);
 }
 
 }  // namespace strata

@@ -23,10 +23,17 @@ namespace {
 
 constexpr const char* kFrameType = "strata.Frame";
 
+constexpr lua_Integer kMaxThreads = 1024;
+
 struct Frame {
     std::shared_ptr<const Image> image;  // shared with the background writer
     FrameStats stats;
 };
+
+size_t pixel_bytes(const Image& image) {
+    return sizeof(float) * (image.rgba.size() + image.depth.size() + image.normals.size() + image.level.size()) +
+           sizeof(uint32_t) * image.node_id.size();
+}
 
 // Channel names from a string ("RGBA,Z") or a list ({"RGBA", "Z"}) at the top of the stack.
 ImageChannels channels_at_top(lua_State* L, const char* option) {
@@ -66,21 +73,22 @@ int render(lua_State* L) {
         luaL_checktype(L, -1, LUA_TTABLE);
         for (int i = 0; i < 4; ++i) {
             lua_rawgeti(L, -1, i + 1);
-            settings.background[i] = float(lua_isnil(L, -1) ? (i == 3 ? 1.0 : 0.0) : luaL_checknumber(L, -1));
+            settings.background[i] =
+                lua::to_float(L, lua_isnil(L, -1) ? (i == 3 ? 1.0 : 0.0) : luaL_checknumber(L, -1), "option 'background'");
             lua_pop(L, 1);
         }
     }
     lua_pop(L, 1);
     settings.frustum_culling = lua::opt_boolean(L, 3, "culling", true);
     settings.measure_gpu_time = lua::opt_boolean(L, 3, "gpu_time", false);
-    const int samples = int(lua::opt_number(L, 3, "samples", 4));
+    const lua_Integer samples = lua::opt_integer(L, 3, "samples", 4);
     if (samples != 1 && samples != 2 && samples != 4 && samples != 8) return luaL_error(L, "option 'samples' must be 1, 2, 4 or 8");
 
     Runtime& runtime = Runtime::of(L);
     auto frame = std::make_shared<Frame>();
     try {
         Renderer& renderer = runtime.renderer();
-        gl::Framebuffer target({.width = camera->width, .height = camera->height, .samples = samples,
+        gl::Framebuffer target({.width = camera->width, .height = camera->height, .samples = int(samples),
                                 .normals = channels.contains(ImageChannel::normals),
                                 .level = channels.contains(ImageChannel::level),
                                 .node_id = channels.contains(ImageChannel::node_id)});
@@ -93,11 +101,12 @@ int render(lua_State* L) {
     } catch (const std::exception& e) {
         return luaL_error(L, "%s", e.what());
     }
-    lua::push_shared(L, frame, kFrameType);
+    lua::push_shared(L, frame);
+    lua::account_external(L, pixel_bytes(*frame->image));
     return 1;
 }
 
-Frame& check_frame(lua_State* L, int index) { return *lua::check_shared<Frame>(L, index, kFrameType); }
+Frame& check_frame(lua_State* L, int index) { return *lua::check_shared<Frame>(L, index); }
 
 int frame_write(lua_State* L) {
     const Frame& frame = check_frame(L, 1);
@@ -114,7 +123,8 @@ int frame_write(lua_State* L) {
         ExrOptions options;
         options.compression = parse_exr_compression(lua::opt_string(L, 3, "compression", "zip"));
         // Compression on OpenEXR's worker threads, one per core unless told otherwise.
-        options.worker_threads = int(lua::opt_number(L, 3, "threads", std::max(1u, std::thread::hardware_concurrency())));
+        options.worker_threads =
+            int(lua::opt_integer_in(L, 3, "threads", std::max(1u, std::thread::hardware_concurrency()), 1, kMaxThreads));
         for (ImageChannel c : {ImageChannel::depth, ImageChannel::normals, ImageChannel::level, ImageChannel::node_id})
             if (exr && channels.contains(c) && !frame.image->has(c))
                 throw std::invalid_argument("the frame has no " + channel_name(c) + " channel: render it with channels = \"..." +
@@ -164,8 +174,11 @@ int frame_stats(lua_State* L) {
     return 1;
 }
 
-const luaL_Reg kMethods[] = {{"write", frame_write}, {"size", frame_size}, {"pixel", frame_pixel},
-                             {"stats", frame_stats}, {nullptr, nullptr}};
+// frame:release() (and `local f <close> = strata.render(…)`): frees the pixels now rather than when
+// the collector gets to the frame; the frame's methods then raise "strata.Frame has been released".
+const luaL_Reg kMethods[] = {{"write", frame_write},   {"size", frame_size}, {"pixel", frame_pixel},
+                             {"stats", frame_stats},   {"release", lua::release_shared<Frame>},
+                             {nullptr, nullptr}};
 
 // strata.flush(): waits for frames written with { async = true }; raises the first that failed.
 int flush(lua_State* L) {
@@ -180,17 +193,10 @@ int flush(lua_State* L) {
 }  // namespace
 
 void register_render(lua_State* L) {
-    if (luaL_newmetatable(L, kFrameType)) {
-        luaL_newlib(L, kMethods);
-        lua_setfield(L, -2, "__index");
-        lua_pushcfunction(L, lua::collect_shared<Frame>);
-        lua_setfield(L, -2, "__gc");
-    }
-    lua_pop(L, 1);
-    lua_pushcfunction(L, render);
-    lua_setfield(L, -2, "render");
-    lua_pushcfunction(L, flush);
-    lua_setfield(L, -2, "flush");
+    const luaL_Reg metamethods[] = {{"__close", lua::release_shared<Frame>}, {nullptr, nullptr}};
+    lua::register_type<Frame>(L, kFrameType, kMethods, metamethods);
+    const luaL_Reg functions[] = {{"render", render}, {"flush", flush}, {nullptr, nullptr}};
+    lua::set_functions(L, functions);
 }
 
 }  // namespace strata

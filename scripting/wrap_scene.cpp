@@ -2,6 +2,8 @@
 // Nodes are userdata holding a shared pointer (type "strata.Node"): a node lives while Lua or a
 // parent holds it. Methods that only some node types have say so when called on another type.
 #include <cmath>
+#include <filesystem>
+#include <limits>
 #include <string>
 
 #include <glm/gtc/matrix_transform.hpp>
@@ -80,6 +82,10 @@ int load(lua_State* L) {
     }
     node->set_name(opt_string(L, 2, "name", node->name()));
     push_node(L, node);
+    // Models load whole: about their file's size lies outside Lua's heap.
+    std::error_code unknown;
+    const std::uintmax_t bytes = std::filesystem::file_size(path, unknown);
+    if (!unknown) lua::account_external(L, size_t(bytes));
     return 1;
 }
 
@@ -90,8 +96,16 @@ int new_plane(lua_State* L) {
     lua_pop(L, 1);
     if (lua::get_option(L, 1, "up")) up = check_vec3(L, lua_gettop(L));
     lua_pop(L, 1);
-    auto plane = Geometry::plane(center, up, opt_number(L, 1, "width", 10), opt_number(L, 1, "depth", 10));
-    if (lua::get_option(L, 1, "color")) plane->material.base_color = glm::vec4(glm::vec3(check_vec3(L, lua_gettop(L))), 1.0f);
+    const double width = opt_number(L, 1, "width", 10), depth = opt_number(L, 1, "depth", 10);
+    if (!(width > 0 && depth > 0 && std::isfinite(width) && std::isfinite(depth)))
+        return luaL_error(L, "options 'width' and 'depth' must be positive numbers");
+    if (glm::length(up) == 0) return luaL_error(L, "option 'up' must not be {0, 0, 0}");
+    // Its corners are stored as floats.
+    for (int i = 0; i < 3; ++i)
+        if (!(std::abs(center[i]) + width + depth <= std::numeric_limits<float>::max()))
+            return luaL_error(L, "the plane does not fit float coordinates (center and size up to 3.4e38)");
+    auto plane = Geometry::plane(center, up, width, depth);
+    if (lua::get_option(L, 1, "color")) plane->material.base_color = glm::vec4(lua::check_color(L, lua_gettop(L)), 1.0f);
     lua_pop(L, 1);
     plane->set_name(opt_string(L, 1, "name", "plane"));
     push_node(L, plane);
@@ -104,9 +118,9 @@ int new_light(lua_State* L) {
     light->set_name(opt_string(L, 1, "name", "light"));
     if (lua::get_option(L, 1, "direction")) light->direction = check_vec3(L, lua_gettop(L));
     lua_pop(L, 1);
-    if (lua::get_option(L, 1, "color")) light->color = glm::vec3(check_vec3(L, lua_gettop(L)));
+    if (lua::get_option(L, 1, "color")) light->color = lua::check_color(L, lua_gettop(L));
     lua_pop(L, 1);
-    light->intensity = float(opt_number(L, 1, "intensity", 1.0));
+    light->intensity = lua::opt_float(L, 1, "intensity", 1.0f);
     push_node(L, light);
     return 1;
 }
@@ -115,7 +129,7 @@ int new_ambient(lua_State* L) {
     check_keys(L, 1, {"name", "color"});
     auto light = std::make_shared<AmbientLight>();
     light->set_name(opt_string(L, 1, "name", "ambient"));
-    if (lua::get_option(L, 1, "color")) light->color = glm::vec3(check_vec3(L, lua_gettop(L)));
+    if (lua::get_option(L, 1, "color")) light->color = lua::check_color(L, lua_gettop(L));
     lua_pop(L, 1);
     push_node(L, light);
     return 1;
@@ -256,7 +270,8 @@ int group_count(lua_State* L) {
 }
 
 int node_find(lua_State* L) {
-    NodePtr found = find_node(check_node(L, 1), luaL_checkstring(L, 2));
+    const NodePtr& root = check_node(L, 1);  // first: a wrong self is the error to report
+    NodePtr found = find_node(root, luaL_checkstring(L, 2));
     if (!found) return 0;
     push_node(L, found);
     return 1;
@@ -294,7 +309,7 @@ void apply_transform_options(lua_State* L, int index, Transform& t) {
     if (lua::get_option(L, index, "quaternion")) rotation = lua::check_quat(L, lua_gettop(L));
     lua_pop(L, 1);
     scale = opt_number(L, index, "scale", 1.0);
-    if (!(scale > 0)) luaL_error(L, "option 'scale' must be positive (the HLOD selection assumes uniform scale)");
+    if (!(scale > 0 && std::isfinite(scale))) luaL_error(L, "option 'scale' must be positive (the HLOD selection assumes uniform scale)");
     t.set_matrix(compose_transform(translate, rotation, scale));
 }
 
@@ -383,23 +398,14 @@ glm::dmat4 compose_transform(const glm::dvec3& translate, const glm::dquat& rota
     return glm::translate(glm::dmat4(1.0), translate) * glm::mat4_cast(rotation) * glm::scale(glm::dmat4(1.0), glm::dvec3(scale));
 }
 
-void push_node(lua_State* L, NodePtr node) { lua::push_shared(L, std::move(node), kNodeType); }
+void push_node(lua_State* L, NodePtr node) { lua::push_shared(L, std::move(node)); }
 
-const NodePtr& check_node(lua_State* L, int index) { return lua::check_shared<Node>(L, index, kNodeType); }
+const NodePtr& check_node(lua_State* L, int index) { return lua::check_shared<Node>(L, index); }
 
 void register_scene(lua_State* L) {
-    if (luaL_newmetatable(L, kNodeType)) {
-        luaL_newlib(L, kNodeMethods);
-        lua_setfield(L, -2, "__index");
-        lua_pushcfunction(L, lua::collect_shared<Node>);
-        lua_setfield(L, -2, "__gc");
-        lua_pushcfunction(L, node_tostring);
-        lua_setfield(L, -2, "__tostring");
-        lua_pushcfunction(L, node_eq);
-        lua_setfield(L, -2, "__eq");
-    }
-    lua_pop(L, 1);
-    luaL_setfuncs(L, kFunctions, 0);
+    const luaL_Reg metamethods[] = {{"__tostring", node_tostring}, {"__eq", node_eq}, {nullptr, nullptr}};
+    lua::register_type<Node>(L, kNodeType, kNodeMethods, metamethods);
+    lua::set_functions(L, kFunctions);
 }
 
 }  // namespace strata

@@ -25,7 +25,7 @@ void push_part(lua_State* L, int index, const char* key) {
 
 NodePtr check_scene(lua_State* L, int index) {
     push_part(L, index, "scene");
-    NodePtr scene = lua::test_shared<Node>(L, -1, kNodeType);
+    NodePtr scene = lua::test_shared<Node>(L, -1);
     if (!scene) luaL_error(L, "'scene' must be a strata node (the root of the scene), got %s", luaL_typename(L, -1));
     lua_pop(L, 1);
     return scene;
@@ -36,7 +36,7 @@ std::shared_ptr<Camera> check_camera_part(lua_State* L, int index) {
     push_part(L, index, "camera");
     std::shared_ptr<Camera> camera;
     if (lua_toboolean(L, -1)) {
-        camera = lua::test_shared<Camera>(L, -1, kCameraType);
+        camera = lua::test_shared<Camera>(L, -1);
         if (!camera) luaL_error(L, "'camera' must be a strata camera, got %s", luaL_typename(L, -1));
     }
     lua_pop(L, 1);
@@ -80,7 +80,7 @@ std::vector<std::pair<std::string, std::shared_ptr<CameraPath>>> check_paths(lua
         lua_pushnil(L);
         while (lua_next(L, -2)) {
             if (lua_type(L, -2) != LUA_TSTRING) luaL_error(L, "'paths' must be keyed by name, not by %s", luaL_typename(L, -2));
-            std::shared_ptr<CameraPath> path = lua::test_shared<CameraPath>(L, -1, kPathType);
+            std::shared_ptr<CameraPath> path = lua::test_shared<CameraPath>(L, -1);
             if (!path) luaL_error(L, "paths[\"%s\"] must be a strata path, got %s", lua_tostring(L, -2), luaL_typename(L, -1));
             paths.emplace_back(lua_tostring(L, -2), std::move(path));
             lua_pop(L, 1);
@@ -120,7 +120,7 @@ SceneState read_scene_globals(lua_State* L) {
     lua_pushcfunction(L, read_globals);
     lua_pushlightuserdata(L, &state);
     if (lua_pcall(L, 1, 0, 0) != LUA_OK) {
-        std::string message = lua_tostring(L, -1);
+        std::string message = lua::error_text(L, -1);
         lua_pop(L, 1);
         throw std::runtime_error(message);
     }
@@ -128,8 +128,8 @@ SceneState read_scene_globals(lua_State* L) {
 }
 
 void register_scene_script(lua_State* L) {
-    lua_pushcfunction(L, save_scene);
-    lua_setfield(L, -2, "save_scene");
+    const luaL_Reg functions[] = {{"save_scene", save_scene}, {nullptr, nullptr}};
+    lua::set_functions(L, functions);
 }
 
 }  // namespace strata

@@ -1,5 +1,7 @@
 // strata.video{…}: a numbered frame sequence (PNG frames written by frame:write) encoded to an MP4 by
 // Debian's ffmpeg, with the frame rate and quality given; a clear error when ffmpeg is missing.
+#include <climits>
+
 #include <lua.hpp>
 
 #include "engine/io/video.h"
@@ -19,8 +21,8 @@ int video(lua_State* L) {
     if (options.frames.empty() || options.output.empty())
         return luaL_error(L, "strata.video needs 'frames' (a pattern such as \"out/f%%05d.png\") and 'output' (an .mp4)");
     options.fps = lua::opt_number(L, 1, "fps", options.fps);
-    options.first_frame = int(lua::opt_number(L, 1, "first", options.first_frame));
-    options.quality = int(lua::opt_number(L, 1, "quality", options.quality));
+    options.first_frame = int(lua::opt_integer_in(L, 1, "first", options.first_frame, 0, INT_MAX));
+    options.quality = int(lua::opt_integer_in(L, 1, "quality", options.quality, 0, 51));
     try {
         encode_video(options);
     } catch (const std::exception& e) {
@@ -32,8 +34,8 @@ int video(lua_State* L) {
 }  // namespace
 
 void register_video(lua_State* L) {
-    lua_pushcfunction(L, video);
-    lua_setfield(L, -2, "video");
+    const luaL_Reg functions[] = {{"video", video}, {nullptr, nullptr}};
+    lua::set_functions(L, functions);
 }
 
 }  // namespace strata

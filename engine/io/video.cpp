@@ -20,12 +20,6 @@ namespace strata {
 
 namespace {
 
-std::string frame_name(const std::string& pattern, int number) {
-    std::vector<char> name(pattern.size() + 32);
-    std::snprintf(name.data(), name.size(), pattern.c_str(), number);
-    return name.data();
-}
-
 // Runs `argv` with stderr into `log`; returns the exit status, or -1 with errno set if it cannot start.
 int run(const std::vector<std::string>& argv, const std::filesystem::path& log) {
     posix_spawn_file_actions_t actions;
@@ -61,14 +55,56 @@ std::string last_lines(const std::filesystem::path& log) {
 
 }  // namespace
 
+FramePattern::FramePattern(const std::string& pattern) {
+    auto fail = [&](const std::string& why) {
+        throw std::invalid_argument("frame pattern '" + pattern + "': " + why +
+                                    " (one %d or %0Nd with N from 1 to 9 for the number, %% for a percent sign)");
+    };
+    bool numbered = false;
+    for (size_t i = 0; i < pattern.size(); ++i) {
+        std::string& text = numbered ? after_ : before_;
+        if (pattern[i] != '%') {
+            text += pattern[i];
+            continue;
+        }
+        if (i + 1 < pattern.size() && pattern[i + 1] == '%') {
+            text += '%';
+            ++i;
+            continue;
+        }
+        size_t end = i + 1;
+        if (end + 1 < pattern.size() && pattern[end] == '0' && pattern[end + 1] >= '1' && pattern[end + 1] <= '9') {
+            width_ = pattern[end + 1] - '0';
+            end += 2;
+        }
+        if (end >= pattern.size() || pattern[end] != 'd') fail("'%' at offset " + std::to_string(i) + " is not %d, %0Nd or %%");
+        if (numbered) fail("more than one number");
+        numbered = true;
+        i = end;
+    }
+    if (!numbered) fail("no %d for the frame number");
+}
+
+std::string FramePattern::name(int number) const {
+    std::string digits = std::to_string(number);
+    const bool negative = number < 0;
+    if (int(digits.size()) - negative < width_) digits.insert(negative, size_t(width_ - (int(digits.size()) - negative)), '0');
+    return before_ + digits + after_;
+}
+
 void encode_video(const VideoOptions& o) {
     const std::string target = o.output.string();
     auto fail = [&](const std::string& why) { throw std::runtime_error("cannot write " + target + ": " + why); };
     if (!(o.fps > 0 && std::isfinite(o.fps))) fail("the frame rate must be positive");
     if (o.quality < 0 || o.quality > 51) fail("the quality (x264 CRF) must be 0 to 51");
-    if (!std::filesystem::exists(frame_name(o.frames, o.first_frame)))
-        fail("no frame " + frame_name(o.frames, o.first_frame) + " (frames '" + o.frames + "' from " +
-             std::to_string(o.first_frame) + ")");
+    std::string first;
+    try {
+        first = FramePattern(o.frames).name(o.first_frame);
+    } catch (const std::invalid_argument& e) {
+        fail(e.what());
+    }
+    if (!std::filesystem::exists(first))
+        fail("no frame " + first + " (frames '" + o.frames + "' from " + std::to_string(o.first_frame) + ")");
     std::filesystem::path temp = o.output;
     temp.replace_filename("." + o.output.filename().string() + ".tmp-" + std::to_string(getpid()) + ".mp4");
     const std::filesystem::path log = temp.string() + ".log";

@@ -75,7 +75,7 @@ bool CullVisitor::enter(Node& node, uint8_t& mask) {
 
 void CullVisitor::apply(Node& node) {
     uint8_t mask;
-    if (enter(node, mask)) node.traverse(*this);
+    if (enter(node, mask)) traverse(node);
 }
 
 void CullVisitor::apply(Group& group) {
@@ -83,8 +83,7 @@ void CullVisitor::apply(Group& group) {
     if (!enter(group, mask)) return;
     const uint8_t saved = state_.back().mask;
     state_.back().mask = mask;
-    group.traverse(*this);
-    state_.back().mask = saved;
+    traverse(group, [this, saved] { state_.back().mask = saved; });
 }
 
 void CullVisitor::apply(Transform& transform) {
@@ -92,8 +91,7 @@ void CullVisitor::apply(Transform& transform) {
     if (!enter(transform, mask)) return;
     const Frame& parent = state_.back();
     state_.push_back({parent.model * transform.matrix(), parent.frustum.in_child_frame(transform.matrix()), mask});
-    transform.traverse(*this);
-    state_.pop_back();
+    traverse(transform, [this] { state_.pop_back(); });
 }
 
 void CullVisitor::apply(Drawable& drawable) {

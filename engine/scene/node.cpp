@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include <unordered_set>
 
 #include "engine/scene/visitor.h"
 
@@ -22,40 +23,95 @@ const UserValue* Node::user_value(const std::string& key) const {
 }
 
 const Box& Node::bound() const {
-    if (bound_dirty_) {
-        bound_ = compute_bound();
-        bound_dirty_ = false;
-    }
+    if (bound_dirty_) refresh_bounds();
     return bound_;
 }
 
+void Node::refresh_bounds() const {
+    // Each node is finished once its dirty children are: then compute_bound only reads cached bounds.
+    std::vector<std::pair<const Node*, bool>> stack{{this, false}};  // node, children pushed
+    while (!stack.empty()) {
+        auto& [node, children_pushed] = stack.back();
+        if (!node->bound_dirty_) {  // a node shared by two parents: done on the first visit
+            stack.pop_back();
+        } else if (children_pushed) {
+            node->bound_ = node->compute_bound();
+            node->bound_dirty_ = false;
+            stack.pop_back();
+        } else {
+            children_pushed = true;
+            if (const auto* group = dynamic_cast<const Group*>(node))
+                for (const NodePtr& child : group->children())
+                    if (child->bound_dirty_) stack.emplace_back(child.get(), false);
+        }
+    }
+}
+
 void Node::dirty_bound() {
-    if (bound_dirty_) return;  // already dirty, and so are the ancestors
-    bound_dirty_ = true;
-    for (Group* parent : parents_) parent->dirty_bound();
+    // A dirty node's ancestors are dirty already: the walk up stops there.
+    std::vector<Node*> stack{this};
+    while (!stack.empty()) {
+        Node* node = stack.back();
+        stack.pop_back();
+        if (node->bound_dirty_) continue;
+        node->bound_dirty_ = true;
+        stack.insert(stack.end(), node->parents_.begin(), node->parents_.end());
+    }
 }
 
 Group::~Group() {
-    for (const NodePtr& child : children_) std::erase(child->parents_, this);
+    // Children this group alone keeps die here, and theirs with them: gathered on a list rather than
+    // destroyed from each other's destructors, which for a deep chain would overflow the stack.
+    std::vector<NodePtr> doomed = std::move(children_);
+    for (const NodePtr& child : doomed) std::erase(child->parents_, this);
+    while (!doomed.empty()) {
+        NodePtr node = std::move(doomed.back());
+        doomed.pop_back();
+        auto* group = node.use_count() == 1 ? dynamic_cast<Group*>(node.get()) : nullptr;
+        if (!group) continue;
+        for (NodePtr& child : group->children_) {
+            std::erase(child->parents_, group);
+            doomed.push_back(std::move(child));
+        }
+        group->children_.clear();
+    }  // each `node` goes with no children left to destroy recursively
 }
 
 void Group::accept(NodeVisitor& visitor) { visitor.apply(*this); }
 
 void Group::traverse(NodeVisitor& visitor) {
-    for (const NodePtr& child : children_) child->accept(visitor);
+    for (auto child = children_.rbegin(); child != children_.rend(); ++child) visitor.queue(**child);
+}
+
+bool Group::would_contain_itself(const Node& child) const {
+    if (&child == this) return true;
+    const auto* group = dynamic_cast<const Group*>(&child);
+    if (!group || group->children_.empty()) return false;  // nothing below it can be this group
+    // Either walk answers: this group below the child, or the child among this group's ancestors.
+    // They go a step each in turn, so the cost is that of the smaller (a deep chain built from the
+    // leaf up has a large subtree and no ancestors).
+    std::vector<const Node*> below{&child}, above{this};
+    std::unordered_set<const Node*> seen_below, seen_above;  // shared nodes are walked once
+    while (!below.empty() && !above.empty()) {
+        const Node* down = below.back();
+        below.pop_back();
+        if (down == this) return true;
+        if (seen_below.insert(down).second)
+            if (const auto* g = dynamic_cast<const Group*>(down))
+                for (const NodePtr& c : g->children_) below.push_back(c.get());
+        const Node* up = above.back();
+        above.pop_back();
+        if (up == &child) return true;
+        if (seen_above.insert(up).second) above.insert(above.end(), up->parents_.begin(), up->parents_.end());
+    }
+    return false;
 }
 
 void Group::add(NodePtr child) {
     if (!child) throw std::invalid_argument("Group::add: no node given");
-    // A cycle would make traversal endless: the child may not be this group or one of its ancestors.
-    std::vector<const Node*> stack{this};
-    while (!stack.empty()) {
-        const Node* n = stack.back();
-        stack.pop_back();
-        if (n == child.get())
-            throw std::invalid_argument("cannot add '" + child->name() + "' under '" + name() + "': it would contain itself");
-        for (const Group* parent : n->parents()) stack.push_back(parent);
-    }
+    // A cycle would make traversal endless.
+    if (would_contain_itself(*child))
+        throw std::invalid_argument("cannot add '" + child->name() + "' under '" + name() + "': it would contain itself");
     child->parents_.push_back(this);
     children_.push_back(std::move(child));
     dirty_bound();
@@ -90,28 +146,42 @@ void Transform::set_matrix(const glm::dmat4& matrix) {
 
 Box Transform::compute_bound() const { return transformed(Group::compute_bound(), matrix_); }
 
+namespace {
+
+// The first node at or below `root`, depth first, for which `match` holds; nullptr if none.
+template <class Match>
+NodePtr find_shared(const NodePtr& root, Match match) {
+    std::vector<const NodePtr*> stack{&root};
+    while (!stack.empty()) {
+        const NodePtr& node = *stack.back();
+        stack.pop_back();
+        if (match(*node)) return node;
+        if (const auto* group = dynamic_cast<const Group*>(node.get()))
+            for (auto child = group->children().rbegin(); child != group->children().rend(); ++child) stack.push_back(&*child);
+    }
+    return nullptr;
+}
+
+}  // namespace
+
 Node* find_node(Node& root, const std::string& name) {
-    if (root.name() == name) return &root;
-    if (auto* group = dynamic_cast<Group*>(&root))
-        for (const NodePtr& child : group->children())
-            if (Node* found = find_node(*child, name)) return found;
+    std::vector<Node*> stack{&root};
+    while (!stack.empty()) {
+        Node* node = stack.back();
+        stack.pop_back();
+        if (node->name() == name) return node;
+        if (const auto* group = dynamic_cast<const Group*>(node))
+            for (auto child = group->children().rbegin(); child != group->children().rend(); ++child) stack.push_back(child->get());
+    }
     return nullptr;
 }
 
 NodePtr find_node(const NodePtr& root, const std::string& name) {
-    if (root->name() == name) return root;
-    if (auto* group = dynamic_cast<Group*>(root.get()))
-        for (const NodePtr& child : group->children())
-            if (NodePtr found = find_node(child, name)) return found;
-    return nullptr;
+    return find_shared(root, [&](const Node& node) { return node.name() == name; });
 }
 
 NodePtr find_node(const NodePtr& root, const Node* node) {
-    if (root.get() == node) return root;
-    if (const auto* group = dynamic_cast<const Group*>(root.get()))
-        for (const NodePtr& child : group->children())
-            if (NodePtr found = find_node(child, node)) return found;
-    return nullptr;
+    return find_shared(root, [&](const Node& candidate) { return &candidate == node; });
 }
 
 bool is_rotation_and_uniform_scale(const glm::dmat4& matrix) {

@@ -31,8 +31,6 @@ public:
 
     // Double dispatch: calls visitor.apply(*this) with the most derived type the visitor knows.
     virtual void accept(NodeVisitor& visitor);
-    // Visits the children, if any.
-    virtual void traverse(NodeVisitor&) {}
 
     const std::string& name() const { return name_; }
     void set_name(std::string name) { name_ = std::move(name); }
@@ -64,10 +62,17 @@ public:
     }
 
 protected:
+    // From the children's cached bounds: bound() brings those up to date first.
     virtual Box compute_bound() const { return {}; }
 
 private:
     friend class Group;
+    friend class NodeVisitor;
+    // Hands the children, if any, to the visitor's stack (NodeVisitor::traverse visits them).
+    virtual void traverse(NodeVisitor&) {}
+    // Recomputes the dirty bounds at and below this node, children before parents.
+    void refresh_bounds() const;
+
     std::string name_;
     uint32_t id_;
     uint32_t mask_ = ~0u;
@@ -80,11 +85,12 @@ private:
 
 using NodePtr = std::shared_ptr<Node>;
 
+// Deep graphs (a chain of 200 000 groups) are fine: adding, bounds, visitors, find and destruction
+// walk them with explicit stacks, not recursion.
 class Group : public Node {
 public:
     ~Group() override;
     void accept(NodeVisitor& visitor) override;
-    void traverse(NodeVisitor& visitor) override;
 
     void add(NodePtr child);
     // False when `child` is not a child of this group.
@@ -98,6 +104,10 @@ protected:
     Box compute_bound() const override;
 
 private:
+    void traverse(NodeVisitor& visitor) override;
+    // Whether adding `child` here would make a cycle: it is this group or one of its ancestors.
+    bool would_contain_itself(const Node& child) const;
+
     std::vector<NodePtr> children_;
 };
 

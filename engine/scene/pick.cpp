@@ -23,15 +23,14 @@ bool PickVisitor::enter(const Node& node) const {
 }
 
 void PickVisitor::apply(Node& node) {
-    if (enter(node)) node.traverse(*this);
+    if (enter(node)) traverse(node);
 }
 
 void PickVisitor::apply(Transform& transform) {
     if (!enter(transform)) return;  // the bound is in the parent's frame, where the ray still is
     const Frame& parent = frames_.back();
     frames_.push_back({parent.world_from_frame * transform.matrix(), parent.ray.transformed(glm::inverse(transform.matrix()))});
-    transform.traverse(*this);
-    frames_.pop_back();
+    traverse(transform, [this] { frames_.pop_back(); });
 }
 
 void PickVisitor::apply(Drawable& drawable) {

@@ -6,6 +6,27 @@
 
 namespace strata {
 
+void NodeVisitor::traverse(Node& node, std::function<void()> after) {
+    if (after) pending_.push_back({nullptr, std::move(after)});  // below the children: runs after them
+    node.traverse(*this);
+    if (walking_) return;
+    // The outermost call: visit until the stack is empty. An exception leaves the visitor reusable.
+    struct Reset {
+        NodeVisitor& visitor;
+        ~Reset() {
+            visitor.walking_ = false;
+            visitor.pending_.clear();
+        }
+    } reset{*this};
+    walking_ = true;
+    while (!pending_.empty()) {
+        Pending next = std::move(pending_.back());
+        pending_.pop_back();
+        if (next.node) next.node->accept(*this);
+        else next.after();
+    }
+}
+
 void NodeVisitor::apply(Drawable& drawable) { apply(static_cast<Node&>(drawable)); }
 void NodeVisitor::apply(Camera& camera) { apply(static_cast<Node&>(camera)); }
 void NodeVisitor::apply(DirectionalLight& light) { apply(static_cast<Node&>(light)); }

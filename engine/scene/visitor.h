@@ -2,6 +2,9 @@
 // visitor overrides only what it cares about.
 #pragma once
 
+#include <functional>
+#include <vector>
+
 #include "engine/scene/node.h"
 
 namespace strata {
@@ -15,13 +18,31 @@ class NodeVisitor {
 public:
     virtual ~NodeVisitor() = default;
 
-    virtual void apply(Node& node) { node.traverse(*this); }
+    virtual void apply(Node& node) { traverse(node); }
     virtual void apply(Group& group) { apply(static_cast<Node&>(group)); }
     virtual void apply(Transform& transform) { apply(static_cast<Group&>(transform)); }
     virtual void apply(Drawable& drawable);
     virtual void apply(Camera& camera);
     virtual void apply(DirectionalLight& light);
     virtual void apply(AmbientLight& light);
+
+protected:
+    // Visits the children of `node` (if any), then runs `after`: where a visitor undoes what it set up
+    // for them (a transform's frame). The children wait on this visitor's own stack, not the C stack:
+    // a call made while a walk runs (from an apply) queues them and returns at once, the outermost call
+    // runs the walk, so a graph of any depth is walked with a few frames of C stack.
+    void traverse(Node& node, std::function<void()> after = {});
+
+private:
+    friend class Group;
+    void queue(Node& child) { pending_.push_back({&child, {}}); }
+
+    struct Pending {
+        Node* node;                   // to visit, or nullptr for:
+        std::function<void()> after;  // what to run once the nodes above it on the stack are visited
+    };
+    std::vector<Pending> pending_;
+    bool walking_ = false;
 };
 
 }  // namespace strata

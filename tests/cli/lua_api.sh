@@ -46,4 +46,41 @@ expect_failure "missing script" "cannot open" "$STRATA" run "$WORK/nothing.lua"
 printf 'require("strata").video{ frames = "%s/f%%03d.png", output = "%s/no.mp4" }\n' "$WORK" "$WORK" >"$WORK/noffmpeg.lua"
 expect_failure "ffmpeg missing" "install Debian's ffmpeg package" env PATH=/nonexistent "$STRATA" run "$WORK/noffmpeg.lua"
 checks=$((checks + 1)); [ ! -e "$WORK/no.mp4" ] || fail "a failed video left its file"
+
+# Scripts that crashed strata (a signal) before: each is a Lua error now, exit status exactly 1, with a message.
+expect_status_1() {  # NAME PATTERN SCRIPT-TEXT
+    checks=$((checks + 1))
+    printf '%s\n' "$3" >"$WORK/crash.lua"
+    "$STRATA" run "$WORK/crash.lua" >"$WORK/out.txt" 2>"$WORK/err.txt"
+    local status=$?
+    [ $status -eq 1 ] || { fail "$1: exit status $status, not 1"; cat "$WORK/err.txt"; return; }
+    grep -qF -- "$2" "$WORK/err.txt" || { fail "$1: stderr lacks '$2':"; cat "$WORK/err.txt"; }
+}
+# getmetatable gives the type's name (a string, with no __gc); through debug, the finalizer checks its argument.
+expect_status_1 "finalizer called by hand" "attempt to call a nil value (field '__gc')" \
+    'getmetatable(strata.scene()).__gc(1)'
+expect_status_1 "finalizer through debug" "bad argument #1 to '__gc' (strata.Node expected, got number)" \
+    'debug.getmetatable(strata.scene()).__gc(1)'
+expect_status_1 "callback raising nothing" "on_progress: (error object is a nil value)" \
+    "strata.build{input = \"$root/data/bunny.off\", output = \"$WORK/x.hlod\", on_progress = function() error() end}"
+checks=$((checks + 1)); [ ! -e "$WORK/x.hlod" ] || fail "a cancelled build left its output"
+expect_status_1 "printf pattern" "frame pattern '/tmp/%s%s%s%n'" \
+    'strata.video{frames = "/tmp/%s%s%s%n", output = "'"$WORK"'/x.mp4"}'
+# Error values that are not strings, at the top level.
+expect_status_1 "error()" "(error object is a nil value)" 'error()'
+expect_status_1 "error({})" "(error object is a table value)" 'error({})'
+expect_status_1 "__tostring returning a table" "(error object is a table value whose __tostring failed)" \
+    'error(setmetatable({}, {__tostring = function() return {} end}))'
+expect_status_1 "__tostring raising" "(error object is a table value whose __tostring failed)" \
+    'error(setmetatable({}, {__tostring = function() error("inner") end}))'
+expect_status_1 "__tostring" "a described error" 'error(setmetatable({}, {__tostring = function() return "a described error" end}))'
+expect_status_1 "the registry" "debug.getregistry is not available in strata" 'debug.getregistry()["strata.Node"] = {}'
+# The shell and the editor's console print such errors too, and go on.
+checks=$((checks + 1))
+printf 'error(setmetatable({}, {__tostring = function() return {} end}))\nerror()\nprint("still here")\n' |
+    "$STRATA" shell >"$WORK/out.txt" 2>"$WORK/err.txt"
+status=$?
+[ $status -lt 128 ] || fail "shell died with status $status"
+grep -q "still here" "$WORK/out.txt" "$WORK/err.txt" || fail "the shell stopped after an error value: $(cat "$WORK/err.txt")"
+grep -qF "whose __tostring failed" "$WORK/out.txt" "$WORK/err.txt" || fail "the shell did not report the error value"
 finish

@@ -14,6 +14,7 @@
 #include "engine/scene/cull_visitor.h"
 #include "engine/scene/drawable.h"
 #include "engine/scene/light.h"
+#include "engine/scene/node.h"
 
 namespace strata {
 namespace {
@@ -265,6 +266,59 @@ TEST_F(CullFixture, NodesOutsideTheFrustumEmitNothing) {
     EXPECT_EQ(stats.nodes_culled, 2u);  // `behind` and the whole `aside` subtree
     // With culling off, all three are emitted.
     EXPECT_EQ(cull(*root, false).opaque.size(), 3u);
+}
+
+// 200 000 levels: far past what recursion over the graph survives on an 8 MB stack. Transforms at
+// every level (each moves the frame by 1 along x) check that the explicit stacks keep the frames
+// right; the box at the bottom must come out at the end of the chain, in world coordinates.
+TEST_F(CullFixture, AChainOfTwoHundredThousandLevelsBuildsCullsFindsAndGoes) {
+    constexpr int kDepth = 200000;
+    auto root = std::make_shared<Group>();
+    Group* bottom = root.get();
+    std::weak_ptr<Node> watch;
+    for (int i = 0; i < kDepth; ++i) {  // from the root down: each child is added while it has no children
+        auto level = std::make_shared<Transform>();
+        level->set_matrix(glm::translate(glm::dmat4(1.0), {i % 2 ? 1e-3 : -1e-3, 0, 0}));
+        level->set_name("level " + std::to_string(i));
+        bottom->add(level);
+        bottom = level.get();
+        if (i == kDepth / 2) watch = level;
+    }
+    auto box = std::make_shared<BoxNode>(unit_box_at({0, 0, -10}), "bottom");
+    bottom->add(box);
+    EXPECT_THROW(bottom->add(root), std::invalid_argument);  // the cycle check walks the whole depth
+
+    const Box bound = root->bound();
+    expect_near(bound.center(), {0, 0, -10}, 1e-6);  // the ±1e-3 shifts cancel pairwise
+    EXPECT_EQ(find_node(*root, "bottom"), box.get());
+    EXPECT_EQ(find_node(root, "level 199999").get(), bottom);
+    EXPECT_EQ(find_node(root, static_cast<const Node*>(box.get())), box);
+    RenderList list = cull(*root);
+    ASSERT_EQ(list.opaque.size(), 1u);
+    EXPECT_EQ(list.opaque[0].drawable, box.get());
+    EXPECT_EQ(stats.nodes_visited, uint64_t(kDepth) + 2);
+    // A change at the bottom reaches the root's bound.
+    box->set_box(unit_box_at({0, 5, -10}));
+    expect_near(root->bound().center(), {0, 5, -10}, 1e-6);
+
+    root.reset();  // the chain goes from the top: no destructor recursion
+    EXPECT_TRUE(watch.expired());
+    EXPECT_TRUE(box->parents().empty());  // the node kept alive here no longer names a dead parent
+}
+
+TEST(Graph, AChainBuiltFromTheLeafUpAddsInConstantTime) {
+    // Each new group takes the chain so far as its child: the child has a subtree of every level, the
+    // new parent no ancestors, so the cycle check ends at once. Quadratic, this would take minutes.
+    constexpr int kDepth = 200000;
+    auto top = std::make_shared<Group>();
+    const auto first = top;
+    for (int i = 0; i < kDepth; ++i) {
+        auto parent = std::make_shared<Group>();
+        parent->add(top);
+        top = parent;
+    }
+    EXPECT_THROW(first->add(top), std::invalid_argument);
+    EXPECT_FALSE(top->bound().valid());  // nothing drawable in it
 }
 
 TEST_F(CullFixture, TransformsAccumulateAndHiddenNodesAreSkipped) {
