@@ -112,12 +112,21 @@ void on_scroll(GLFWwindow*, double, double dy) {
     if (the_editor && !ImGui::GetIO().WantCaptureMouse) the_editor->navigator().zoom(dy);
 }
 
-// Every HLOD model at or below `node`.
+// Every HLOD model at or below `node`, walked with a stack of its own: a scene may be any depth.
 void for_each_model(Node& node, const std::function<void(HlodModel&)>& action) {
-    if (auto* model = dynamic_cast<HlodModel*>(&node)) action(*model);
-    if (auto* group = dynamic_cast<Group*>(&node))
-        for (const NodePtr& child : group->children()) for_each_model(*child, action);
+    std::vector<Node*> pending{&node};
+    while (!pending.empty()) {
+        Node* next = pending.back();
+        pending.pop_back();
+        if (auto* model = dynamic_cast<HlodModel*>(next)) action(*model);
+        if (auto* group = dynamic_cast<Group*>(next))
+            for (const NodePtr& child : group->children()) pending.push_back(child.get());
+    }
 }
+
+// The outliner shows this many levels of the tree: a deeper scene (a script can build any depth) would
+// recurse as deep through ImGui, whose tree depth has limits of its own.
+constexpr int kOutlinerDepth = 64;
 
 // The viewer's keys: navigation, and debug views for every model (the inspector sets them one by one).
 void on_key(GLFWwindow*, int key, int, int action, int) {
@@ -426,7 +435,11 @@ void Editor::draw_overlays() {
     path_.draw_overlay(*ImGui::GetBackgroundDrawList(), display.x, display.y);
 }
 
-void Editor::draw_outliner_node(const NodePtr& node) {
+void Editor::draw_outliner_node(const NodePtr& node, int depth) {
+    if (depth >= kOutlinerDepth) {
+        ImGui::TextDisabled("(%d levels shown; deeper nodes are not)", kOutlinerDepth);
+        return;
+    }
     const auto* group = dynamic_cast<const Group*>(node.get());
     ImGuiTreeNodeFlags flags = ImGuiTreeNodeFlags_OpenOnArrow | ImGuiTreeNodeFlags_DefaultOpen | ImGuiTreeNodeFlags_SpanAvailWidth;
     if (!group || group->child_count() == 0) flags |= ImGuiTreeNodeFlags_Leaf;
@@ -448,7 +461,7 @@ void Editor::draw_outliner_node(const NodePtr& node) {
     if (open) {
         if (group) {
             const std::vector<NodePtr> children = group->children();  // a copy: a child may be deleted
-            for (const NodePtr& child : children) draw_outliner_node(child);
+            for (const NodePtr& child : children) draw_outliner_node(child, depth + 1);
         }
         ImGui::TreePop();
     }
@@ -457,7 +470,7 @@ void Editor::draw_outliner_node(const NodePtr& node) {
 }
 
 void Editor::draw_outliner() {
-    draw_outliner_node(scene_);
+    draw_outliner_node(scene_, 0);
     ImGui::Separator();
     if (file_field("add", ".hlod or mesh file", new_file_, "Add")) add_message_ = outcome([&] { add_file(new_file_); }, "");
     if (!add_message_.empty()) ImGui::TextColored(ImVec4(1.0f, 0.45f, 0.4f, 1.0f), "%s", add_message_.c_str());

@@ -107,7 +107,7 @@ public:
 private:
     void draw_panels();
     void draw_outliner();
-    void draw_outliner_node(const NodePtr& node);
+    void draw_outliner_node(const NodePtr& node, int depth);
     void draw_inspector();
     void draw_camera_panel();
     void draw_overlays();  // over the view, panels shown or not: the stats and the path

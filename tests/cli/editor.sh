@@ -35,6 +35,20 @@ printf 'dofile(os.getenv("WORK") .. "/scene.lua")\nlocal ed = strata.view()\nass
 expect_success "strata.view from a script" xvfb "$STRATA" run "$WORK/run_view.lua"
 checks=$((checks + 1)); grep -q "run view: ok" "$WORK/out.txt" || fail "strata.view from a script did not finish"
 
+# A scene 100 000 groups deep, the model at the bottom: the outliner shows its first levels, the model's
+# keys (B: boxes on every model) reach it, frames draw and a click picks it, on a few frames of C stack.
+cat >"$WORK/deep.lua" <<LUA
+scene = strata.scene()
+local node = scene
+for i = 1, 100000 do local g = strata.group{ name = "g" .. i }; node:add(g); node = g end
+local bunny = strata.load("$WORK/bunny.hlod")
+bunny:name("deep bunny")
+node:add(bunny)
+LUA
+printf 'editor:camera():frame(scene)\nassert(editor:frame(2))\neditor:click(320, 240)\nassert(editor:selected() and editor:selected():name() == "deep bunny", "the click did not pick the deep model")\nprint("deep: ok")\neditor:close()\n' >"$WORK/deep_drive.lua"
+expect_success "a scene 100 000 levels deep" xvfb "$STRATA" view "$WORK/deep.lua" --size 640x480 --script "$WORK/deep_drive.lua"
+checks=$((checks + 1)); grep -q "deep: ok" "$WORK/out.txt" || { fail "the deep scene's drive script did not finish"; cat "$WORK/out.txt" "$WORK/err.txt"; }
+
 # Bad input: a scene script that fails, one without a scene, a driving script that fails.
 printf 'scene = strata.scene()\nerror("broken scene")\n' >"$WORK/broken.lua"
 expect_failure "failing scene script" "broken.lua:2: broken scene" xvfb "$STRATA" view "$WORK/broken.lua" --frames 1
