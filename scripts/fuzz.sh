@@ -28,7 +28,7 @@ if [ $merge = 1 ]; then
   for t in "${targets[@]}"; do
     seeds=tests/fuzz/corpus/$t merged=$dir/merged/$t
     rm -rf "$merged" && mkdir -p "$merged" "$dir/corpus/$t"
-    "$dir/fuzz_$t" -merge=1 -rss_limit_mb=2048 -timeout=1 "$merged" "$seeds" "$dir/corpus/$t" 2>"$dir/merge-$t.log" \
+    "$dir/fuzz_$t" -merge=1 -rss_limit_mb=2048 -timeout=1 "$merged" "$seeds" "$dir/corpus/$t" >"$dir/merge-$t.log" 2>&1 \
       || { echo "$t: merge failed, see $dir/merge-$t.log" >&2; exit 1; }
     rm -rf "$seeds" && mv "$merged" "$seeds"
     echo "$t: corpus now $(ls "$seeds" | wc -l) files, $(du -sh "$seeds" | cut -f1)"
@@ -42,12 +42,13 @@ for t in "${targets[@]}"; do
   mkdir -p "$work" "$crashers"
   dict=()
   [ -f "tests/fuzz/dict/$t.dict" ] && dict=(-dict="tests/fuzz/dict/$t.dict")
+  corpora=("$work")  # new inputs go to the first; the committed corpus and regressions are only read
+  for d in "tests/fuzz/corpus/$t" "tests/fuzz/regressions/$t"; do [ -d "$d" ] && corpora+=("$d"); done
   before=$(ls "$work" | wc -l)
   cpu_start=$(awk '{print $14 + $15 + $16 + $17}' /proc/$$/stat)
   status=0
-  # New inputs go to $work (first corpus directory); the committed corpus and regressions are only read.
   "$dir/fuzz_$t" -max_total_time="$seconds" -rss_limit_mb=2048 -timeout=1 -print_final_stats=1 \
-    -artifact_prefix="$crashers/" "${dict[@]}" "$work" "tests/fuzz/corpus/$t" "tests/fuzz/regressions/$t" \
+    -artifact_prefix="$crashers/" "${dict[@]}" "${corpora[@]}" \
     >"$log" 2>&1 || status=$?
   cpu_end=$(awk '{print $14 + $15 + $16 + $17}' /proc/$$/stat)
   ticks=$(getconf CLK_TCK)
