@@ -3,6 +3,7 @@
 # runs each for SECONDS (default 60), one after another, on one core each.
 #   scripts/fuzz.sh [SECONDS] [TARGET...]      fuzz (all targets unless named)
 #   scripts/fuzz.sh --merge [TARGET...]        minimize tests/fuzz/corpus/<target>/ with what was found
+#                                              (the fewest inputs that reach every edge)
 # Prints per target: executions, exec/s, CPU seconds, new inputs, failures. Exits non-zero if any target
 # crashed, timed out (-timeout=1 per input), ran out of memory (-rss_limit_mb=2048) or leaked: the
 # failing input is left in build-fuzz/crashers/<target>/ (replay it: build-fuzz/fuzz_<target> FILE).
@@ -28,7 +29,7 @@ if [ $merge = 1 ]; then
   for t in "${targets[@]}"; do
     seeds=tests/fuzz/corpus/$t merged=$dir/merged/$t
     rm -rf "$merged" && mkdir -p "$merged" "$dir/corpus/$t"
-    "$dir/fuzz_$t" -merge=1 -rss_limit_mb=2048 -timeout=1 "$merged" "$seeds" "$dir/corpus/$t" >"$dir/merge-$t.log" 2>&1 \
+    "$dir/fuzz_$t" -merge=1 -use_counters=0 -rss_limit_mb=2048 -timeout=1 "$merged" "$seeds" "$dir/corpus/$t" >"$dir/merge-$t.log" 2>&1 \
       || { echo "$t: merge failed, see $dir/merge-$t.log" >&2; exit 1; }
     rm -rf "$seeds" && mv "$merged" "$seeds"
     echo "$t: corpus now $(ls "$seeds" | wc -l) files, $(du -sh "$seeds" | cut -f1)"
