@@ -383,7 +383,7 @@ void HlodWriter::finish(HlodHeader header) {
 
 HlodFile::HlodFile(const std::filesystem::path& path) : path_(path) {
     errno = 0;
-    file_ = std::fopen(path.c_str(), "rb");
+    file_.reset(std::fopen(path.c_str(), "rb"));
     if (!file_) throw std::runtime_error(io_error(path, "cannot open"));
     std::error_code ec;
     file_size_ = std::filesystem::file_size(path, ec);
@@ -391,7 +391,7 @@ HlodFile::HlodFile(const std::filesystem::path& path) : path_(path) {
     const std::string name = path.string();
 
     std::vector<uint8_t> head(kHeaderBytes);
-    if (file_size_ < kHeaderBytes || std::fread(head.data(), 1, head.size(), file_) != head.size())
+    if (file_size_ < kHeaderBytes || std::fread(head.data(), 1, head.size(), file_.get()) != head.size())
         throw std::runtime_error(name + ": too short to be a .hlod file");
     if (std::memcmp(head.data(), kHlodMagic, sizeof(kHlodMagic)) != 0)
         throw std::runtime_error(name + ": not a .hlod file (bad magic)");
@@ -429,8 +429,8 @@ HlodFile::HlodFile(const std::filesystem::path& path) : path_(path) {
         h.node_count > table_bytes / kNodeBytes)
         throw std::runtime_error(name + ": node table out of range (the file is truncated or corrupt)");
     std::vector<uint8_t> table(table_bytes);
-    std::fseek(file_, long(h.node_table_offset), SEEK_SET);
-    if (std::fread(table.data(), 1, table.size(), file_) != table.size())
+    std::fseek(file_.get(), long(h.node_table_offset), SEEK_SET);
+    if (std::fread(table.data(), 1, table.size(), file_.get()) != table.size())
         throw std::runtime_error(name + ": cannot read the node table");
     ByteReader t(table, name + ": node table");
     h.source = t.get_string();
@@ -441,22 +441,20 @@ HlodFile::HlodFile(const std::filesystem::path& path) : path_(path) {
     if (t.get<uint32_t>() != crc32c(table.data(), table_checked))
         throw std::runtime_error(name + ": node table checksum mismatch (the file is corrupt)");
     for (const HlodNode& n : nodes_) {
-        uint64_t cells = uint64_t(1) << n.level;
-        if (n.level > h.max_level || n.i >= cells || n.j >= cells || n.k >= cells)
+        // The level first: shifting by a level past 63 would be undefined.
+        if (n.level > h.max_level || n.i >= (1u << n.level) || n.j >= (1u << n.level) || n.k >= (1u << n.level))
             throw std::runtime_error(name + ": " + describe_cube(n) + " outside the octree");
         if (n.offset < kHeaderBytes || n.offset > h.node_table_offset || n.size > h.node_table_offset - n.offset)
             throw std::runtime_error(name + ": " + describe_cube(n) + " payload out of range");
     }
 }
 
-HlodFile::~HlodFile() {
-    if (file_) std::fclose(file_);
-}
+HlodFile::~HlodFile() = default;
 
 std::vector<uint8_t> HlodFile::read_payload(const HlodNode& node) const {
     std::vector<uint8_t> bytes(node.size);
-    if (std::fseek(file_, long(node.offset), SEEK_SET) != 0 ||
-        std::fread(bytes.data(), 1, bytes.size(), file_) != bytes.size())
+    if (std::fseek(file_.get(), long(node.offset), SEEK_SET) != 0 ||
+        std::fread(bytes.data(), 1, bytes.size(), file_.get()) != bytes.size())
         throw std::runtime_error(path_.string() + ": cannot read " + describe_cube(node));
     if (crc32c(bytes.data(), bytes.size()) != node.checksum)
         throw std::runtime_error(path_.string() + ": " + describe_cube(node) +

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
+#include <memory>
 #include <span>
 #include <string>
 #include <vector>
@@ -141,8 +142,12 @@ public:
     CubeData read_cube(const HlodNode& node) const;
 
 private:
+    struct Closer {
+        void operator()(std::FILE* file) const { std::fclose(file); }
+    };
     std::filesystem::path path_;
-    std::FILE* file_ = nullptr;
+    // Owned, so a constructor that throws after opening still closes the file.
+    std::unique_ptr<std::FILE, Closer> file_;
     uint64_t file_size_ = 0;
     HlodHeader header_;
     std::vector<HlodNode> nodes_;

@@ -12,6 +12,7 @@ packages=(
   libopenexr-dev openexr libstb-dev xvfb xauth
   liblua5.4-dev ffmpeg libedit-dev tmux libimgui-dev xdotool
   libopenscenegraph-dev  # only for the cull benchmark (tests/bench/bench_cull.cpp), its peer
+  clang libclang-rt-14-dev  # the fuzz build (scripts/fuzz.sh): clang++ and libFuzzer
 )
 
 as_root() {

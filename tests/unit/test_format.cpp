@@ -554,6 +554,36 @@ protected:
     }
     // Re-seals the header checksum after an edit, so that only the edit is wrong.
     static void reseal_header(std::vector<uint8_t>& bytes) { put<uint32_t>(bytes, 104, crc32c(bytes.data(), 104)); }
+    // Where node entry `index` starts (FORMAT.md §4: after the two names).
+    static size_t node_entry(const std::vector<uint8_t>& bytes, size_t index) {
+        const size_t table = get<uint64_t>(bytes, 96);
+        const size_t texture = table + 4 + get<uint32_t>(bytes, table);
+        return texture + 4 + get<uint32_t>(bytes, texture) + 48 * index;
+    }
+    // Re-seals every payload's checksum, then the node table's, after an edit of either.
+    static void reseal_table(std::vector<uint8_t>& bytes) {
+        const size_t nodes = get<uint64_t>(bytes, 88);
+        for (size_t n = 0; n < nodes; ++n) {
+            const size_t entry = node_entry(bytes, n);
+            const uint64_t offset = get<uint64_t>(bytes, entry + 32), size = get<uint64_t>(bytes, entry + 40);
+            put<uint32_t>(bytes, entry + 28, crc32c(bytes.data() + offset, size));
+        }
+        const size_t table = get<uint64_t>(bytes, 96), end = node_entry(bytes, nodes);
+        put<uint32_t>(bytes, end, crc32c(bytes.data() + table, end - table));
+    }
+    // Opening `bytes` succeeds, but reading cube `index` throws naming the file and containing `what`.
+    void expect_cube_rejected(const std::vector<uint8_t>& bytes, size_t index, const std::string& what) {
+        const auto path = dir / "bad.hlod";
+        write_bytes(path, bytes);
+        HlodFile file(path);
+        try {
+            file.read_cube(file.nodes().at(index));
+            ADD_FAILURE() << "read cube " << index << "; expected \"" << what << "\"";
+        } catch (const std::runtime_error& e) {
+            EXPECT_THAT(e.what(), HasSubstr(path.string()));
+            EXPECT_THAT(e.what(), HasSubstr(what));
+        }
+    }
 
     test::TempDir dir;
     std::vector<uint8_t> good;
@@ -591,6 +621,19 @@ TEST_F(BadFile, Truncated) {
     } catch (const std::runtime_error& e) {
         EXPECT_THAT(e.what(), HasSubstr((dir / "cut.hlod").string()));
     }
+}
+
+size_t open_descriptors() {
+    return size_t(std::distance(std::filesystem::directory_iterator("/proc/self/fd"), {}));
+}
+
+TEST_F(BadFile, RejectedFilesAreClosed) {
+    std::vector<uint8_t> bytes = good;
+    bytes[0] = 'X';
+    write_bytes(dir / "bad.hlod", bytes);
+    const size_t before = open_descriptors();
+    for (int i = 0; i < 20; ++i) EXPECT_THROW(HlodFile(dir / "bad.hlod"), std::runtime_error);
+    EXPECT_EQ(open_descriptors(), before);  // the constructor threw after opening: no descriptor is left
 }
 
 TEST_F(BadFile, BadMagic) {
@@ -632,6 +675,43 @@ TEST_F(BadFile, HeaderValuesOutOfRange) {
     put<uint32_t>(bytes, 48, 16);  // max_level at most 15
     reseal_header(bytes);
     expect_rejected(bytes, "out of range");
+}
+
+TEST_F(BadFile, TheResealedGoodOneOpens) {
+    std::vector<uint8_t> copy = good;
+    reseal_table(copy);
+    EXPECT_EQ(copy, good);  // the helpers below find the checksums where the writer put them
+}
+
+// Counts are checked against the bytes that could hold them before anything is allocated for them.
+TEST_F(BadFile, NodeCountOfTenBillion) {
+    std::vector<uint8_t> bytes = good;
+    put<uint64_t>(bytes, 88, 9'999'999'999);
+    reseal_header(bytes);
+    expect_rejected(bytes, "node table out of range");
+}
+
+TEST_F(BadFile, NameLongerThanTheTable) {
+    std::vector<uint8_t> bytes = good;
+    put<uint32_t>(bytes, get<uint64_t>(good, 96), 4'000'000'000u);  // the source name's length
+    expect_rejected(bytes, "name of 4000000000 bytes");
+}
+
+TEST_F(BadFile, NodeLevelPastAnyShift) {
+    std::vector<uint8_t> bytes = good;
+    put<uint32_t>(bytes, node_entry(bytes, 1), 64);  // would shift a 64-bit one out of range
+    reseal_table(bytes);
+    expect_rejected(bytes, "cube (level 64, 1 0 1) outside the octree");
+}
+
+TEST_F(BadFile, ValidPayloadDeclaringFourBillionVertices) {
+    // Node entry and payload agree and every checksum is valid: only the bytes cannot hold the vertices.
+    std::vector<uint8_t> bytes = good;
+    const size_t entry = node_entry(bytes, 0);
+    put<uint32_t>(bytes, entry + 20, 4'000'000'000u);
+    put<uint32_t>(bytes, get<uint64_t>(bytes, entry + 32), 4'000'000'000u);
+    reseal_table(bytes);
+    expect_cube_rejected(bytes, 0, "counts larger than the payload could hold");
 }
 
 TEST_F(BadFile, PayloadChecksumMismatchNamesTheCube) {
