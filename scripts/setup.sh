@@ -9,7 +9,8 @@ packages=(
   libmeshoptimizer-dev libcli11-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev
   libepoxy-dev libegl-dev libegl-mesa0 libgl1-mesa-dri libglfw3-dev libglm-dev
-  libopenexr-dev openexr libstb-dev xvfb xauth
+  libopenexr-dev openexr libstb-dev xvfb
+  python3  # the CLI tests read PNG pixels with it (tests/support/png_pixels.py)
   liblua5.4-dev ffmpeg libedit-dev tmux libimgui-dev xdotool
   libopenscenegraph-dev  # only for the cull benchmark (tests/bench/bench_cull.cpp), its peer
   clang libclang-rt-14-dev  # the fuzz build (scripts/fuzz.sh): clang++ and libFuzzer
