@@ -98,7 +98,7 @@ std::string stl_binary(const Mesh& m) {
 void mesh_seeds(const fs::path& dir) {
     const Mesh sphere = strata::test::icosphere(0);
     const Mesh grid = strata::test::colored_grid(2);
-    const Mesh seamed = strata::test::seamed_grid(2);
+    const Mesh seamed = strata::test::seamed_grid(2, 1);
     fs::create_directories(dir / "ply");
     strata::write_ply(dir / "ply/sphere_le.ply", sphere);
     strata::write_ply(dir / "ply/grid_ascii.ply", grid, strata::PlyEncoding::ascii);
