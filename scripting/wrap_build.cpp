@@ -9,6 +9,7 @@
 #include <mutex>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include <lua.hpp>
 
@@ -81,13 +82,14 @@ int build(lua_State* L) {
                       },
                       &cancel};
     BuildReport report;
+    std::vector<std::string> warnings;  // what the reader read past rather than refused
     std::string error;
     bool cancelled = false;
     const auto start = std::chrono::steady_clock::now();
     size_t triangles = 0;
     std::thread worker([&] {
         try {
-            Mesh mesh = read_mesh(job.input, progress);
+            Mesh mesh = read_mesh(job.input, progress, warnings);
             triangles = mesh.triangle_count();
             report = build_hlod(std::move(mesh), job.output, job.settings,
                                 std::filesystem::path(job.input).filename().string(), progress);
@@ -149,7 +151,7 @@ int build(lua_State* L) {
     if (cancelled) return luaL_error(L, "build of %s cancelled; %s was not written", job.input.c_str(), job.output.c_str());
 
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    lua_createtable(L, 0, 8);
+    lua_createtable(L, 0, 9);
     lua_pushstring(L, job.output.c_str());
     lua_setfield(L, -2, "output");
     lua_pushinteger(L, report.max_level + 1);
@@ -179,6 +181,13 @@ int build(lua_State* L) {
         lua_rawseti(L, -2, lua_Integer(i + 1));
     }
     lua_setfield(L, -2, "per_level");
+    lua_createtable(L, int(warnings.size()), 0);
+    for (size_t i = 0; i < warnings.size(); ++i) {
+        lua_pushstring(L, warnings[i].c_str());
+        lua_rawseti(L, -2, lua_Integer(i + 1));
+    }
+    lua_setfield(L, -2, "warnings");
+    for (const std::string& warning : warnings) std::fprintf(stderr, "strata.build: warning: %s\n", warning.c_str());
     for (const std::string& note : report.notes) std::fprintf(stderr, "strata.build: note: %s\n", note.c_str());
     return 1;
 }

@@ -39,4 +39,11 @@ ok, err = pcall(strata.build, { input = scan, levles = 3 })
 assert(not ok and err:find("levles"), err)
 ok, err = pcall(strata.build, { output = "x.hlod" })
 assert(not ok and err:find("input"), err)
+-- What the reader reads past is a warning, returned (and printed): Blender 2.47's free-text header line.
+assert(#stats.warnings == 0, "the sample has no warnings")
+local here = debug.getinfo(1, "S").source:match("^@(.*)/[^/]*$")
+local blender = strata.build{ input = here .. "/../data/meshes/blender247_free_text_header.ply",
+                              output = out .. "/blender.hlod" }
+assert(#blender.warnings == 1 and blender.warnings[1]:find("blender247_free_text_header.ply: PLY header line %d+: skipped 'Created by Blender3D 247"),
+       tostring(blender.warnings[1]))
 print("build_api: ok")
