@@ -166,9 +166,10 @@ int editor_duration(lua_State* L) {  // ed:duration() → seconds, or nil and wh
 }
 
 int editor_scrub(lua_State* L) {
+    Editor& editor = check_editor(L);  // self first: a wrong self is named before a wrong argument
     const lua_Number seconds = luaL_checknumber(L, 2);
     luaL_argcheck(L, std::isfinite(seconds), 2, "a finite time in seconds expected");
-    check_editor(L).path().scrub(seconds);
+    editor.path().scrub(seconds);
     return 0;
 }
 

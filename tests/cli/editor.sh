@@ -35,6 +35,10 @@ printf 'dofile(os.getenv("WORK") .. "/scene.lua")\nlocal ed = strata.view()\nass
 expect_success "strata.view from a script" xvfb "$STRATA" run "$WORK/run_view.lua"
 checks=$((checks + 1)); grep -q "run view: ok" "$WORK/out.txt" || fail "strata.view from a script did not finish"
 
+# Every editor method handed what it must refuse (tests/editor/abuse_editor.lua): Lua errors, no crash.
+expect_success "editor abuse" xvfb "$STRATA" view "$WORK/scene.lua" --script "$root/tests/editor/abuse_editor.lua"
+checks=$((checks + 1)); grep -q "abuse_editor: ok" "$WORK/out.txt" || { fail "the editor abuse script did not finish"; cat "$WORK/err.txt"; }
+
 # A scene 100 000 groups deep, the model at the bottom: the outliner shows its first levels, the model's
 # keys (B: boxes on every model) reach it, frames draw and a click picks it, on a few frames of C stack.
 cat >"$WORK/deep.lua" <<LUA
