@@ -34,7 +34,18 @@ struct ReadInput {
     void warn(std::string_view what) const {
         if (warnings) warnings->push_back(name + ": " + std::string(what));
     }
+    // Checked before anything is allocated, so a lying header count fails at once, never by running out
+    // of memory: `room` is the most records the `bytes_left` could hold.
+    void require_room(uint64_t count, std::string_view noun, size_t bytes_left, uint64_t room) const {
+        if (count > room)
+            fail("expected " + std::to_string(count) + " " + std::string(noun) + ", but only " +
+                 std::to_string(bytes_left) + " bytes are left, room for at most " + std::to_string(room));
+    }
 };
+
+// The most records of `values` numbers each that `bytes_left` of text can hold: every value takes two
+// bytes at least (a digit and a separator; the file's last value needs no separator).
+inline uint64_t text_room(size_t bytes_left, size_t values) { return (uint64_t(bytes_left) + 1) / (2 * values); }
 
 // Entry points, one per format. Each returns the mesh as the file lists it (not yet welded) and throws
 // InputError for malformed input. read_mesh() picks one by content, then welds.

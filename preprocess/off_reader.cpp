@@ -93,15 +93,10 @@ private:
         return value;
     }
 
-    // Checked before anything is allocated, so a lying header count fails at once, never by running out
-    // of memory: every value takes two bytes at least (a digit and a separator; the file's last value
-    // needs no separator).
+    // `count` records of `values` numbers each must fit in the text that is left.
     void require_room(uint64_t count, size_t values, const char* noun) const {
         const size_t left = size_t(input_.data + input_.size - lines_.position());
-        const uint64_t room = (uint64_t(left) + 1) / (2 * values);
-        if (count > room)
-            input_.fail("expected " + std::to_string(count) + " " + noun + ", but only " + std::to_string(left) +
-                        " bytes are left, room for at most " + std::to_string(room));
+        input_.require_room(count, noun, left, text_room(left, values));
     }
 
     float number(Tokens& tokens, uint64_t vertex) const {

@@ -311,14 +311,6 @@ private:
     size_t used_ = 0;
 };
 
-// Checked before anything is allocated, so a lying header count fails at once, never by running out of
-// memory: `room` is how many records of the element the bytes left could hold at most.
-void require_room(const ReadInput& input, const PlyElement& element, size_t bytes_left, uint64_t room) {
-    if (element.count > room)
-        input.fail("expected " + std::to_string(element.count) + " " + element.noun() + ", but only " +
-                   std::to_string(bytes_left) + " bytes are left, room for at most " + std::to_string(room));
-}
-
 // ---- binary ---------------------------------------------------------------------------------------
 
 template <class T>
@@ -466,7 +458,7 @@ private:
         if (element.count > remaining() / record_bytes) truncated(element, remaining() / record_bytes);
     }
     void require_min_records(const PlyElement& element, size_t min_record_bytes) const {
-        require_room(input_, element, remaining(), remaining() / min_record_bytes);
+        input_.require_room(element.count, element.noun(), remaining(), remaining() / min_record_bytes);
     }
     void need(size_t bytes, const PlyElement& element, uint64_t record) const {
         if (bytes > remaining()) truncated(element, record);
@@ -704,12 +696,10 @@ private:
         input_.fail("line " + std::to_string(line_number(input_.data, tokens_.position())) + ": " + what);
     }
 
-    // Every value takes two bytes at least (a digit and a separator; the file's last value needs no
-    // separator), a list at least its count, and `extra` more values per record.
+    // A record holds a value per property (a list at least its count) and `extra` more.
     void require_values(const PlyElement& element, size_t extra) const {
-        const size_t values = element.properties.size() + extra;
         const size_t left = input_.size - offset();
-        require_room(input_, element, left, (uint64_t(left) + 1) / (2 * values));
+        input_.require_room(element.count, element.noun(), left, text_room(left, element.properties.size() + extra));
     }
 
     double number(PlyType type, const PlyElement& element, uint64_t record) {
