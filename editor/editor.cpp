@@ -25,6 +25,7 @@
 #include "engine/render/present.h"
 #include "engine/render/renderer.h"
 #include "engine/scene/light.h"
+#include "engine/scene/visitor.h"
 #include "nodes/geometry.h"
 #include "nodes/hlod_model.h"
 
@@ -112,16 +113,16 @@ void on_scroll(GLFWwindow*, double, double dy) {
     if (the_editor && !ImGui::GetIO().WantCaptureMouse) the_editor->navigator().zoom(dy);
 }
 
-// Every HLOD model at or below `node`, walked with a stack of its own: a scene may be any depth.
+// Every HLOD model at or below `node` (a NodeVisitor: it walks a scene of any depth on its own stack).
 void for_each_model(Node& node, const std::function<void(HlodModel&)>& action) {
-    std::vector<Node*> pending{&node};
-    while (!pending.empty()) {
-        Node* next = pending.back();
-        pending.pop_back();
-        if (auto* model = dynamic_cast<HlodModel*>(next)) action(*model);
-        if (auto* group = dynamic_cast<Group*>(next))
-            for (const NodePtr& child : group->children()) pending.push_back(child.get());
-    }
+    struct Models : NodeVisitor {
+        const std::function<void(HlodModel&)>& action;
+        explicit Models(const std::function<void(HlodModel&)>& a) : action(a) {}
+        void apply(Drawable& drawable) override {
+            if (auto* model = dynamic_cast<HlodModel*>(&drawable)) action(*model);
+        }
+    } models(action);
+    node.accept(models);
 }
 
 // The outliner shows this many levels of the tree: a deeper scene (a script can build any depth) would

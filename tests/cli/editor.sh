@@ -39,8 +39,8 @@ checks=$((checks + 1)); grep -q "run view: ok" "$WORK/out.txt" || fail "strata.v
 expect_success "editor abuse" xvfb "$STRATA" view "$WORK/scene.lua" --script "$root/tests/editor/abuse_editor.lua"
 checks=$((checks + 1)); grep -q "abuse_editor: ok" "$WORK/out.txt" || { fail "the editor abuse script did not finish"; cat "$WORK/err.txt"; }
 
-# A scene 100 000 groups deep, the model at the bottom: the outliner shows its first levels, the model's
-# keys (B: boxes on every model) reach it, frames draw and a click picks it, on a few frames of C stack.
+# A scene 100 000 groups deep, the model at the bottom: the outliner shows its first levels, frames
+# draw and a click picks the model, on a few frames of C stack.
 cat >"$WORK/deep.lua" <<LUA
 scene = strata.scene()
 local node = scene
