@@ -104,8 +104,8 @@ float to_float(lua_State* L, double value, const char* what) {
 
 float opt_float(lua_State* L, int index, const char* key, float fallback) {
     const double value = opt_number(L, index, key, fallback);
-    if (!fits_float(value)) luaL_error(L, "option '%s' must be a finite number within float range, got %f", key, value);
-    return float(value);
+    if (fits_float(value)) return float(value);
+    return to_float(L, value, lua_pushfstring(L, "option '%s'", key));  // raises, naming the option
 }
 
 glm::vec3 check_color(lua_State* L, int index) {
