@@ -7,7 +7,10 @@
 namespace strata {
 
 void NodeVisitor::traverse(Node& node, std::function<void()> after) {
-    if (after) pending_.push_back({nullptr, std::move(after)});  // below the children: runs after them
+    if (after) {  // below the children: runs after them
+        pending_.push_back(nullptr);
+        afters_.push_back(std::move(after));
+    }
     node.traverse(*this);
     if (walking_) return;
     // The outermost call: visit until the stack is empty. An exception leaves the visitor reusable.
@@ -16,14 +19,20 @@ void NodeVisitor::traverse(Node& node, std::function<void()> after) {
         ~Reset() {
             visitor.walking_ = false;
             visitor.pending_.clear();
+            visitor.afters_.clear();
         }
     } reset{*this};
     walking_ = true;
     while (!pending_.empty()) {
-        Pending next = std::move(pending_.back());
+        Node* next = pending_.back();
         pending_.pop_back();
-        if (next.node) next.node->accept(*this);
-        else next.after();
+        if (next) {
+            next->accept(*this);
+        } else {
+            const std::function<void()> after = std::move(afters_.back());
+            afters_.pop_back();
+            after();
+        }
     }
 }
 

@@ -35,13 +35,12 @@ protected:
 
 private:
     friend class Group;
-    void queue(Node& child) { pending_.push_back({&child, {}}); }
+    void queue(Node& child) { pending_.push_back(&child); }
 
-    struct Pending {
-        Node* node;                   // to visit, or nullptr for:
-        std::function<void()> after;  // what to run once the nodes above it on the stack are visited
-    };
-    std::vector<Pending> pending_;
+    // Nodes to visit, and nullptr where the last of `afters_` runs: once the nodes above it on the stack
+    // are visited. Kept apart, so the stack that every node passes through holds only pointers.
+    std::vector<Node*> pending_;
+    std::vector<std::function<void()>> afters_;
     bool walking_ = false;
 };
 
