@@ -2,6 +2,8 @@
 # Builds the fuzz targets (tests/fuzz/) with clang++ and libFuzzer + ASan + UBSan into build-fuzz/, then
 # runs each for SECONDS (default 60), one after another, on one core each.
 #   scripts/fuzz.sh [SECONDS] [TARGET...]      fuzz (all targets unless named)
+#   scripts/fuzz.sh --runs N [TARGET...]       fuzz N inputs per target from a fixed seed: the same
+#                                              inputs on every machine, so a failure reproduces (CI)
 #   scripts/fuzz.sh --merge [TARGET...]        minimize tests/fuzz/corpus/<target>/ with what was found
 #                                              (the fewest inputs that reach every edge)
 # Prints per target: executions, exec/s, CPU seconds, new inputs, failures. Exits non-zero if any target
@@ -12,9 +14,10 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 all_targets=(ply obj off stl hlod path_json osg_path)
-merge=0 seconds=60
+merge=0 budget=(-max_total_time=60)
 if [ "${1:-}" = --merge ]; then merge=1; shift
-elif [[ "${1:-}" =~ ^[0-9]+$ ]]; then seconds=$1; shift; fi
+elif [ "${1:-}" = --runs ] && [[ "${2:-}" =~ ^[0-9]+$ ]]; then budget=(-runs="$2" -seed=1); shift 2
+elif [[ "${1:-}" =~ ^[0-9]+$ ]]; then budget=(-max_total_time="$1"); shift; fi
 targets=("$@")
 [ ${#targets[@]} -gt 0 ] || targets=("${all_targets[@]}")
 
@@ -48,7 +51,7 @@ for t in "${targets[@]}"; do
   before=$(ls "$work" | wc -l)
   cpu_start=$(awk '{print $14 + $15 + $16 + $17}' /proc/$$/stat)
   status=0
-  "$dir/fuzz_$t" -max_total_time="$seconds" -rss_limit_mb=2048 -timeout=1 -print_final_stats=1 \
+  "$dir/fuzz_$t" "${budget[@]}" -rss_limit_mb=2048 -timeout=1 -print_final_stats=1 \
     -artifact_prefix="$crashers/" "${dict[@]}" "${corpora[@]}" \
     >"$log" 2>&1 || status=$?
   cpu_end=$(awk '{print $14 + $15 + $16 + $17}' /proc/$$/stat)

@@ -13,6 +13,9 @@ namespace strata {
 
 namespace {
 
+// Keys, targets, handles and up lie within this many metres of the origin (a thousand times the Earth's
+// orbit): beyond it the squares in chord and arc lengths overflow a double and the path has no length.
+constexpr double farthest_coordinate = 1e15;
 
 [[noreturn]] void fail_key(size_t key, const std::string& message) {
     throw std::runtime_error("key " + std::to_string(key) + ": " + message);
@@ -20,6 +23,15 @@ namespace {
 
 bool finite(const glm::dvec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
 bool finite(const glm::dquat& q) { return std::isfinite(q.w) && finite(glm::dvec3(q.x, q.y, q.z)); }
+
+// Finite and within farthest_coordinate on every axis.
+bool within_reach(const glm::dvec3& v) {
+    return finite(v) && std::max({std::abs(v.x), std::abs(v.y), std::abs(v.z)}) <= farthest_coordinate;
+}
+
+[[noreturn]] void fail_reach(size_t key, const std::string& what) {
+    fail_key(key, what + " is not finite or lies beyond " + message_number(farthest_coordinate) + " m");
+}
 
 void check_view(const Keyframe& key, size_t index, OrientationInterpolation orientations) {
     if (key.orientation && key.target) fail_key(index, "give an orientation or a target, not both");
@@ -30,13 +42,13 @@ void check_view(const Keyframe& key, size_t index, OrientationInterpolation orie
         if (!finite(*key.orientation)) fail_key(index, "orientation is not finite");
         if (glm::length(*key.orientation) < 1e-12) fail_key(index, "orientation is a zero quaternion");
     } else {
-        if (!finite(*key.target)) fail_key(index, "target is not finite");
+        if (!within_reach(*key.target)) fail_reach(index, "target");
         if (*key.target == key.position) fail_key(index, "target equals position: nowhere to look");
     }
 }
 
 void check_key(const Keyframe& key, size_t index, bool last, const PathOptions& options) {
-    if (!finite(key.position)) fail_key(index, "position is not finite");
+    if (!within_reach(key.position)) fail_reach(index, "position");
     check_view(key, index, options.orientations);
     if (!(key.fov_degrees > 0 && key.fov_degrees < 180))
         fail_key(index, "fov must be in (0, 180) degrees, got " + message_number(key.fov_degrees));
@@ -45,8 +57,8 @@ void check_key(const Keyframe& key, size_t index, bool last, const PathOptions& 
         if (!(std::isfinite(*key.duration) && *key.duration > 0))
             fail_key(index, "duration must be a positive number of seconds, got " + message_number(*key.duration));
     }
-    if (key.handles.in && !finite(*key.handles.in)) fail_key(index, "handle_in is not finite");
-    if (key.handles.out && !finite(*key.handles.out)) fail_key(index, "handle_out is not finite");
+    if (key.handles.in && !within_reach(*key.handles.in)) fail_reach(index, "handle_in");
+    if (key.handles.out && !within_reach(*key.handles.out)) fail_reach(index, "handle_out");
 }
 
 void check_options(const PathOptions& options) {
@@ -56,8 +68,8 @@ void check_options(const PathOptions& options) {
     const auto& ramp = options.ease_seconds;
     if (ramp && !(std::isfinite(*ramp) && *ramp >= 0))
         throw std::runtime_error("ease_seconds must be a number of seconds >= 0, got " + message_number(*ramp));
-    if (!finite(options.up) || glm::length(options.up) == 0)
-        throw std::runtime_error("up must be a finite, non-zero vector");
+    if (!within_reach(options.up) || glm::length(options.up) == 0)
+        throw std::runtime_error("up must be a non-zero vector within " + message_number(farthest_coordinate));
 }
 
 std::vector<glm::dvec3> positions_of(const std::vector<Keyframe>& keys) {

@@ -116,7 +116,7 @@ double ArcLength::at(double s) const {
 
 double ArcLength::parameter_at(double length) const {
     if (length <= 0 || total() == 0) return 0;
-    if (length >= total()) return 1;
+    if (!(length < total())) return 1;  // also for a NaN total, which no bracket in the table holds
     const int k = int(std::upper_bound(cumulative_.begin(), cumulative_.end(), length) - cumulative_.begin()) - 1;
     double lo = double(k) / slices, hi = double(k + 1) / slices;
     const double slice_length = cumulative_[k + 1] - cumulative_[k];

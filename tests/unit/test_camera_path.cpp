@@ -556,7 +556,11 @@ TEST(CameraPath, BadKeysAreRejectedNamingTheKeyAndField) {
     };
     using Keys = std::vector<Keyframe>&;
     EXPECT_EQ(error_for([](Keys k) { k.resize(1); }), "camera path: a path needs at least 2 keys, got 1");
-    EXPECT_EQ(error_for([](Keys k) { k[2].position.y = std::nan(""); }), "camera path: key 2: position is not finite");
+    EXPECT_EQ(error_for([](Keys k) { k[2].position.y = std::nan(""); }), "camera path: key 2: position is not finite or lies beyond 1e+15 m");
+    // Found by fuzzing: coordinates this far overflow the arc length, which then bracketed no length.
+    EXPECT_EQ(error_for([](Keys k) { k[1].position.x = 4e307; }), "camera path: key 1: position is not finite or lies beyond 1e+15 m");
+    EXPECT_EQ(error_for([](Keys k) { k[1].handles.out = glm::dvec3(0, 0, -2e15); }),
+              "camera path: key 1: handle_out is not finite or lies beyond 1e+15 m");
     EXPECT_EQ(error_for([](Keys k) { k[1].target = glm::dvec3(0); }), "camera path: key 1: give an orientation or a target, not both");
     EXPECT_EQ(error_for([](Keys k) { k[3].orientation.reset(); }), "camera path: key 3: give an orientation or a target");
     EXPECT_EQ(error_for([](Keys k) { k[0].orientation = glm::dquat(0, 0, 0, 0); }), "camera path: key 0: orientation is a zero quaternion");
@@ -584,7 +588,7 @@ TEST(CameraPath, BadKeysAreRejectedNamingTheKeyAndField) {
     EXPECT_EQ(error_for([](Keys) {}, long_ramps), "camera path: ease_seconds 3 does not fit in the path's duration 4 twice");
     PathOptions no_up;
     no_up.up = glm::dvec3(0);
-    EXPECT_EQ(error_for([](Keys) {}, no_up), "camera path: up must be a finite, non-zero vector");
+    EXPECT_EQ(error_for([](Keys) {}, no_up), "camera path: up must be a non-zero vector within 1e+15");
     PathOptions short_total;
     short_total.total_duration = 1;
     EXPECT_EQ(error_for([](Keys k) { k[0].duration = 1; }, short_total),
