@@ -59,8 +59,19 @@ std::shared_ptr<HlodModel> HlodModel::load(const std::filesystem::path& path) {
     }
     model->root_ = index[{0, 0, 0, 0}];
 
-    for (HlodCube& cube : model->cubes_) {
+    // Coarse to fine, so each cube finds its parents' vertices already decoded.
+    std::vector<uint32_t> order(nodes.size());
+    for (uint32_t c = 0; c < nodes.size(); ++c) order[c] = c;
+    std::stable_sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) { return nodes[a].level < nodes[b].level; });
+    for (uint32_t c : order) {
+        HlodCube& cube = model->cubes_[c];
         cube.data = file.read_cube(cube.node);
+        const HlodNode& n = cube.node;
+        const CubeData& parent =
+            n.level == 0 ? cube.data : model->cubes_[index.at({n.level - 1, n.i / 2, n.j / 2, n.k / 2})].data;
+        resolve_parents(cube.data, parent.vertices, path.string() + ": " + describe_cube(n));
+    }
+    for (HlodCube& cube : model->cubes_) {
         for (uint32_t v = 0; v < cube.data.vertex_count(); ++v) {
             const glm::vec3 p = model->vertex_position(cube, v);
             model->bound_.expand(glm::dvec3(p) + model->origin());

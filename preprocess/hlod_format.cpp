@@ -229,50 +229,28 @@ std::array<float, 3> decode_normal(int16_t u, int16_t v) {
 
 namespace {
 
-constexpr int kStreams = 8;
-
-// A vertex set as three streams: position+normal records, colours, UVs (the last two may be empty).
-void encode_arrays(const VertexArrays& v, uint32_t flags, std::vector<uint8_t>* streams) {
-    const size_t n = v.size();
-    streams[0] = encode_vertices(position_normal_records(v), n, 12);
-    if (flags & kHasColors) streams[1] = encode_vertices(v.colors, n, 4);
-    if (flags & kHasUvs) streams[2] = encode_vertices(as_bytes(v.uvs), n, 8);
-}
-
-void decode_arrays(ByteReader& r, const uint32_t* sizes, size_t n, uint32_t flags, const std::string& what,
-                   VertexArrays& v) {
-    auto records = decode_vertices(r.get_bytes(sizes[0]), n, 12, what);
-    v.positions.resize(3 * n);
-    v.normals.resize(2 * n);
-    for (size_t i = 0; i < n; ++i) {
-        std::memcpy(&v.positions[3 * i], &records[12 * i], 6);
-        std::memcpy(&v.normals[2 * i], &records[12 * i + 6], 4);
-    }
-    auto colors = r.get_bytes(sizes[1]);
-    if (flags & kHasColors) v.colors = decode_vertices(colors, n, 4, what);
-    auto uvs = r.get_bytes(sizes[2]);
-    if (flags & kHasUvs) from_bytes(decode_vertices(uvs, n, 8, what), v.uvs);
-}
+// Streams of a payload: position+normal records, colours, UVs, parent indices, triangles.
+constexpr int kStreams = 5;
 
 }  // namespace
 
-// Payload: counts, child triangle counts, eight stream sizes, then the streams: the vertices
-// (position+normal, colours, UVs), each vertex's parent index, the parent table (position+normal,
-// colours, UVs) and the triangles, in meshoptimizer's vertex and index codecs.
+// Payload: counts, child triangle counts, five stream sizes, then the streams: the vertices
+// (position+normal, colours, UVs), each vertex's parent index in the parent cube, and the triangles,
+// in meshoptimizer's vertex and index codecs.
 std::vector<uint8_t> encode_cube(const CubeData& cube, uint32_t flags) {
     const size_t n = cube.vertex_count();
     std::vector<uint8_t> streams[kStreams];
-    encode_arrays(cube.vertices, flags, &streams[0]);
-    streams[3] = encode_vertices(as_bytes(cube.parent_of), n, 4);
-    encode_arrays(cube.parents, flags, &streams[4]);
+    streams[0] = encode_vertices(position_normal_records(cube.vertices), n, 12);
+    if (flags & kHasColors) streams[1] = encode_vertices(cube.vertices.colors, n, 4);
+    if (flags & kHasUvs) streams[2] = encode_vertices(as_bytes(cube.vertices.uvs), n, 8);
+    streams[3] = encode_vertices(as_bytes(cube.parent_vertex), n, 4);
     if (!cube.indices.empty()) {
-        streams[7].resize(meshopt_encodeIndexBufferBound(cube.indices.size(), n));
-        streams[7].resize(meshopt_encodeIndexBuffer(streams[7].data(), streams[7].size(), cube.indices.data(),
+        streams[4].resize(meshopt_encodeIndexBufferBound(cube.indices.size(), n));
+        streams[4].resize(meshopt_encodeIndexBuffer(streams[4].data(), streams[4].size(), cube.indices.data(),
                                                     cube.indices.size()));
     }
     ByteWriter w;
     w.put(uint32_t(n));
-    w.put(cube.parents.size());
     w.put(cube.triangle_count());
     for (uint32_t c : cube.child_triangle_counts) w.put(c);
     for (const auto& s : streams) w.put(uint32_t(s.size()));
@@ -284,7 +262,7 @@ CubeData decode_cube(std::span<const uint8_t> bytes, const HlodNode& node, uint3
     const std::string what = describe_cube(node);
     ByteReader r(bytes, what + " payload");
     CubeData cube;
-    uint32_t n = r.get<uint32_t>(), parents = r.get<uint32_t>(), triangles = r.get<uint32_t>();
+    const uint32_t n = r.get<uint32_t>(), triangles = r.get<uint32_t>();
     if (n != node.vertex_count || triangles != node.triangle_count)
         throw std::runtime_error(what + ": payload counts disagree with the node table");
     uint64_t grouped = 0;
@@ -298,17 +276,22 @@ CubeData decode_cube(std::span<const uint8_t> bytes, const HlodNode& node, uint3
     uint64_t streamed = 0;
     for (uint32_t size : sizes) streamed += size;
     auto fits = [](uint64_t count, uint32_t stream) { return count <= 8 * uint64_t(stream) + 16; };
-    if (streamed > bytes.size() || parents > n || !fits(n, sizes[0]) || !fits(parents, sizes[4]) ||
-        triangles > sizes[7])
+    if (streamed > bytes.size() || !fits(n, sizes[0]) || triangles > sizes[4])
         throw std::runtime_error(what + ": counts larger than the payload could hold");
-    decode_arrays(r, &sizes[0], n, flags, what, cube.vertices);
-    from_bytes(decode_vertices(r.get_bytes(sizes[3]), n, 4, what), cube.parent_of);
-    decode_arrays(r, &sizes[4], parents, flags, what, cube.parents);
-    for (uint32_t p : cube.parent_of)
-        if (p >= parents) throw std::runtime_error(what + ": parent index " + std::to_string(p) + " past its " +
-                                                   std::to_string(parents) + " parents");
+    auto records = decode_vertices(r.get_bytes(sizes[0]), n, 12, what);
+    cube.vertices.positions.resize(3 * size_t(n));
+    cube.vertices.normals.resize(2 * size_t(n));
+    for (size_t i = 0; i < n; ++i) {
+        std::memcpy(&cube.vertices.positions[3 * i], &records[12 * i], 6);
+        std::memcpy(&cube.vertices.normals[2 * i], &records[12 * i + 6], 4);
+    }
+    auto colors = r.get_bytes(sizes[1]);
+    if (flags & kHasColors) cube.vertices.colors = decode_vertices(colors, n, 4, what);
+    auto uvs = r.get_bytes(sizes[2]);
+    if (flags & kHasUvs) from_bytes(decode_vertices(uvs, n, 8, what), cube.vertices.uvs);
+    from_bytes(decode_vertices(r.get_bytes(sizes[3]), n, 4, what), cube.parent_vertex);
     cube.indices.resize(size_t(triangles) * 3);
-    auto index_stream = r.get_bytes(sizes[7]);
+    auto index_stream = r.get_bytes(sizes[4]);
     if (triangles && meshopt_decodeIndexBuffer(cube.indices.data(), cube.indices.size(), 4, index_stream.data(),
                                                index_stream.size()) != 0)
         throw std::runtime_error(what + ": index stream does not decode");
@@ -316,6 +299,28 @@ CubeData decode_cube(std::span<const uint8_t> bytes, const HlodNode& node, uint3
         if (index >= n) throw std::runtime_error(what + ": index " + std::to_string(index) + " past its " +
                                                  std::to_string(n) + " vertices");
     return cube;
+}
+
+void resolve_parents(CubeData& cube, const VertexArrays& from, const std::string& what) {
+    const uint32_t available = from.size();
+    VertexArrays& to = cube.parents;
+    to = VertexArrays{};
+    cube.parent_of.resize(cube.vertex_count());
+    std::vector<uint32_t> slot(available, ~0u);
+    for (uint32_t v = 0; v < cube.vertex_count(); ++v) {
+        const uint32_t p = cube.parent_vertex[v];
+        if (p >= available)
+            throw std::runtime_error(what + ": vertex " + std::to_string(v) + "'s parent " + std::to_string(p) +
+                                     " lies past the parent cube's " + std::to_string(available) + " vertices");
+        if (slot[p] == ~0u) {
+            slot[p] = to.size();
+            to.positions.insert(to.positions.end(), &from.positions[3 * size_t(p)], &from.positions[3 * size_t(p)] + 3);
+            to.normals.insert(to.normals.end(), &from.normals[2 * size_t(p)], &from.normals[2 * size_t(p)] + 2);
+            if (!from.colors.empty()) to.colors.insert(to.colors.end(), &from.colors[4 * size_t(p)], &from.colors[4 * size_t(p)] + 4);
+            if (!from.uvs.empty()) to.uvs.insert(to.uvs.end(), &from.uvs[2 * size_t(p)], &from.uvs[2 * size_t(p)] + 2);
+        }
+        cube.parent_of[v] = slot[p];
+    }
 }
 
 // ---- writer --------------------------------------------------------------------------------

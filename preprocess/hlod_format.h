@@ -73,20 +73,29 @@ struct VertexArrays {
     uint32_t size() const { return uint32_t(positions.size() / 3); }
 };
 
-// One cube, decoded. Each vertex names its parent P(v) in the cube's own parent table, so the cube
-// draws (and morphs) on its own; about four vertices share a parent, so the table is small.
+// One cube, decoded. Each vertex names its parent P(v) by its index among the parent cube's
+// vertices (the renderer keeps a cube's ancestors resident with it, DESIGN.md §2); about four
+// vertices share a parent.
 struct CubeData {
-    VertexArrays vertices;            // level-l lattice, relative to the cube's cell
-    VertexArrays parents;             // distinct P(v): level-(l−1) lattice, relative to the parent cube's cell
-    std::vector<uint32_t> parent_of;  // per vertex: its parent's index in `parents`
-    std::vector<uint32_t> indices;    // 3 per triangle
+    VertexArrays vertices;                // level-l lattice, relative to the cube's cell
+    std::vector<uint32_t> parent_vertex;  // per vertex: P(v) among the parent cube's vertices (level 0: v)
+    std::vector<uint32_t> indices;        // 3 per triangle
     // Triangles are grouped by the child cube (octant i&1 | j&1<<1 | k&1<<2) they were simplified from;
     // at level L, whose triangles have no children, all are counted in [0].
     std::array<uint32_t, 8> child_triangle_counts{};
+    // Filled by resolve_parents, so that the cube draws and morphs on its own: the distinct parents,
+    // copied from the parent cube's vertices (level-(l−1) lattice, relative to the parent's cell), and
+    // per vertex its entry among them.
+    VertexArrays parents;
+    std::vector<uint32_t> parent_of;
 
     uint32_t vertex_count() const { return vertices.size(); }
     uint32_t triangle_count() const { return uint32_t(indices.size() / 3); }
 };
+
+// Copies each vertex's parent out of the parent cube's vertices (at level 0, pass the cube's own).
+// Throws std::runtime_error naming the cube when a parent index lies past the parent's vertices.
+void resolve_parents(CubeData& cube, const VertexArrays& parent_vertices, const std::string& what);
 
 uint32_t crc32c(const void* data, size_t size);
 

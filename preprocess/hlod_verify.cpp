@@ -64,6 +64,7 @@ private:
         return 4 * extent * 0x1p-23;
     }
     LevelData load_level(uint32_t level);
+    void resolve_level(LevelData& level, const LevelData* parents);
     void check_cube_bounds(const LevelData& level, size_t c);
     void check_root(const CubeData& cube, const HlodNode& node);
     void check_against_parent(const LevelData& level, size_t c, const LevelData& parents);
@@ -100,6 +101,24 @@ LevelData Verifier::load_level(uint32_t level) {
         if (level == h_.max_level && n->error != 0) fail(describe_cube(*n) + " at full resolution has nonzero error");
     }
     return data;
+}
+
+// Each vertex's parent, copied from the parent cube (from the cube itself at level 0).
+void Verifier::resolve_level(LevelData& level, const LevelData* parents) {
+    for (size_t c = 0; c < level.cubes.size(); ++c) {
+        const HlodNode& n = *level.nodes[c];
+        const CubeData* parent = &level.cubes[c];
+        if (parents) {
+            auto it = parents->index.find(CubeKey{n.i / 2, n.j / 2, n.k / 2});
+            if (it == parents->index.end()) fail(describe_cube(n) + " has no parent cube");
+            parent = &parents->cubes[it->second];
+        }
+        try {
+            resolve_parents(level.cubes[c], parent->vertices, describe_cube(n));
+        } catch (const std::runtime_error& e) {
+            fail(e.what());
+        }
+    }
 }
 
 // No vertex farther than σ0·s_l from its cell (give or take the lattice step).
@@ -268,6 +287,7 @@ VerifyReport Verifier::run() {
         progress_("verify", l, h_.max_level + 1, "level");
         LevelData& current = levels[l % 2];
         current = load_level(l);
+        resolve_level(current, parents);
         if (l == 0) {
             if (current.nodes.size() != 1 || current.index.count(CubeKey{0, 0, 0}) == 0)
                 fail("level 0 must be exactly the root cube");

@@ -57,8 +57,8 @@ std::vector<std::string> directory_entries(const std::filesystem::path& dir) {
     return names;
 }
 
-// A small cube with every field filled: V vertices, Q parents (parent_of[v] = v mod Q), T triangles
-// spread over the child groups, colours and UVs when the flags ask for them.
+// A small cube with every field filled: V vertices whose parents are vertex v mod Q of the parent cube,
+// T triangles spread over the child groups, colours and UVs when the flags ask for them.
 CubeData make_cube(uint32_t vertices, uint32_t parents, uint32_t triangles, uint32_t flags) {
     CubeData c;
     std::mt19937 rng(vertices * 131 + triangles);
@@ -74,8 +74,7 @@ CubeData make_cube(uint32_t vertices, uint32_t parents, uint32_t triangles, uint
         }
     };
     fill(c.vertices, vertices);
-    fill(c.parents, parents);
-    for (uint32_t v = 0; v < vertices; ++v) c.parent_of.push_back(parents ? v % parents : 0);
+    for (uint32_t v = 0; v < vertices; ++v) c.parent_vertex.push_back(parents ? v % parents : 0);
     for (uint32_t t = 0; t < triangles; ++t)
         c.indices.insert(c.indices.end(), {t % vertices, (t + 1) % vertices, (t + 2) % vertices});
     // Groups 0, 2 and 5 get the triangles, in that order (some groups empty, as for a missing child).
@@ -117,15 +116,14 @@ void expect_same_arrays(const VertexArrays& got, const VertexArrays& want, uint3
 
 void expect_same_cube(const CubeData& got, const CubeData& want, uint32_t flags) {
     expect_same_arrays(got.vertices, want.vertices, flags);
-    expect_same_arrays(got.parents, want.parents, flags);
-    EXPECT_EQ(got.parent_of, want.parent_of);
+    EXPECT_EQ(got.parent_vertex, want.parent_vertex);
     EXPECT_EQ(got.child_triangle_counts, want.child_triangle_counts);
     expect_same_triangles(got.indices, want.indices);
 }
 
 // Payload header offsets (FORMAT.md §5).
-constexpr size_t kVertexCountAt = 0, kParentCountAt = 4, kTriangleCountAt = 8, kChildCountsAt = 12, kSizesAt = 44,
-                 kStreamsAt = 76;
+constexpr size_t kVertexCountAt = 0, kTriangleCountAt = 4, kChildCountsAt = 8, kSizesAt = 40, kStreamsAt = 60;
+constexpr int kStreams = 5, kIndexStream = 4;
 
 // ---- CRC-32C ----------------------------------------------------------------------------------------
 
@@ -272,28 +270,25 @@ TEST(CubePayload, RoundTripWithEveryFlagCombination) {
         // The layout of FORMAT.md §5: counts, child counts, sizes, then exactly the streams.
         ASSERT_GE(payload.size(), kStreamsAt);
         EXPECT_EQ(get<uint32_t>(payload, kVertexCountAt), 40u);
-        EXPECT_EQ(get<uint32_t>(payload, kParentCountAt), 11u);
         EXPECT_EQ(get<uint32_t>(payload, kTriangleCountAt), 57u);
         EXPECT_EQ(get<uint32_t>(payload, kChildCountsAt + 4 * 5), cube.child_triangle_counts[5]);
         size_t total = kStreamsAt;
-        uint32_t sizes[8];
-        for (int s = 0; s < 8; ++s) total += sizes[s] = get<uint32_t>(payload, kSizesAt + 4 * s);
+        uint32_t sizes[kStreams];
+        for (int s = 0; s < kStreams; ++s) total += sizes[s] = get<uint32_t>(payload, kSizesAt + 4 * s);
         EXPECT_EQ(total, payload.size());
-        for (int s : {0, 3, 4, 7}) EXPECT_GT(sizes[s], 0u) << "stream " << s;
+        for (int s : {0, 3, kIndexStream}) EXPECT_GT(sizes[s], 0u) << "stream " << s;
         EXPECT_EQ(sizes[1] > 0, bool(flags & kHasColors));
-        EXPECT_EQ(sizes[5] > 0, bool(flags & kHasColors));
         EXPECT_EQ(sizes[2] > 0, bool(flags & kHasUvs));
-        EXPECT_EQ(sizes[6] > 0, bool(flags & kHasUvs));
         EXPECT_EQ(payload[kStreamsAt], 0xA0) << "vertex codec version 0";
     }
 }
 
 TEST(CubePayload, RoundTripWithoutTriangles) {
     for (uint32_t flags : {0u, uint32_t(kHasColors | kHasUvs)}) {
-        // Extra vertices only (FORMAT.md §9): vertices and parents, no triangles.
+        // Extra vertices only (FORMAT.md §9): vertices with their parents, no triangles.
         CubeData extras = make_cube(3, 2, 0, flags);
         std::vector<uint8_t> payload = encode_cube(extras, flags);
-        EXPECT_EQ(get<uint32_t>(payload, kSizesAt + 4 * 7), 0u);  // empty index stream
+        EXPECT_EQ(get<uint32_t>(payload, kSizesAt + 4 * kIndexStream), 0u);  // empty index stream
         CubeData back = decode_cube(payload, node_for(extras), flags);
         expect_same_cube(back, extras, flags);
         EXPECT_EQ(back.triangle_count(), 0u);
@@ -304,9 +299,8 @@ TEST(CubePayload, RoundTripWithoutTriangles) {
         EXPECT_EQ(payload.size(), kStreamsAt);
         back = decode_cube(payload, node_for(empty), flags);
         EXPECT_EQ(back.vertex_count(), 0u);
-        EXPECT_EQ(back.parents.size(), 0u);
+        EXPECT_TRUE(back.parent_vertex.empty());
         EXPECT_TRUE(back.indices.empty());
-        EXPECT_TRUE(back.parent_of.empty());
     }
 }
 
@@ -365,26 +359,44 @@ TEST_F(BadPayload, ChildCountsDoNotAddUp) {
     expect_rejected(edited, node, "do not add up");
 }
 
-TEST_F(BadPayload, MoreParentsThanVertices) {
-    std::vector<uint8_t> edited = payload;
-    put<uint32_t>(edited, kParentCountAt, 25);
-    EXPECT_THROW(decode_cube(edited, node, flags), std::runtime_error);
-}
-
 TEST_F(BadPayload, StreamSizesThatDoNotMatchTheStreams) {
     std::vector<uint8_t> edited = payload;
     put<uint32_t>(edited, kSizesAt, get<uint32_t>(payload, kSizesAt) + 1);  // stream 0 one byte longer
     EXPECT_THROW(decode_cube(edited, node, flags), std::runtime_error);
     edited = payload;
-    put<uint32_t>(edited, kSizesAt + 4 * 7, get<uint32_t>(payload, kSizesAt + 4 * 7) + 100);  // past the end
+    put<uint32_t>(edited, kSizesAt + 4 * kIndexStream, get<uint32_t>(payload, kSizesAt + 4 * kIndexStream) + 100);  // past the end
     expect_rejected(edited, node, "");
 }
 
-TEST_F(BadPayload, ParentIndexPastTheTable) {
-    // A payload that is well formed byte for byte but names parent 7 of 7.
+TEST_F(BadPayload, ParentPastTheParentCubeIsRefusedWhenResolved) {
+    // A payload that is well formed byte for byte but names vertex 7 of a 7-vertex parent cube.
     CubeData bad = cube;
-    bad.parent_of[5] = 7;
-    expect_rejected(encode_cube(bad, flags), node, "parent index 7 past its 7 parents");
+    bad.parent_vertex[5] = 7;
+    CubeData back = decode_cube(encode_cube(bad, flags), node, flags);
+    const CubeData parent = make_cube(7, 7, 0, flags);
+    try {
+        resolve_parents(back, parent.vertices, describe_cube(node));
+        ADD_FAILURE() << "resolved a parent past the parent cube";
+    } catch (const std::runtime_error& e) {
+        EXPECT_THAT(e.what(), HasSubstr(describe_cube(node) + ": vertex 5's parent 7 lies past the parent cube's 7 vertices"));
+    }
+}
+
+TEST(ResolveParents, CopiesEachDistinctParentOnceInFirstUseOrder) {
+    const uint32_t flags = kHasColors | kHasUvs;
+    const CubeData parent = make_cube(9, 9, 0, flags);
+    CubeData child = make_cube(6, 9, 0, flags);
+    child.parent_vertex = {4, 2, 4, 8, 2, 0};
+    resolve_parents(child, parent.vertices, "child");
+    EXPECT_EQ(child.parent_of, (std::vector<uint32_t>{0, 1, 0, 2, 1, 3}));
+    ASSERT_EQ(child.parents.size(), 4u);
+    const uint32_t from[4] = {4, 2, 8, 0};
+    for (uint32_t p = 0; p < 4; ++p) {
+        for (int a = 0; a < 3; ++a) EXPECT_EQ(child.parents.positions[3 * p + a], parent.vertices.positions[3 * from[p] + a]);
+        for (int a = 0; a < 2; ++a) EXPECT_EQ(child.parents.normals[2 * p + a], parent.vertices.normals[2 * from[p] + a]);
+        for (int a = 0; a < 4; ++a) EXPECT_EQ(child.parents.colors[4 * p + a], parent.vertices.colors[4 * from[p] + a]);
+        for (int a = 0; a < 2; ++a) EXPECT_EQ(child.parents.uvs[2 * p + a], parent.vertices.uvs[2 * from[p] + a]);
+    }
 }
 
 TEST_F(BadPayload, IndexPastTheVertices) {

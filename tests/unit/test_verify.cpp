@@ -65,19 +65,17 @@ struct Model {
         cubes.erase(cubes.begin() + long(c));
     }
 
-    // Decoded position of vertex v of cube c (or of its parent-table entry p, on the parent's lattice).
+    // The cube c's parent cube.
+    size_t parent_of(size_t c) const {
+        const HlodNode& n = nodes[c];
+        return find(n.level - 1, n.i / 2, n.j / 2, n.k / 2);
+    }
+    // Decoded position of vertex v of cube c.
     std::array<float, 3> vertex(size_t c, uint32_t v) const {
         const HlodNode& n = nodes[c];
         const uint32_t cell[3] = {n.i, n.j, n.k};
         std::array<float, 3> x;
         for (int a = 0; a < 3; ++a) x[a] = decode_coordinate(header, a, n.level, cell[a], cubes[c].vertices.positions[3 * v + a]);
-        return x;
-    }
-    std::array<float, 3> parent_entry(size_t c, uint32_t p) const {
-        const HlodNode& n = nodes[c];
-        const uint32_t cell[3] = {n.i / 2, n.j / 2, n.k / 2};
-        std::array<float, 3> x;
-        for (int a = 0; a < 3; ++a) x[a] = decode_coordinate(header, a, n.level - 1, cell[a], cubes[c].parents.positions[3 * p + a]);
         return x;
     }
 };
@@ -175,35 +173,23 @@ TEST_F(Verify, VertexFarOutsideItsCell) {
     EXPECT_THAT(message, HasSubstr("from its cell"));
 }
 
-TEST_F(Verify, ParentThatIsNotAVertexOfTheParentCube) {
+TEST_F(Verify, ParentPastTheParentCubesVertices) {
     Model m = *sphere_;
     const size_t c = m.cube_at(2);
-    CubeData& cube = m.cubes[c];
-    const uint32_t entry = cube.parent_of[3];
-    cube.parents.positions[3 * entry + 2] += 1;  // one lattice step: close, but no longer the parent's bytes
-    std::string message = verify(m);
-    EXPECT_THAT(message, HasSubstr(describe_cube(m.nodes[c]) + ": the parent of vertex"));
-    EXPECT_THAT(message, HasSubstr("is not a vertex of cube (level 1"));
-
-    // A normal differing in one unit is just as wrong (copies are compared byte for byte).
-    m = *sphere_;
-    m.cubes[c].parents.normals[2 * m.cubes[c].parent_of[0]] ^= 1;
-    EXPECT_THAT(verify(m), HasSubstr("is not a vertex of"));
-
-    // And a colour, on the grid.
-    m = *grid_;
-    const size_t g = m.cube_at(2);
-    m.cubes[g].parents.colors[4 * m.cubes[g].parent_of[0] + 1] ^= 1;
-    EXPECT_THAT(verify(m), HasSubstr("is not a vertex of"));
+    const uint32_t parent_vertices = m.cubes[m.parent_of(c)].vertex_count();
+    m.cubes[c].parent_vertex[3] = parent_vertices;
+    EXPECT_THAT(verify(m), HasSubstr(describe_cube(m.nodes[c]) + ": vertex 3's parent " + std::to_string(parent_vertices) +
+                                     " lies past the parent cube's " + std::to_string(parent_vertices) + " vertices"));
 }
 
 TEST_F(Verify, ChildTriangleRemoved) {
     Model m = *sphere_;
     const size_t c = m.cube_at(2);
     CubeData& cube = m.cubes[c];
+    const CubeData& parent_cube = m.cubes[m.parent_of(c)];
     // A triangle whose image under P is a real triangle (removing a degenerate one changes nothing).
     auto parent_position = [&](uint32_t v) {
-        const uint16_t* p = &cube.parents.positions[3 * size_t(cube.parent_of[v])];
+        const uint16_t* p = &parent_cube.vertices.positions[3 * size_t(cube.parent_vertex[v])];
         return std::array<uint16_t, 3>{p[0], p[1], p[2]};
     };
     size_t victim = cube.triangle_count();
@@ -241,23 +227,24 @@ TEST_F(Verify, ChildTriangleRemoved) {
 TEST_F(Verify, ParentFartherThanSigma0) {
     Model m = *sphere_;
     const double bound = m.header.sigma0 * m.header.cube_size(3);  // σ0·s_{l+1} for l = 2
-    // Point some vertex at another entry of its parent table that lies well beyond the bound: a real
+    // Point some vertex at another vertex of the parent cube that lies well beyond the bound: a real
     // vertex of the parent cube, just too far away.
     for (size_t c = 0; c < m.nodes.size(); ++c) {
         if (m.nodes[c].level != 2) continue;
         CubeData& cube = m.cubes[c];
+        const size_t parent = m.parent_of(c);
         for (uint32_t v = 0; v < cube.vertex_count(); ++v)
-            for (uint32_t e = 0; e < cube.parents.size(); ++e)
-                if (linf(m.vertex(c, v), m.parent_entry(c, e)) > 2 * bound) {
-                    EXPECT_LE(linf(m.vertex(c, v), m.parent_entry(c, cube.parent_of[v])), bound + 1e-4);  // before
-                    cube.parent_of[v] = e;
+            for (uint32_t e = 0; e < m.cubes[parent].vertex_count(); ++e)
+                if (linf(m.vertex(c, v), m.vertex(parent, e)) > 2 * bound) {
+                    EXPECT_LE(linf(m.vertex(c, v), m.vertex(parent, cube.parent_vertex[v])), bound + 1e-4);  // before
+                    cube.parent_vertex[v] = e;
                     std::string message = verify(m);
                     EXPECT_THAT(message, HasSubstr(describe_cube(m.nodes[c]) + ": vertex " + std::to_string(v) + " lies"));
                     EXPECT_THAT(message, HasSubstr("from its parent, more than σ0·s_{l+1}"));
                     return;
                 }
     }
-    FAIL() << "no parent entry lies farther than 2·σ0·s_{l+1} from a vertex";
+    FAIL() << "no parent vertex lies farther than 2·σ0·s_{l+1} from a vertex";
 }
 
 TEST_F(Verify, MissingCubes) {
@@ -352,8 +339,7 @@ TEST_F(Verify, RootVertexNotItsOwnParent) {
     const size_t root = m.find(0, 0, 0, 0);
     ASSERT_LT(root, m.nodes.size());
     CubeData& cube = m.cubes[root];
-    ASSERT_EQ(cube.parents.size(), cube.vertex_count());
-    std::swap(cube.parent_of[0], cube.parent_of[1]);
+    std::swap(cube.parent_vertex[0], cube.parent_vertex[1]);
     EXPECT_THAT(verify(m), HasSubstr("cube (level 0, 0 0 0): vertex 0 is not its own parent at level 0"));
 }
 
@@ -370,7 +356,7 @@ TEST(BuildCancel, CancelledBeforeItStartsLeavesNothing) {
     EXPECT_TRUE(directory_entries(dir.path()).empty()) << "left " << directory_entries(dir.path()).front();
 }
 
-TEST(BuildCancel, CancelledWhileWritingLeavesNothing) {
+TEST(BuildCancel, CancelledMidwayLeavesNothing) {
     test::TempDir dir;
     std::atomic<bool> cancel{false};
     int reports = 0;
@@ -378,7 +364,7 @@ TEST(BuildCancel, CancelledWhileWritingLeavesNothing) {
     progress.cancel = &cancel;
     progress.report = [&](std::string_view stage, double, double, std::string_view) {
         ++reports;
-        if (stage.starts_with("write")) cancel = true;  // payloads are already in the temporary file
+        if (stage == "simplify level 1") cancel = true;  // level 2's payloads are already written
     };
     BuildSettings s;
     s.levels = 2;

@@ -1,0 +1,320 @@
+#include "preprocess/block_step.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+
+#include "preprocess/index_map.h"
+#include "preprocess/quadric.h"
+#include "preprocess/simplify.h"
+
+namespace strata::build {
+namespace {
+
+// Attribute weights in the collapse cost, against distances measured in cube sizes: a full-range
+// colour change costs like moving a tenth of a cube; a UV change of 1 like moving half a cube.
+constexpr float kColorWeight = 0.1f;
+constexpr float kUvWeight = 0.5f;
+// Scanned normals (level L only; coarser levels' normals come from their own triangles): a reversal
+// costs like moving a fifth of a cube.
+constexpr float kNormalWeight = 0.1f;
+
+// The block's cubes as one mesh. A vertex is a *wedge* (position plus attributes): copies of one
+// vertex in several cubes become one wedge. A *point* is a position, shared by the seam copies on it.
+struct BlockWeld {
+    std::vector<uint32_t> first;           // per cube: its first vertex in the block's numbering
+    std::vector<uint32_t> vertex_wedge;    // per block vertex (cube c's vertex v is first[c] + v)
+    std::vector<uint32_t> wedge_vertex;    // per wedge: the block vertex it was first seen as
+    std::vector<uint32_t> wedge_point;
+    std::vector<uint32_t> point_wedge;     // per point: its first wedge
+    std::vector<std::array<int16_t, 2>> wedge_normal;  // octahedral, final for this level
+    std::vector<uint8_t> point_locked;
+
+    uint32_t wedge_count() const { return uint32_t(wedge_vertex.size()); }
+    uint32_t point_count() const { return uint32_t(point_wedge.size()); }
+};
+
+// Where block vertex g lives.
+struct VertexRef {
+    const CubeRecord* cube;
+    uint32_t v;
+};
+
+class BlockVertices {
+public:
+    BlockVertices(std::span<const CubeRecord* const> cubes, const std::vector<uint32_t>& first)
+        : cubes_(cubes), first_(first) {}
+    VertexRef operator[](uint32_t g) const {
+        const size_t c = size_t(std::upper_bound(first_.begin(), first_.end(), g) - first_.begin()) - 1;
+        return {cubes_[c], g - first_[c]};
+    }
+
+private:
+    std::span<const CubeRecord* const> cubes_;
+    const std::vector<uint32_t>& first_;
+};
+
+const float* position_of(VertexRef r) { return &r.cube->positions[3 * size_t(r.v)]; }
+
+bool same_wedge(VertexRef a, VertexRef b) {
+    auto same = [](const auto& x, const auto& y, size_t i, size_t j, size_t n) {
+        return x.empty() || std::memcmp(&x[n * i], &y[n * j], n * sizeof(x[0])) == 0;
+    };
+    return position_bits(position_of(a)) == position_bits(position_of(b)) &&
+           same(a.cube->colors, b.cube->colors, a.v, b.v, 4) && same(a.cube->uvs, b.cube->uvs, a.v, b.v, 2) &&
+           same(a.cube->normals, b.cube->normals, a.v, b.v, 3);
+}
+
+uint64_t hash_wedge(VertexRef r) {
+    uint64_t h = hash_position(position_bits(position_of(r)));
+    if (!r.cube->colors.empty()) {
+        uint32_t rgba;
+        std::memcpy(&rgba, &r.cube->colors[4 * size_t(r.v)], 4);
+        h ^= uint64_t(rgba) * 0x9E3779B97F4A7C15ull;
+    }
+    return h;
+}
+
+// Welds the cubes, decides which points are locked (another block lists them) and every wedge's
+// normal: the scan's own at level L when it has them, else the area-weighted sum over the level's
+// triangles at the point (DESIGN.md §2: across cube and block borders).
+BlockWeld weld_block(std::span<const CubeRecord* const> cubes, const BorderTable& border, CubeKey block) {
+    BlockWeld w;
+    uint32_t total = 0;
+    for (const CubeRecord* c : cubes) w.first.push_back(total), total += c->vertex_count();
+    const BlockVertices vertex(cubes, w.first);
+
+    w.vertex_wedge.resize(total);
+    {
+        IndexMap wedges(total);
+        std::vector<uint32_t> wedge_of_first(total);
+        for (uint32_t g = 0; g < total; ++g) {
+            const VertexRef r = vertex[g];
+            const uint32_t found = wedges.find_or_insert(hash_wedge(r), g, [&](uint32_t other) { return same_wedge(vertex[other], r); });
+            if (found == g) {
+                wedge_of_first[g] = w.wedge_count();
+                w.wedge_vertex.push_back(g);
+            }
+            w.vertex_wedge[g] = wedge_of_first[found];
+        }
+    }
+    w.wedge_point.resize(w.wedge_count());
+    {
+        IndexMap points(w.wedge_count());
+        std::vector<uint32_t> point_of_first(w.wedge_count());
+        for (uint32_t e = 0; e < w.wedge_count(); ++e) {
+            const PositionBits bits = position_bits(position_of(vertex[w.wedge_vertex[e]]));
+            const uint32_t found = points.find_or_insert(hash_position(bits), e, [&](uint32_t other) {
+                return position_bits(position_of(vertex[w.wedge_vertex[other]])) == bits;
+            });
+            if (found == e) {
+                point_of_first[e] = w.point_count();
+                w.point_wedge.push_back(e);
+            }
+            w.wedge_point[e] = point_of_first[found];
+        }
+    }
+
+    std::vector<std::array<float, 3>> sums(w.point_count(), {0, 0, 0});
+    for (size_t c = 0; c < cubes.size(); ++c) {
+        const CubeRecord& cube = *cubes[c];
+        for (size_t t = 0; t < cube.triangles.size(); t += 3) {
+            const float* p[3];
+            for (int k = 0; k < 3; ++k) p[k] = &cube.positions[3 * size_t(cube.triangles[t + k])];
+            const Vec3 a{p[0][0], p[0][1], p[0][2]}, b{p[1][0], p[1][1], p[1][2]}, d{p[2][0], p[2][1], p[2][2]};
+            const Vec3 n = cross(b - a, d - a);  // length = twice the area: the area weighting
+            for (int k = 0; k < 3; ++k) {
+                std::array<float, 3>& s = sums[w.wedge_point[w.vertex_wedge[w.first[c] + cube.triangles[t + k]]]];
+                s[0] += n.x, s[1] += n.y, s[2] += n.z;
+            }
+        }
+    }
+    w.point_locked.assign(w.point_count(), 0);
+    for (uint32_t p = 0; p < w.point_count(); ++p) {
+        const BorderTable::Point* shared = border.find(position_bits(position_of(vertex[w.wedge_vertex[w.point_wedge[p]]])));
+        if (!shared) continue;
+        w.point_locked[p] = shared->locked_for(block);
+        sums[p] = shared->normal_sum;
+    }
+    w.wedge_normal.resize(w.wedge_count());
+    for (uint32_t e = 0; e < w.wedge_count(); ++e) {
+        const VertexRef r = vertex[w.wedge_vertex[e]];
+        const float* n = r.cube->normals.empty() ? sums[w.wedge_point[e]].data() : &r.cube->normals[3 * size_t(r.v)];
+        w.wedge_normal[e] = encode_normal(n[0], n[1], n[2]);
+    }
+    return w;
+}
+
+// q = round((x − O)/h_l), as a multiplication by 1/h_l (a power of two over L_c): the same code
+// quantizes a vertex in every cube that holds a copy of it, so the copies always agree.
+uint16_t lattice(const Frame& f, float x, int axis, uint32_t level, uint32_t cell) {
+    const double inverse_step = double(uint64_t(1) << (level + kLatticeBits)) / f.root_size;
+    const int64_t q = std::llround((double(x) - f.origin[axis]) * inverse_step);
+    const int64_t stored = q - (int64_t(cell) << kLatticeBits) + kLatticeBias;
+    if (stored < 0 || stored > 0xFFFF)
+        throw std::runtime_error("internal error: a level-" + std::to_string(level) +
+                                 " vertex lies outside its cell's σ0 overhang");
+    return uint16_t(stored);
+}
+
+// A level-l cube's payload: its vertices on the level's lattice with their final normals, and per
+// vertex its parent's index in the parent cube.
+EncodedCube encode(const CubeRecord& cube, uint32_t level, const BlockWeld& w, uint32_t first,
+                   std::span<const uint32_t> parent_vertex, const Frame& f, uint32_t flags) {
+    CubeData data;
+    const uint32_t cell[3] = {key_i(cube.key), key_j(cube.key), key_k(cube.key)};
+    const uint32_t n = cube.vertex_count();
+    data.vertices.positions.resize(3 * size_t(n));
+    data.vertices.normals.resize(2 * size_t(n));
+    for (uint32_t v = 0; v < n; ++v) {
+        for (int a = 0; a < 3; ++a)
+            data.vertices.positions[3 * size_t(v) + a] = lattice(f, cube.positions[3 * size_t(v) + a], a, level, cell[a]);
+        const std::array<int16_t, 2>& normal = w.wedge_normal[w.vertex_wedge[first + v]];
+        data.vertices.normals[2 * size_t(v)] = normal[0], data.vertices.normals[2 * size_t(v) + 1] = normal[1];
+    }
+    if (flags & kHasColors) data.vertices.colors = cube.colors;
+    if (flags & kHasUvs) data.vertices.uvs = cube.uvs;
+    data.parent_vertex.assign(parent_vertex.begin(), parent_vertex.end());
+    data.indices = cube.triangles;
+    data.child_triangle_counts = cube.child_counts;
+
+    EncodedCube out;
+    out.node.level = level;
+    out.node.i = cell[0], out.node.j = cell[1], out.node.k = cell[2];
+    out.node.error = cube.error;
+    out.node.vertex_count = data.vertex_count();
+    out.node.triangle_count = data.triangle_count();
+    out.payload = encode_cube(data, flags);
+    return out;
+}
+
+BlockMesh block_mesh(std::span<const CubeRecord* const> cubes, const BlockWeld& w, const Frame& f, uint32_t level) {
+    const CubeKey block = f.block_of(cubes[0]->key);
+    const double size = f.cube_size(level);
+    double center[3];
+    for (int a = 0; a < 3; ++a) center[a] = f.block_low(block, a, level) + f.block / 2 * size;
+    const BlockVertices vertex(cubes, w.first);
+    const CubeRecord& any = *cubes[0];
+
+    BlockMesh m;
+    m.attribute_count = (any.colors.empty() ? 0 : 4) + (any.uvs.empty() ? 0 : 2) + (any.normals.empty() ? 0 : 3);
+    m.point_positions.reserve(3 * size_t(w.point_count()));
+    for (uint32_t p = 0; p < w.point_count(); ++p) {
+        const float* x = position_of(vertex[w.wedge_vertex[w.point_wedge[p]]]);
+        for (int a = 0; a < 3; ++a) m.point_positions.push_back(float((double(x[a]) - center[a]) / size));
+    }
+    m.point_locked = w.point_locked;
+    m.wedge_point = w.wedge_point;
+    m.wedge_attributes.reserve(size_t(m.attribute_count) * w.wedge_count());
+    for (uint32_t e = 0; e < w.wedge_count(); ++e) {
+        const VertexRef r = vertex[w.wedge_vertex[e]];
+        for (int k = 0; k < 4 && !r.cube->colors.empty(); ++k)
+            m.wedge_attributes.push_back(r.cube->colors[4 * size_t(r.v) + k] * (kColorWeight / 255.0f));
+        for (int k = 0; k < 2 && !r.cube->uvs.empty(); ++k) m.wedge_attributes.push_back(r.cube->uvs[2 * size_t(r.v) + k] * kUvWeight);
+        for (int k = 0; k < 3 && !r.cube->normals.empty(); ++k)
+            m.wedge_attributes.push_back(decode_normal(w.wedge_normal[e][0], w.wedge_normal[e][1])[k] * kNormalWeight);
+    }
+    for (size_t c = 0; c < cubes.size(); ++c)
+        for (uint32_t i : cubes[c]->triangles) m.triangles.push_back(w.vertex_wedge[w.first[c] + i]);
+    return m;
+}
+
+// The level-(l−1) cube made of children [begin, end) (one parent, in octant order): their surviving
+// triangles, its vertices in payload order then the extras, and each child vertex's parent index.
+CubeRecord make_parent(std::span<const CubeRecord* const> cubes, std::span<const uint32_t> children, const BlockWeld& w,
+                       const SimplifyResult& result, double size, std::vector<uint32_t>& parent_vertex) {
+    const BlockVertices vertex(cubes, w.first);
+    CubeRecord parent;
+    parent.key = parent_key(cubes[children[0]]->key);
+    std::vector<uint32_t> wedges;  // the parent's vertices, as block wedges
+    IndexMap local_of(1024);
+    for (uint32_t c : children) {
+        const CubeRecord& child = *cubes[c];
+        uint32_t kept = 0;
+        float step = 0;
+        for (size_t t = 0; t < child.triangles.size(); t += 3) {
+            uint32_t corner[3], point[3];
+            for (int k = 0; k < 3; ++k) {
+                corner[k] = result.wedge_remap[w.vertex_wedge[w.first[c] + child.triangles[t + k]]];
+                point[k] = w.wedge_point[corner[k]];
+            }
+            if (point[0] == point[1] || point[1] == point[2] || point[0] == point[2]) continue;
+            for (int k = 0; k < 3; ++k) {
+                step = std::max(step, result.point_error[point[k]]);
+                const uint32_t local = local_of.find_or_insert(corner[k], uint32_t(wedges.size()));
+                if (local == wedges.size()) wedges.push_back(corner[k]);
+                parent.triangles.push_back(local);
+            }
+            ++kept;
+        }
+        parent.child_counts[octant(child.key)] += kept;
+        parent.error = std::max(parent.error, child.error + float(step * size));
+    }
+    order_for_payload(parent.triangles, parent.child_counts, wedges);
+
+    IndexMap index_of(wedges.size() + 64);
+    for (uint32_t i = 0; i < wedges.size(); ++i) index_of.find_or_insert(wedges[i], i);
+    for (uint32_t c : children)
+        for (uint32_t v = 0; v < cubes[c]->vertex_count(); ++v) {
+            const uint32_t target = result.wedge_remap[w.vertex_wedge[w.first[c] + v]];
+            const uint32_t index = index_of.find_or_insert(target, uint32_t(wedges.size()));
+            if (index == wedges.size()) wedges.push_back(target);  // an extra vertex
+            parent_vertex[w.first[c] + v] = index;
+        }
+
+    const CubeRecord& any = *cubes[0];
+    for (uint32_t e : wedges) {
+        const VertexRef r = vertex[w.wedge_vertex[e]];
+        parent.positions.insert(parent.positions.end(), position_of(r), position_of(r) + 3);
+        if (!any.colors.empty()) parent.colors.insert(parent.colors.end(), &r.cube->colors[4 * size_t(r.v)], &r.cube->colors[4 * size_t(r.v) + 4]);
+        if (!any.uvs.empty()) parent.uvs.insert(parent.uvs.end(), &r.cube->uvs[2 * size_t(r.v)], &r.cube->uvs[2 * size_t(r.v) + 2]);
+    }
+    return parent;
+}
+
+}  // namespace
+
+BlockOutput simplify_block_cubes(std::span<const CubeRecord* const> cubes, uint32_t level, const BorderTable& border,
+                                 const Frame& f, const BuildSettings& s, uint32_t flags) {
+    const BlockWeld w = weld_block(cubes, border, f.block_of(cubes[0]->key));
+    uint32_t block_triangles = 0;
+    for (const CubeRecord* c : cubes) block_triangles += c->triangle_count();
+
+    SimplifyLimits limits;
+    limits.target_triangles = uint32_t(std::ceil(double(block_triangles) * s.ratio));
+    limits.max_travel = f.sigma0 * 0.5f;                 // σ0·s_{l+1}, in cube sizes
+    if (s.error > 0) limits.max_error = s.error * 2.0f;  // ε_q·s_{l−1}, in cube sizes
+    const SimplifyResult result = simplify_block(block_mesh(cubes, w, f, level), limits);
+
+    // Children grouped by parent, in octant order; parents then come out in key order.
+    std::vector<uint32_t> children(cubes.size());
+    for (uint32_t c = 0; c < cubes.size(); ++c) children[c] = c;
+    std::sort(children.begin(), children.end(), [&](uint32_t a, uint32_t b) {
+        const CubeKey pa = parent_key(cubes[a]->key), pb = parent_key(cubes[b]->key);
+        return pa < pb || (pa == pb && octant(cubes[a]->key) < octant(cubes[b]->key));
+    });
+    BlockOutput out;
+    std::vector<uint32_t> parent_vertex(w.vertex_wedge.size());
+    const double size = f.cube_size(level);
+    for (size_t i = 0, j; i < children.size(); i = j) {
+        const CubeKey key = parent_key(cubes[children[i]]->key);
+        for (j = i; j < children.size() && parent_key(cubes[children[j]]->key) == key; ++j) {
+        }
+        out.parents.push_back(make_parent(cubes, std::span(children).subspan(i, j - i), w, result, size, parent_vertex));
+        list_border_points(out.parents.back(), f, level - 1, out.border);
+    }
+    for (size_t c = 0; c < cubes.size(); ++c)
+        out.encoded.push_back(encode(*cubes[c], level, w, w.first[c],
+                                     std::span(parent_vertex).subspan(w.first[c], cubes[c]->vertex_count()), f, flags));
+    return out;
+}
+
+EncodedCube encode_root(const CubeRecord& root, const BorderTable& border, const Frame& f, uint32_t flags) {
+    const CubeRecord* cubes[1] = {&root};
+    const BlockWeld w = weld_block(cubes, border, f.block_of(root.key));
+    std::vector<uint32_t> itself(root.vertex_count());
+    for (uint32_t v = 0; v < root.vertex_count(); ++v) itself[v] = v;
+    return encode(root, 0, w, 0, itself, f, flags);
+}
+
+}  // namespace strata::build

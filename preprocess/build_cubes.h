@@ -1,0 +1,80 @@
+// What the builder's stages pass to each other (DESIGN.md §2): the octree's frame, cube and block
+// keys, and the cube as it travels from one level to the next. A cube holds its own copy of every
+// vertex it uses, so a block is simplified from its cubes alone, and the same cubes can come from
+// memory or from disk.
+#pragma once
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <vector>
+
+namespace strata::build {
+
+using CubeKey = uint64_t;  // k, j, i in 21 bits each: sorting keys orders cubes k-major
+inline CubeKey make_key(uint64_t i, uint64_t j, uint64_t k) { return (k << 42) | (j << 21) | i; }
+inline uint32_t key_i(CubeKey key) { return uint32_t(key & 0x1FFFFF); }
+inline uint32_t key_j(CubeKey key) { return uint32_t((key >> 21) & 0x1FFFFF); }
+inline uint32_t key_k(CubeKey key) { return uint32_t(key >> 42); }
+inline CubeKey parent_key(CubeKey key) { return make_key(key_i(key) >> 1, key_j(key) >> 1, key_k(key) >> 1); }
+inline uint32_t octant(CubeKey key) { return (key_i(key) & 1) | (key_j(key) & 1) << 1 | (key_k(key) & 1) << 2; }
+
+struct Frame {
+    double origin[3];
+    double root_size;
+    uint32_t max_level;
+    uint32_t block;  // n
+    float sigma0;
+
+    double cube_size(uint32_t level) const { return root_size / double(uint64_t(1) << level); }
+    // n×n×n cubes per block, the block grid offset so that the origin is a block centre (000 §3.2.4,
+    // "second method"): block b spans cubes [b·n − n/2, b·n + n/2) on each axis. With n a multiple of 4,
+    // each block splits into whole parent cubes, so a level-(l−1) cube comes from one level-l block.
+    CubeKey block_of(CubeKey cube) const {
+        return make_key((key_i(cube) + block / 2) / block, (key_j(cube) + block / 2) / block,
+                        (key_k(cube) + block / 2) / block);
+    }
+    // Model coordinate of a block's lower corner on `axis` (its cube index b·n − n/2 times s_l).
+    double block_low(CubeKey block_key, int axis, uint32_t level) const {
+        const uint32_t b = axis == 0 ? key_i(block_key) : axis == 1 ? key_j(block_key) : key_k(block_key);
+        return origin[axis] + (double(b) * block - double(block / 2)) * cube_size(level);
+    }
+};
+
+// The level-`level` cell holding a triangle's barycenter, clamped to the grid (000 §3.2.3).
+inline std::array<int64_t, 3> cell_of(const Frame& f, const float* a, const float* b, const float* c, uint32_t level) {
+    const double scale = double(uint64_t(1) << level) / f.root_size;
+    const int64_t last = int64_t(1) << level;
+    std::array<int64_t, 3> cell;
+    for (int x = 0; x < 3; ++x) {
+        const double bary = (double(a[x]) + double(b[x]) + double(c[x])) / 3.0;
+        cell[x] = std::clamp<int64_t>(int64_t(std::floor((bary - f.origin[x]) * scale)), 0, last - 1);
+    }
+    return cell;
+}
+
+// One cube of level l between two stages. Vertices [0, used_vertices) are those its triangles use,
+// in the order the payload stores them; the rest are extras: parents its children need that none of
+// its own triangles use (FORMAT.md "extra vertices").
+struct CubeRecord {
+    CubeKey key = 0;
+    float error = 0;                         // against M_L, model units (0 at level L)
+    std::vector<float> positions;            // 3 per vertex
+    std::vector<uint8_t> colors;             // 4 per vertex, or empty
+    std::vector<float> uvs;                  // 2 per vertex, or empty
+    std::vector<float> normals;              // 3 per vertex: the scan's own, at level L only; or empty
+    std::vector<uint32_t> triangles;         // 3 per triangle, into this cube's vertices, payload order
+    std::array<uint32_t, 8> child_counts{};  // how the triangles split by the child they came from
+
+    uint32_t vertex_count() const { return uint32_t(positions.size() / 3); }
+    uint32_t triangle_count() const { return uint32_t(triangles.size() / 3); }
+};
+
+// Puts a cube's triangles in the order its payload stores them: vertex-cache order within each child
+// group (keeping the groups whole), then its vertices in first-use order. `indices` index `vertices`
+// (ids of the caller's choosing), both rewritten in place.
+void order_for_payload(std::vector<uint32_t>& indices, const std::array<uint32_t, 8>& child_counts,
+                       std::vector<uint32_t>& vertices);
+
+}  // namespace strata::build
