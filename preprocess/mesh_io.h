@@ -16,8 +16,8 @@ namespace strata {
 // file's content (magic/header), falling back to the extension. Returns the mesh welded (see weld()).
 // Coordinates are read in double (a PLY 'double' as such, text with from_chars) and stored as floats
 // relative to Mesh::origin, which each axis takes from the first vertex: its coordinate truncated
-// toward zero to a multiple of 1024. A mesh whose first vertex lies within 1024 units of zero on every
-// axis therefore has origin 0 and reads exactly as a float reader reads it.
+// toward zero to a multiple of 1024 (0 beyond 2^32). A mesh whose first vertex lies within 1024 units
+// of zero on every axis therefore has origin 0 and reads exactly as a float reader reads it.
 // Throws InputError naming the file and the problem for anything unreadable or malformed (a file that
 // changes size while it is read included), and Cancelled when progress.cancel is raised. Reports
 // progress as ("load", bytes read from disk, file size, "B"), then ("read", bytes parsed, size, "B").

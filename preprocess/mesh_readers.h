@@ -206,10 +206,12 @@ bool parse_number(std::string_view token, T& out) {
 // The origin an axis gets from the first vertex's coordinate: truncated toward zero to a multiple of
 // 1024, so positions stay within about 1 km of it wherever the data lies near its first vertex (a
 // float there resolves 0.1 mm), and data within 1024 units of zero keeps origin 0, read exactly as a
-// float reader always read it. Exact in double: the steps are powers of two.
+// float reader always read it. Exact in double: the steps are powers of two. Beyond 2^32 (no map
+// projection's metres reach that) the origin stays 0 too: such a first vertex is an outlier or the
+// data is not in metres, and an origin there would round every vertex near zero away.
 inline double origin_near(double first) {
-    constexpr double kStep = 1024;
-    return std::isfinite(first) ? std::trunc(first / kStep) * kStep : 0.0;
+    constexpr double kStep = 1024, kFarthest = 4294967296.0;
+    return std::abs(first) < kFarthest ? std::trunc(first / kStep) * kStep : 0.0;
 }
 
 // Positions relative to Mesh::origin, which each axis takes from the first coordinate it sees
