@@ -1,6 +1,9 @@
-// strata build IN -o OUT.hlod: read a scan, build its HLOD model, write it.
+// strata build IN... -o OUT.hlod: read a scan (one file, or the tiles of one), build its HLOD model,
+// write it.
 #include "editor/commands.h"
 #include "editor/progress_bar.h"
+#include "preprocess/build_inputs.h"
+#include "preprocess/byte_size.h"
 #include "preprocess/hlod_builder.h"
 #include "preprocess/mesh_io.h"
 
@@ -12,7 +15,8 @@ namespace strata::cli {
 namespace {
 
 struct BuildOptions {
-    std::string input, output, levels = "auto";
+    std::vector<std::string> inputs;
+    std::string output, levels = "auto", memory;
     BuildSettings settings;
     bool quiet = false;
     bool verbose = false;
@@ -36,19 +40,37 @@ int run_build(const BuildOptions& o) {
         std::fprintf(stderr, "strata build: %s\n", e.what());
         return kUsage;
     }
+    uint64_t memory_limit = default_memory_limit();
+    std::string limit_name = "the default --memory, a quarter of physical memory";
+    if (!o.memory.empty()) {
+        try {
+            memory_limit = parse_byte_size(o.memory);
+            limit_name = "--memory " + o.memory;
+        } catch (const std::invalid_argument& e) {
+            std::fprintf(stderr, "strata build: --memory: %s\n", e.what());
+            return kUsage;
+        }
+    }
+    const std::vector<std::filesystem::path> files = expand_inputs(o.inputs);
+    const MemoryEstimate estimate = estimate_build_memory(files);
+    if (o.verbose)
+        std::printf("  memory: about %s for %llu%s triangles in %zu file%s (limit %s)\n",
+                    describe_bytes(estimate.bytes).c_str(), (unsigned long long)estimate.triangles,
+                    estimate.guessed ? " (estimated)" : "", files.size(), files.size() == 1 ? "" : "s",
+                    describe_bytes(memory_limit).c_str());
+    check_memory(estimate, memory_limit, limit_name);
     const std::atomic<bool>* cancel = install_interrupt_flag();
     ProgressBar bar(!o.quiet);
     Progress progress = bar.progress(cancel);
     auto start = std::chrono::steady_clock::now();
     try {
         std::vector<std::string> warnings;
-        Mesh mesh = read_mesh(o.input, progress, warnings);
+        Mesh mesh = read_tiles(files, progress, warnings);
         bar.finish();  // clears the bar's line for the warnings; the next report draws it again
         for (const std::string& warning : warnings) std::fprintf(stderr, "strata build: warning: %s\n", warning.c_str());
         const double read_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         const size_t triangles = mesh.triangle_count();
-        BuildReport report = build_hlod(std::move(mesh), o.output, settings,
-                                        std::filesystem::path(o.input).filename().string(), progress);
+        BuildReport report = build_hlod(std::move(mesh), o.output, settings, source_name(o.inputs, files.size()), progress);
         bar.finish();
         double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         for (const std::string& note : report.notes) std::fprintf(stderr, "strata build: note: %s\n", note.c_str());
@@ -77,7 +99,10 @@ int run_build(const BuildOptions& o) {
 Command add_build(CLI::App& app) {
     auto o = std::make_shared<BuildOptions>();
     CLI::App* sub = app.add_subcommand("build", "Build a multiresolution model (.hlod) from a scan (PLY, OBJ, OFF, STL).");
-    sub->add_option("input", o->input, "The scan")->required();
+    sub->add_option("input", o->inputs,
+                    "The scan: one file, or the tiles of one model (welded along shared borders); @LIST reads "
+                    "the inputs from a text file, one per line (# comments; relative to the list's folder)")
+        ->required();
     sub->add_option("-o,--output", o->output, "The .hlod file to write")->required();
     sub->add_option("--levels", o->levels, "L, the finest level: 'auto' (a leaf holds a few thousand triangles) or a number")
         ->capture_default_str();
@@ -87,8 +112,12 @@ Command add_build(CLI::App& app) {
         ->capture_default_str();
     sub->add_option("--error", o->settings.error, "Stop simplifying a level at this error, relative to the cube size (ε_q)");
     sub->add_option("--threads", o->settings.threads, "Worker threads (0: every core)")->capture_default_str();
+    sub->add_option("--memory", o->memory,
+                    "Memory the build may use, in bytes or with a binary suffix K, M, G, T (2G, 512M, 1.5G); "
+                    "default a quarter of physical memory. The builder is in-core: a build estimated "
+                    "to need more is refused before reading");
     sub->add_flag("-q,--quiet", o->quiet, "No progress bar and no summary");
-    sub->add_flag("-v,--verbose", o->verbose, "Also print each level's counts and each stage's time");
+    sub->add_flag("-v,--verbose", o->verbose, "Also print the memory estimate, each level's counts and each stage's time");
     return {sub, [o] { return run_build(*o); }};
 }
 

@@ -45,6 +45,8 @@ Frame make_frame(const Mesh& mesh, const std::string& source) {
                 throw InputError(source + ": vertex " + std::to_string(v) + " has a non-finite coordinate");
             lo[a] = std::min(lo[a], x), hi[a] = std::max(hi[a], x);
         }
+    // The frame lives in the mesh's float space (partition, lattice and simplifier all measure float
+    // positions against it); the true origin, mesh.origin + f.origin, is what the header records.
     Frame f{};
     for (int a = 0; a < 3; ++a) f.origin[a] = lo[a];
     f.root_size = std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]});
@@ -200,7 +202,7 @@ BuildReport build_hlod(Mesh&& mesh, const std::filesystem::path& output, const B
 
     HlodHeader header;
     header.flags = (mesh.has_colors() ? kHasColors : 0u) | (mesh.has_uvs() ? kHasUvs : 0u);
-    for (int a = 0; a < 3; ++a) header.origin[a] = f.origin[a];
+    for (int a = 0; a < 3; ++a) header.origin[a] = mesh.origin[size_t(a)] + f.origin[a];  // in double: survey coordinates
     header.root_size = f.root_size;
     header.max_level = L;
     header.block_size = f.block;

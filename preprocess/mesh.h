@@ -2,6 +2,7 @@
 // per vertex (wedge), so a vertex that carries two UVs or colours at one position is two vertices.
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
@@ -12,7 +13,12 @@
 namespace strata {
 
 struct Mesh {
-    std::vector<float> positions;   // x y z per vertex
+    // A vertex's true position is origin + its float position, the sum taken in double: survey scans
+    // in projected coordinates (UTM eastings of 6-7 digits in metres) keep their millimetres, which a
+    // float holding the whole coordinate would round to a quarter metre. The readers pick it from
+    // the data (read_mesh() says how); 0 for data near zero.
+    std::array<double, 3> origin{};
+    std::vector<float> positions;   // x y z per vertex, relative to origin
     std::vector<float> normals;     // nx ny nz per vertex, or empty
     std::vector<uint8_t> colors;    // r g b a per vertex, or empty
     std::vector<float> uvs;         // u v per vertex, or empty

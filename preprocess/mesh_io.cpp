@@ -86,6 +86,38 @@ private:
     T* data_ = nullptr;
 };
 
+struct Descriptor {
+    explicit Descriptor(int descriptor) : fd(descriptor) {}
+    Descriptor(const Descriptor&) = delete;
+    Descriptor& operator=(const Descriptor&) = delete;
+    ~Descriptor() {
+        if (fd >= 0) ::close(fd);
+    }
+    int fd;
+};
+
+[[noreturn]] void fail_file(const std::string& name, const std::string& what, int error) {
+    std::string message = name + ": " + what;
+    if (error) message += std::string(" (") + std::strerror(error) + ")";
+    throw InputError(message);
+}
+
+Descriptor open_file(const std::filesystem::path& path, const std::string& name) {
+    const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+    if (fd < 0) fail_file(name, "cannot open", errno);
+    return Descriptor(fd);
+}
+
+// The size of the regular, non-empty file open as `fd`; anything else is an InputError.
+size_t regular_file_size(int fd, const std::string& name) {
+    struct stat info {};
+    if (::fstat(fd, &info) != 0) fail_file(name, "cannot stat", errno);
+    if (S_ISDIR(info.st_mode)) fail_file(name, "is a directory, not a mesh file", 0);
+    if (!S_ISREG(info.st_mode)) fail_file(name, "is not a regular file", 0);
+    if (info.st_size == 0) fail_file(name, "empty file", 0);
+    return size_t(info.st_size);
+}
+
 // The whole input, read into memory. Read rather than mapped: a mapped file that is truncated while it
 // is parsed kills the process with SIGBUS, whereas read() returns fewer bytes than expected, which is an
 // error naming the file; once read, the bytes cannot change under the parser. Copying from the page
@@ -94,9 +126,8 @@ class FileBytes {
 public:
     // Reports "load" progress in bytes after each chunk (a slow disk takes a while) and polls cancel.
     FileBytes(const std::filesystem::path& path, const std::string& name, const Progress& progress) : name_(name) {
-        const Descriptor file{::open(path.c_str(), O_RDONLY | O_CLOEXEC)};
-        if (file.fd < 0) fail("cannot open", errno);
-        const size_t size = regular_file_size(file.fd);
+        const Descriptor file = open_file(path, name);
+        const size_t size = regular_file_size(file.fd, name);
         try {
             bytes_.emplace(size);
         } catch (const std::bad_alloc&) {
@@ -110,22 +141,6 @@ public:
 
 private:
     static constexpr size_t kChunk = size_t(4) << 20;
-
-    struct Descriptor {
-        int fd;
-        ~Descriptor() {
-            if (fd >= 0) ::close(fd);
-        }
-    };
-
-    size_t regular_file_size(int fd) const {
-        struct stat info {};
-        if (::fstat(fd, &info) != 0) fail("cannot stat", errno);
-        if (S_ISDIR(info.st_mode)) fail("is a directory, not a mesh file", 0);
-        if (!S_ISREG(info.st_mode)) fail("is not a regular file", 0);
-        if (info.st_size == 0) fail("empty file", 0);
-        return size_t(info.st_size);
-    }
 
     void read_all(int fd, const Progress& progress) {
         const size_t size = bytes_->size();
@@ -149,11 +164,7 @@ private:
     [[noreturn]] void changed(const std::string& what) const {
         fail("the file changed while it was being read: " + what, 0);
     }
-    [[noreturn]] void fail(const std::string& what, int error) const {
-        std::string message = name_ + ": " + what;
-        if (error) message += std::string(" (") + std::strerror(error) + ")";
-        throw InputError(message);
-    }
+    [[noreturn]] void fail(const std::string& what, int error) const { fail_file(name_, what, error); }
 
     std::string name_;
     std::optional<PageArray<char>> bytes_;
@@ -471,12 +482,22 @@ void check_writable(const Mesh& mesh, const std::string& name) {
     }
 }
 
+bool has_origin(const Mesh& mesh) { return mesh.origin != std::array<double, 3>{}; }
+
+// A vertex's true position, as written when the mesh has an origin.
+std::array<double, 3> true_position(const Mesh& mesh, size_t v) {
+    std::array<double, 3> p;
+    for (int a = 0; a < 3; ++a) p[size_t(a)] = mesh.origin[size_t(a)] + double(mesh.positions[3 * v + size_t(a)]);
+    return p;
+}
+
 std::string ply_header(const Mesh& mesh, PlyEncoding encoding) {
     static constexpr std::array<const char*, 3> kFormats = {"binary_little_endian", "binary_big_endian", "ascii"};
     std::string h = "ply\nformat " + std::string(kFormats[size_t(encoding)]) + " 1.0\ncomment written by strata\n";
     if (!mesh.texture.empty()) h += "comment TextureFile " + mesh.texture + "\n";
     h += "element vertex " + std::to_string(mesh.vertex_count()) + "\n";
-    h += "property float x\nproperty float y\nproperty float z\n";
+    h += has_origin(mesh) ? "property double x\nproperty double y\nproperty double z\n"
+                          : "property float x\nproperty float y\nproperty float z\n";
     if (mesh.has_normals()) h += "property float nx\nproperty float ny\nproperty float nz\n";
     if (mesh.has_colors())
         h += "property uchar red\nproperty uchar green\nproperty uchar blue\nproperty uchar alpha\n";
@@ -486,17 +507,19 @@ std::string ply_header(const Mesh& mesh, PlyEncoding encoding) {
     return h;
 }
 
-// Appends 4-byte words in the file's byte order.
-template <bool Swap>
+// Appends 4-byte words (or 8-byte ones, Word = uint64_t) in the file's byte order.
+template <bool Swap, class Word = uint32_t>
 void put_words(std::vector<char>& out, const void* words, size_t count) {
+    constexpr size_t kSize = sizeof(Word);
     const size_t at = out.size();
-    out.resize(at + 4 * count);
+    out.resize(at + kSize * count);
     char* dst = out.data() + at;
     for (size_t i = 0; i < count; ++i) {
-        uint32_t w;
-        std::memcpy(&w, static_cast<const char*>(words) + 4 * i, 4);
-        if constexpr (Swap) w = __builtin_bswap32(w);
-        std::memcpy(dst + 4 * i, &w, 4);
+        Word w;
+        std::memcpy(&w, static_cast<const char*>(words) + kSize * i, kSize);
+        if constexpr (Swap && kSize == 4) w = __builtin_bswap32(w);
+        if constexpr (Swap && kSize == 8) w = __builtin_bswap64(w);
+        std::memcpy(dst + kSize * i, &w, kSize);
     }
 }
 
@@ -506,8 +529,10 @@ template <bool Swap>
 void write_binary_body(TempFile& file, const Mesh& mesh) {
     std::vector<char> buffer;
     buffer.reserve(kWriteChunk + 64);
+    const bool doubles = has_origin(mesh);
     for (size_t v = 0; v < mesh.vertex_count(); ++v) {
-        put_words<Swap>(buffer, &mesh.positions[3 * v], 3);
+        if (doubles) put_words<Swap, uint64_t>(buffer, true_position(mesh, v).data(), 3);
+        else put_words<Swap>(buffer, &mesh.positions[3 * v], 3);
         if (mesh.has_normals()) put_words<Swap>(buffer, &mesh.normals[3 * v], 3);
         if (mesh.has_colors()) buffer.insert(buffer.end(), &mesh.colors[4 * v], &mesh.colors[4 * v] + 4);
         if (mesh.has_uvs()) put_words<Swap>(buffer, &mesh.uvs[2 * v], 2);
@@ -532,8 +557,12 @@ void put_text(std::string& out, T value, char separator) {
 
 void write_ascii_body(TempFile& file, const Mesh& mesh) {
     std::string buffer;
+    const bool doubles = has_origin(mesh);
     for (size_t v = 0; v < mesh.vertex_count(); ++v) {
-        for (int k = 0; k < 3; ++k) put_text(buffer, mesh.positions[3 * v + k], ' ');
+        if (doubles)
+            for (double x : true_position(mesh, v)) put_text(buffer, x, ' ');
+        else
+            for (int k = 0; k < 3; ++k) put_text(buffer, mesh.positions[3 * v + k], ' ');
         if (mesh.has_normals())
             for (int k = 0; k < 3; ++k) put_text(buffer, mesh.normals[3 * v + k], ' ');
         if (mesh.has_colors())
@@ -551,9 +580,9 @@ void write_ascii_body(TempFile& file, const Mesh& mesh) {
     file.write(buffer);
 }
 
-}  // namespace
-
-Mesh read_mesh(const std::filesystem::path& path, const Progress& progress, std::vector<std::string>& warnings) {
+// read_mesh(), its positions against `origin` when that is given.
+Mesh read_one(const std::filesystem::path& path, const Progress& progress, std::vector<std::string>& warnings,
+              const std::array<double, 3>* origin) {
     const std::string name = path.string();
     Mesh mesh;
     double size = 0;
@@ -562,7 +591,7 @@ Mesh read_mesh(const std::filesystem::path& path, const Progress& progress, std:
         FileBytes file(path, name, progress);
         std::string_view bytes(file.data(), file.size());
         if (bytes.starts_with(kByteOrderMark)) bytes.remove_prefix(kByteOrderMark.size());
-        const detail::ReadInput input{path, name, bytes.data(), bytes.size(), progress, &warnings};
+        const detail::ReadInput input{path, name, bytes.data(), bytes.size(), progress, &warnings, origin};
         Format format = sniff_content(bytes.data(), bytes.size());
         if (format == Format::unknown) format = format_from_extension(path);
         size = double(bytes.size());
@@ -573,6 +602,166 @@ Mesh read_mesh(const std::filesystem::path& path, const Progress& progress, std:
     weld(mesh);
     progress("read", size, size, "B");
     return mesh;
+}
+
+// ---- tiles ----------------------------------------------------------------------------------------
+
+// "a.ply, b.ply and 3 more": a list of tiles for a message, however many there are.
+std::string file_list(const std::vector<std::string>& names) {
+    constexpr size_t kShown = 4;
+    std::string out;
+    for (size_t i = 0; i < std::min(names.size(), kShown); ++i) {
+        if (i > 0) out += (i + 1 == names.size() ? " and " : ", ");
+        out += names[i];
+    }
+    if (names.size() > kShown) out += " and " + std::to_string(names.size() - kShown) + " more";
+    return out;
+}
+
+struct KeptAttributes {
+    bool normals = true, colors = true, uvs = true;
+};
+
+// Keeps the attributes every tile has, and warns for each one that only some have.
+KeptAttributes common_attributes(const std::vector<std::filesystem::path>& paths, const std::vector<Mesh>& tiles,
+                                 std::vector<std::string>& warnings) {
+    KeptAttributes kept;
+    auto check = [&](bool (Mesh::*has)() const, const char* noun, const char* dropped, bool& keep) {
+        std::vector<std::string> lacking;
+        for (size_t i = 0; i < tiles.size(); ++i)
+            if (!(tiles[i].*has)()) lacking.push_back(paths[i].string());
+        keep = lacking.empty();
+        if (keep || lacking.size() == tiles.size()) return;
+        warnings.push_back(file_list(lacking) + ": no " + noun + ", which the other " +
+                           std::to_string(tiles.size() - lacking.size()) + " of the " + std::to_string(tiles.size()) +
+                           " files have: the model is built without " + dropped);
+    };
+    check(&Mesh::has_normals, "normals", "normals", kept.normals);
+    check(&Mesh::has_colors, "colours", "colours", kept.colors);
+    check(&Mesh::has_uvs, "UVs", "UVs and texture", kept.uvs);
+    return kept;
+}
+
+std::string texture_name(const std::string& texture) { return texture.empty() ? "no texture" : "texture '" + texture + "'"; }
+
+void check_one_texture(const std::vector<std::filesystem::path>& paths, const std::vector<Mesh>& tiles) {
+    for (size_t i = 1; i < tiles.size(); ++i)
+        if (tiles[i].texture != tiles[0].texture)
+            throw InputError(paths[i].string() + ": names " + texture_name(tiles[i].texture) + ", but " +
+                             paths[0].string() + " names " + texture_name(tiles[0].texture) +
+                             ": the tiles of one model share one texture");
+}
+
+template <class T>
+void append(std::vector<T>& to, std::vector<T>& from, bool keep) {
+    if (keep) to.insert(to.end(), from.begin(), from.end());
+    std::vector<T>().swap(from);
+}
+
+// The tiles end to end, each freed once copied: the storage is reserved untouched, so memory holds
+// about one copy of the model throughout rather than two.
+Mesh join(const std::vector<std::filesystem::path>& paths, std::vector<Mesh>& tiles, std::vector<std::string>& warnings) {
+    check_one_texture(paths, tiles);
+    const KeptAttributes kept = common_attributes(paths, tiles, warnings);
+    uint64_t vertices = 0, indices = 0;
+    for (const Mesh& tile : tiles) vertices += tile.vertex_count(), indices += tile.indices.size();
+    if (vertices >= kNone)
+        throw InputError(paths.front().string() + " to " + paths.back().string() + " (" + std::to_string(paths.size()) +
+                         " files): more than 2^32 vertices together (" + std::to_string(vertices) + ")");
+    Mesh merged;
+    merged.origin = tiles.front().origin;
+    if (kept.uvs) merged.texture = tiles.front().texture;
+    detail::reserve_huge(merged.positions, size_t(3 * vertices));
+    if (kept.normals) detail::reserve_huge(merged.normals, size_t(3 * vertices));
+    if (kept.colors) detail::reserve_huge(merged.colors, size_t(4 * vertices));
+    if (kept.uvs) detail::reserve_huge(merged.uvs, size_t(2 * vertices));
+    detail::reserve_huge(merged.indices, size_t(indices));
+    for (Mesh& tile : tiles) {
+        const uint32_t base = uint32_t(merged.vertex_count());
+        for (uint32_t index : tile.indices) merged.indices.push_back(base + index);
+        std::vector<uint32_t>().swap(tile.indices);
+        append(merged.positions, tile.positions, true);
+        append(merged.normals, tile.normals, kept.normals);
+        append(merged.colors, tile.colors, kept.colors);
+        append(merged.uvs, tile.uvs, kept.uvs);
+    }
+    weld(merged);
+    return merged;
+}
+
+// ---- estimating a file's triangles ----------------------------------------------------------------
+
+// Bytes per triangle of typical text files, for those whose header gives no count: an OBJ's
+// "v x y z" lines (about half as many as triangles) and "f a b c" lines; an ASCII STL's seven-line facets.
+constexpr uint64_t kObjBytesPerTriangle = 32;
+constexpr uint64_t kAsciiStlBytesPerTriangle = 200;
+
+// The count the header gives, if it gives one that can be read from the file's first bytes.
+std::optional<uint64_t> header_triangles(Format format, const detail::ReadInput& input, size_t file_size) {
+    try {
+        if (format == Format::ply) return detail::ply_face_count(input);
+        if (format == Format::off) return detail::off_face_count(input);
+    } catch (const InputError&) {
+        return std::nullopt;  // the real read will report what is wrong with it
+    }
+    if (format == Format::stl && input.size >= 84) {
+        uint32_t count;
+        std::memcpy(&count, input.data + 80, 4);
+        if constexpr (std::endian::native == std::endian::big) count = __builtin_bswap32(count);
+        if (84 + 50 * uint64_t(count) == file_size) return count;
+    }
+    return std::nullopt;
+}
+
+}  // namespace
+
+Mesh read_mesh(const std::filesystem::path& path, const Progress& progress, std::vector<std::string>& warnings) {
+    return read_one(path, progress, warnings, nullptr);
+}
+
+Mesh read_tiles(const std::vector<std::filesystem::path>& paths, const Progress& progress,
+                std::vector<std::string>& warnings) {
+    if (paths.empty()) throw std::invalid_argument("read_tiles: no files");
+    if (paths.size() == 1) return read_mesh(paths.front(), progress, warnings);
+    double total = 0;
+    std::vector<double> sizes;
+    for (const std::filesystem::path& path : paths) {
+        std::error_code unknown;  // a missing file is reported when it is read
+        const auto size = std::filesystem::file_size(path, unknown);
+        sizes.push_back(unknown ? 0.0 : double(size));
+        total += sizes.back();
+    }
+    std::vector<Mesh> tiles;
+    tiles.reserve(paths.size());
+    double before = 0;
+    for (size_t i = 0; i < paths.size(); ++i) {
+        const Progress tile_progress{[&](std::string_view stage, double done, double, std::string_view unit) {
+                                         progress(stage, before + done, total, unit);
+                                     },
+                                     progress.cancel};
+        tiles.push_back(read_one(paths[i], tile_progress, warnings, i == 0 ? nullptr : &tiles.front().origin));
+        before += sizes[i];
+    }
+    return join(paths, tiles, warnings);
+}
+
+TriangleEstimate estimate_triangles(const std::filesystem::path& path) {
+    const std::string name = path.string();
+    const Descriptor file = open_file(path, name);
+    const size_t size = regular_file_size(file.fd, name);
+    std::string prefix(std::min<size_t>(size, size_t(64) << 10), '\0');
+    const ssize_t got = ::pread(file.fd, prefix.data(), prefix.size(), 0);
+    if (got < 0) fail_file(name, "cannot read", errno);
+    prefix.resize(size_t(got));
+    std::string_view bytes(prefix);
+    if (bytes.starts_with(kByteOrderMark)) bytes.remove_prefix(kByteOrderMark.size());
+    Format format = sniff_content(bytes.data(), bytes.size());
+    if (format == Format::unknown) format = format_from_extension(path);
+    const Progress quiet;
+    const detail::ReadInput input{path, name, bytes.data(), bytes.size(), quiet};
+    if (const std::optional<uint64_t> counted = header_triangles(format, input, size)) return {*counted, true};
+    const uint64_t per_triangle = format == Format::stl ? kAsciiStlBytesPerTriangle : kObjBytesPerTriangle;
+    return {std::max<uint64_t>(1, size / per_triangle), false};
 }
 
 Mesh read_mesh(const std::filesystem::path& path, const Progress& progress) {

@@ -3,7 +3,9 @@
 #pragma once
 
 #include <algorithm>
+#include <array>
 #include <charconv>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
@@ -26,6 +28,8 @@ struct ReadInput {
     size_t size = 0;
     const Progress& progress;
     std::vector<std::string>* warnings = nullptr;  // where warn() goes; null: nobody asked
+    // Mesh::origin to store positions against; null: picked from the file's first vertex (Coordinates).
+    const std::array<double, 3>* origin = nullptr;
 
     [[noreturn]] void fail(std::string_view what) const {
         throw InputError(name + ": " + std::string(what));
@@ -53,6 +57,12 @@ Mesh read_ply(const ReadInput& input);
 Mesh read_obj(const ReadInput& input);
 Mesh read_off(const ReadInput& input);
 Mesh read_stl(const ReadInput& input);
+
+// The face count a PLY or OFF header gives, for estimating a build's memory before the file is read;
+// `input` may hold only the file's first bytes. Throws InputError when the header is not all there
+// or is malformed.
+uint64_t ply_face_count(const ReadInput& input);
+uint64_t off_face_count(const ReadInput& input);
 
 // Asks for transparent huge pages on [data, data + bytes) before its first touch: for arrays of
 // hundreds of MB, 4 KB page faults and TLB misses otherwise cost more than the parsing itself.
@@ -192,6 +202,56 @@ bool parse_number(std::string_view token, T& out) {
     auto [end, ec] = std::from_chars(token.data(), token.data() + token.size(), out);
     return ec == std::errc() && end == token.data() + token.size();
 }
+
+// The origin an axis gets from the first vertex's coordinate: truncated toward zero to a multiple of
+// 1024, so positions stay within about 1 km of it wherever the data lies near its first vertex (a
+// float there resolves 0.1 mm), and data within 1024 units of zero keeps origin 0, read exactly as a
+// float reader always read it. Exact in double: the steps are powers of two. Beyond 2^32 (no map
+// projection's metres reach that) the origin stays 0 too: such a first vertex is an outlier or the
+// data is not in metres, and an origin there would round every vertex near zero away.
+inline double origin_near(double first) {
+    constexpr double kStep = 1024, kFarthest = 4294967296.0;
+    return std::abs(first) < kFarthest ? std::trunc(first / kStep) * kStep : 0.0;
+}
+
+// Positions relative to Mesh::origin, which each axis takes from the first coordinate it sees
+// (origin_near) unless the caller fixed it (the tiles of one model share the first tile's, so a
+// border vertex that two tiles repeat reads as the same float in both). The subtraction is done in
+// double, before the value is rounded to a float.
+class Coordinates {
+public:
+    explicit Coordinates(const ReadInput& input) {
+        if (input.origin) origin_ = *input.origin, picked_.fill(true);
+    }
+    // A value already parsed (binary data, integers).
+    float relative(double value, int axis) {
+        if (!picked_[axis]) pick(value, axis);
+        return float(value - origin_[axis]);
+    }
+    // A text value; false if it is no number. Where the origin is 0 a value that the file declares
+    // float (every text format but a PLY 'double') is parsed as a float, so a float that to_chars wrote
+    // reads back bit-exact; otherwise as a double, and the origin subtracted before rounding.
+    bool parse(std::string_view token, int axis, float& out, bool float_text = true) {
+        double value = 0;
+        if (!picked_[axis]) {
+            if (!parse_number(token, value)) return false;
+            pick(value, axis);
+        }
+        if (float_text && origin_[axis] == 0) return parse_number(token, out);
+        if (!parse_number(token, value)) return false;
+        out = float(value - origin_[axis]);
+        return true;
+    }
+    const std::array<double, 3>& origin() const { return origin_; }
+
+private:
+    void pick(double first, int axis) {
+        origin_[axis] = origin_near(first);
+        picked_[axis] = true;
+    }
+    std::array<double, 3> origin_{};
+    std::array<bool, 3> picked_{};
+};
 
 // A float 0..1 colour channel as a byte, clamped, NaN as 0.
 inline uint8_t unit_to_byte(double value) {

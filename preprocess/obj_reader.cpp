@@ -90,7 +90,10 @@ std::vector<std::filesystem::path> mtl_candidates(const std::filesystem::path& d
 class ObjParser {
 public:
     explicit ObjParser(const ReadInput& input)
-        : input_(input), lines_(input.data, input.data + input.size), ticker_(input.progress, input.size) {}
+        : input_(input),
+          lines_(input.data, input.data + input.size),
+          ticker_(input.progress, input.size),
+          coordinates_(input) {}
 
     Mesh parse() {
         std::string_view physical;
@@ -156,7 +159,12 @@ private:
 
     void vertex(Tokens& tokens) {
         float values[7] = {};
-        const size_t n = numbers(tokens, values, 3, 7, "v");
+        for (int a = 0; a < 3; ++a) {
+            std::string_view token = tokens.next();
+            if (token.empty()) fail("v needs 3 numbers, found " + std::to_string(a));
+            if (!coordinates_.parse(token, a, values[a])) fail("v: expected a number, found " + quoted(token));
+        }
+        const size_t n = 3 + numbers(tokens, values + 3, 0, 4, "v");
         if (!std::isfinite(values[0]) || !std::isfinite(values[1]) || !std::isfinite(values[2]))
             fail("vertex " + std::to_string(positions_.size() / 3 + 1) + " has a NaN or infinite coordinate");
         positions_.insert(positions_.end(), values, values + 3);
@@ -245,6 +253,7 @@ private:
 
     Mesh build() {
         Mesh mesh;
+        mesh.origin = coordinates_.origin();
         const size_t n = wedge_v_.size();
         mesh.positions.resize(3 * n);
         if (!colors_.empty()) mesh.colors.resize(4 * n);
@@ -278,7 +287,8 @@ private:
     const ReadInput& input_;
     Lines lines_;
     ReadTicker ticker_;
-    std::vector<float> positions_, uvs_, normals_;  // as the file lists them
+    Coordinates coordinates_;
+    std::vector<float> positions_, uvs_, normals_;  // as the file lists them (positions from the origin)
     std::vector<uint8_t> colors_;                   // per v, empty unless some v has a colour
     std::vector<uint32_t> first_wedge_;             // per v: its latest triple, chained by next_wedge_
     std::vector<uint32_t> wedge_v_, wedge_vt_, wedge_vn_, next_wedge_;

@@ -19,17 +19,25 @@ struct OffHeader {
 class OffParser {
 public:
     explicit OffParser(const ReadInput& input)
-        : input_(input), lines_(input.data, input.data + input.size), ticker_(input.progress, input.size) {}
+        : input_(input),
+          lines_(input.data, input.data + input.size),
+          ticker_(input.progress, input.size),
+          coordinates_(input) {}
 
     Mesh parse() {
         header();
         Mesh mesh;
         vertices(mesh);
         faces(mesh);
+        mesh.origin = coordinates_.origin();
         const size_t bad = first_non_finite(mesh.positions.data(), mesh.vertex_count());
         if (bad < mesh.vertex_count())
             input_.fail("vertex " + std::to_string(bad) + " has a NaN or infinite coordinate");
         return mesh;
+    }
+    uint64_t face_count() {
+        header();
+        return header_.faces;
     }
 
 private:
@@ -102,10 +110,18 @@ private:
     float number(Tokens& tokens, uint64_t vertex) const {
         std::string_view token = tokens.next();
         float value = 0;
-        if (!parse_number(token, value))
-            fail("vertex " + std::to_string(vertex) + ": expected a number, found " +
-                 (token.empty() ? std::string("end of line") : quoted(token)));
+        if (!parse_number(token, value)) not_a_number(token, vertex);
         return value;
+    }
+    float coordinate(Tokens& tokens, int axis, uint64_t vertex) {
+        std::string_view token = tokens.next();
+        float value = 0;
+        if (!coordinates_.parse(token, axis, value)) not_a_number(token, vertex);
+        return value;
+    }
+    [[noreturn]] void not_a_number(std::string_view token, uint64_t vertex) const {
+        fail("vertex " + std::to_string(vertex) + ": expected a number, found " +
+             (token.empty() ? std::string("end of line") : quoted(token)));
     }
 
     void vertices(Mesh& mesh) {
@@ -118,7 +134,7 @@ private:
         if (header_.uvs) mesh.uvs.reserve(2 * count);
         for (uint64_t v = 0; v < header_.vertices; ++v) {
             Tokens tokens(required_line(header_.vertices, v, "vertices"));
-            for (int k = 0; k < 3; ++k) mesh.positions.push_back(number(tokens, v));
+            for (int k = 0; k < 3; ++k) mesh.positions.push_back(coordinate(tokens, k, v));
             if (header_.normals)
                 for (int k = 0; k < 3; ++k) mesh.normals.push_back(number(tokens, v));
             if (header_.colors) color(tokens, v, mesh);
@@ -174,11 +190,14 @@ private:
     const ReadInput& input_;
     Lines lines_;
     ReadTicker ticker_;
+    Coordinates coordinates_;
     OffHeader header_;
 };
 
 }  // namespace
 
 Mesh read_off(const ReadInput& input) { return OffParser(input).parse(); }
+
+uint64_t off_face_count(const ReadInput& input) { return OffParser(input).face_count(); }
 
 }  // namespace strata::detail

@@ -277,8 +277,8 @@ void size_attributes(Mesh& mesh, const VertexLayout& layout, size_t count) {
     if (layout.uvs) reserve_huge(mesh.uvs, 2 * count), mesh.uvs.resize(2 * count);
 }
 
-void store(Mesh& mesh, size_t vertex, Slot slot, double value, PlyType type) {
-    if (slot <= kZ) mesh.positions[3 * vertex + size_t(slot)] = float(value);
+void store(Mesh& mesh, Coordinates& coordinates, size_t vertex, Slot slot, double value, PlyType type) {
+    if (slot <= kZ) mesh.positions[3 * vertex + size_t(slot)] = coordinates.relative(value, slot);
     else if (slot <= kNz) mesh.normals[3 * vertex + size_t(slot - kNx)] = float(value);
     else if (slot <= kAlpha) mesh.colors[4 * vertex + size_t(slot - kRed)] = ply_color_byte(value, type);
     else mesh.uvs[2 * vertex + size_t(slot - kU)] = float(value);
@@ -365,6 +365,14 @@ void float_column(const char* src, size_t stride, size_t n, float* dst, size_t d
     for (size_t i = 0; i < n; ++i) dst[i * dst_stride] = float(load<T, Swap>(src + i * stride));
 }
 
+// A coordinate column, its origin subtracted in double before the value is rounded to a float.
+using PositionColumn = void (*)(const char* src, size_t stride, size_t n, float* dst, double origin);
+
+template <class T, bool Swap>
+void position_column(const char* src, size_t stride, size_t n, float* dst, double origin) {
+    for (size_t i = 0; i < n; ++i) dst[3 * i] = float(double(load<T, Swap>(src + i * stride)) - origin);
+}
+
 template <class T, bool Swap>
 void color_column(const char* src, size_t stride, size_t n, uint8_t* dst) {
     constexpr PlyType kType = std::is_same_v<T, uint8_t> ? PlyType::uint8
@@ -384,6 +392,11 @@ FloatColumn float_column_for(PlyType type, bool swap) {
         return swap ? &float_column<T, true> : &float_column<T, false>;
     });
 }
+PositionColumn position_column_for(PlyType type, bool swap) {
+    return with_type(type, [&]<class T>(T) -> PositionColumn {
+        return swap ? &position_column<T, true> : &position_column<T, false>;
+    });
+}
 ByteColumn color_column_for(PlyType type, bool swap) {
     return with_type(type, [&]<class T>(T) -> ByteColumn {
         return swap ? &color_column<T, true> : &color_column<T, false>;
@@ -398,7 +411,8 @@ public:
           p_(input.data + header.body_offset),
           end_(input.data + input.size),
           ticker_(ticker),
-          swap_((header.format == PlyFormat::binary_big_endian) != (std::endian::native == std::endian::big)) {}
+          swap_((header.format == PlyFormat::binary_big_endian) != (std::endian::native == std::endian::big)),
+          coordinates_(input) {}
 
     void vertices(const PlyElement& element, const VertexLayout& layout, Mesh& mesh) {
         if (element.has_lists()) return vertices_with_lists(element, layout, mesh);
@@ -406,6 +420,7 @@ public:
         require_records(element, stride);
         size_attributes(mesh, layout, element.count);
         std::vector<size_t> offsets = property_offsets(element);
+        if (element.count > 0) pick_origin(element, layout, offsets, mesh);
         constexpr size_t kChunk = 1 << 14;  // a chunk's source bytes stay in L2 across the columns
         for (size_t first = 0; first < element.count; first += kChunk) {
             const size_t n = std::min<size_t>(kChunk, element.count - first);
@@ -471,6 +486,16 @@ private:
         return offsets;
     }
 
+    // From the first vertex's coordinates, before any column is stored against it.
+    void pick_origin(const PlyElement& element, const VertexLayout& layout, const std::vector<size_t>& offsets,
+                     Mesh& mesh) {
+        for (int a = 0; a < 3; ++a) {
+            const size_t prop = size_t(layout.property[kX + a]);
+            coordinates_.relative(load_number(p_ + offsets[prop], element.properties[prop].type, swap_), a);
+        }
+        mesh.origin = coordinates_.origin();
+    }
+
     void vertex_chunk(const PlyElement& element, const VertexLayout& layout, const std::vector<size_t>& offsets,
                       const char* src, size_t stride, size_t first, size_t n, Mesh& mesh) const {
         for (int s = 0; s < kSlotCount; ++s) {
@@ -480,9 +505,12 @@ private:
             const char* column = src + offsets[size_t(prop)];
             if (s >= kRed && s <= kAlpha) {
                 color_column_for(type, swap_)(column, stride, n, &mesh.colors[4 * first + size_t(s - kRed)]);
-            } else if (s == kX && xyz_packed(element, layout, offsets)) {
+            } else if (s == kX && mesh.origin == std::array<double, 3>{} && xyz_packed(element, layout, offsets)) {
                 copy_xyz(column, stride, n, &mesh.positions[3 * first]);
                 s = kZ;  // y and z came along
+            } else if (s <= kZ) {
+                position_column_for(type, swap_)(column, stride, n, &mesh.positions[3 * first + size_t(s)],
+                                                 mesh.origin[size_t(s)]);
             } else {
                 auto [dst, width, base] = float_target(s, mesh);
                 float_column_for(type, swap_)(column, stride, n, dst + width * first + size_t(s - base), width);
@@ -496,7 +524,6 @@ private:
         int first_slot;
     };
     static FloatTarget float_target(int slot, Mesh& mesh) {
-        if (slot <= kZ) return {mesh.positions.data(), 3, kX};
         if (slot <= kNz) return {mesh.normals.data(), 3, kNx};
         return {mesh.uvs.data(), 2, kU};
     }
@@ -531,11 +558,12 @@ private:
                     continue;
                 }
                 need(type_size(p.type), element, v);
-                store(mesh, v, slot, load_number(p_, p.type, swap_), p.type);
+                store(mesh, coordinates_, v, slot, load_number(p_, p.type, swap_), p.type);
                 p_ += type_size(p.type);
             }
             if ((v & 0xffff) == 0) ticker_.at(size_t(p_ - input_.data));
         }
+        mesh.origin = coordinates_.origin();
     }
 
     void skip_property(const PlyProperty& p, const PlyElement& element, uint64_t record) {
@@ -624,6 +652,7 @@ private:
     const char* end_;
     ReadTicker& ticker_;
     bool swap_;
+    Coordinates coordinates_;
 };
 
 // ---- ascii ----------------------------------------------------------------------------------------
@@ -631,7 +660,10 @@ private:
 class AsciiBody {
 public:
     AsciiBody(const ReadInput& input, const PlyHeader& header, ReadTicker& ticker)
-        : input_(input), tokens_(input.data + header.body_offset, input.data + input.size), ticker_(ticker) {}
+        : input_(input),
+          tokens_(input.data + header.body_offset, input.data + input.size),
+          ticker_(ticker),
+          coordinates_(input) {}
 
     void vertices(const PlyElement& element, const VertexLayout& layout, Mesh& mesh) {
         require_values(element, 0);
@@ -644,10 +676,12 @@ public:
                     skip_property(p, element, v);
                     continue;
                 }
-                store(mesh, v, slot, number(p.type, element, v), p.type);
+                if (slot <= kZ && !is_integer(p.type)) mesh.positions[3 * v + size_t(slot)] = coordinate(p.type, slot, element, v);
+                else store(mesh, coordinates_, v, slot, number(p.type, element, v), p.type);
             }
             ticker_.at(offset());
         }
+        mesh.origin = coordinates_.origin();
     }
 
     void faces(const PlyElement& element, size_t list, uint32_t vertex_count, Mesh& mesh) {
@@ -702,11 +736,15 @@ private:
         input_.require_room(element.count, element.noun(), left, text_room(left, element.properties.size() + extra));
     }
 
-    double number(PlyType type, const PlyElement& element, uint64_t record) {
+    std::string_view next_token(const PlyElement& element, uint64_t record) {
         std::string_view token = tokens_.next();
         if (token.empty())
             input_.fail("expected " + std::to_string(element.count) + " " + element.noun() + ", file ends after " +
                         std::to_string(record));
+        return token;
+    }
+    double number(PlyType type, const PlyElement& element, uint64_t record) {
+        std::string_view token = next_token(element, record);
         double value = 0;
         bool ok;
         if (is_integer(type)) {
@@ -720,10 +758,19 @@ private:
         } else {
             ok = parse_number(token, value);
         }
-        if (!ok)
-            fail(element.name + " " + std::to_string(record) + ": expected " +
-                 (is_integer(type) ? "an integer" : "a number") + ", found " + quoted(token));
+        if (!ok) not_a_number(type, element, record, token);
         return value;
+    }
+    float coordinate(PlyType type, int axis, const PlyElement& element, uint64_t record) {
+        std::string_view token = next_token(element, record);
+        float value = 0;
+        if (!coordinates_.parse(token, axis, value, type == PlyType::float32))
+            not_a_number(type, element, record, token);
+        return value;
+    }
+    [[noreturn]] void not_a_number(PlyType type, const PlyElement& element, uint64_t record, std::string_view token) const {
+        fail(element.name + " " + std::to_string(record) + ": expected " + (is_integer(type) ? "an integer" : "a number") +
+             ", found " + quoted(token));
     }
 
     void skip_property(const PlyProperty& p, const PlyElement& element, uint64_t record) {
@@ -743,6 +790,7 @@ private:
     const ReadInput& input_;
     Tokens tokens_;
     ReadTicker& ticker_;
+    Coordinates coordinates_;
 };
 
 // ---- putting it together --------------------------------------------------------------------------
@@ -784,6 +832,12 @@ void check_positions(const ReadInput& input, const Mesh& mesh) {
 }
 
 }  // namespace
+
+uint64_t ply_face_count(const ReadInput& input) {
+    const PlyHeader header = HeaderParser(input).parse();
+    const PlyElement* face = find_element(header, "face", input);
+    return face ? face->count : 0;
+}
 
 Mesh read_ply(const ReadInput& input) {
     const PlyHeader header = HeaderParser(input).parse();

@@ -3,6 +3,7 @@
 // and leaves it to weld() to make the mesh indexed. Facet normals are ignored: they are often wrong and
 // the corners' order already gives the orientation.
 #include <algorithm>
+#include <array>
 #include <bit>
 #include <cstring>
 #include <numeric>
@@ -39,6 +40,18 @@ void check_corners(const ReadInput& input, const Mesh& mesh) {
     const size_t bad = first_non_finite(mesh.positions.data(), mesh.vertex_count());
     if (bad < mesh.vertex_count())
         input.fail("triangle " + std::to_string(bad / 3) + " has a NaN or infinite coordinate");
+}
+
+// Binary STL holds floats, so there is no precision to gain, but the tiles of a model share one
+// origin; a float's offset from an origin near it is exact. Nothing to do when the origin is 0.
+void relative_to_origin(const ReadInput& input, Mesh& mesh) {
+    if (mesh.positions.empty()) return;
+    Coordinates coordinates(input);
+    for (int a = 0; a < 3; ++a) coordinates.relative(mesh.positions[size_t(a)], a);
+    mesh.origin = coordinates.origin();
+    if (mesh.origin == std::array<double, 3>{}) return;
+    for (size_t i = 0; i < mesh.positions.size(); ++i)
+        mesh.positions[i] = float(double(mesh.positions[i]) - mesh.origin[i % 3]);
 }
 
 void sequential_indices(Mesh& mesh) {
@@ -82,6 +95,7 @@ Mesh read_binary(const ReadInput& input) {
             f = std::bit_cast<float>(bits);
         }
     }
+    relative_to_origin(input, mesh);
     check_corners(input, mesh);
     sequential_indices(mesh);
     return mesh;
@@ -90,7 +104,10 @@ Mesh read_binary(const ReadInput& input) {
 class AsciiParser {
 public:
     explicit AsciiParser(const ReadInput& input)
-        : input_(input), tokens_(input.data, input.data + input.size), ticker_(input.progress, input.size) {}
+        : input_(input),
+          tokens_(input.data, input.data + input.size),
+          ticker_(input.progress, input.size),
+          coordinates_(input) {}
 
     Mesh parse() {
         for (std::string_view token = tokens_.next(); !token.empty(); token = tokens_.next()) {
@@ -104,6 +121,7 @@ public:
             ticker_.at(size_t(tokens_.position() - input_.data));
         }
         if (corners_ != 0) input_.fail("file ends inside a facet");
+        mesh_.origin = coordinates_.origin();
         check_corners(input_, mesh_);
         return std::move(mesh_);
     }
@@ -122,10 +140,10 @@ private:
             if (is_keyword(word, keyword.substr(3))) return keyword;
         fail("unexpected 'end' before " + quoted(word));
     }
-    float number() {
+    float coordinate(int axis) {
         std::string_view token = tokens_.next();
         float value = 0;
-        if (!parse_number(token, value)) fail("expected a number, found " + quoted(token));
+        if (!coordinates_.parse(token, axis, value)) fail("expected a number, found " + quoted(token));
         return value;
     }
     // The normal is not used, so it is not parsed either: writers put NaN there in every spelling
@@ -135,7 +153,7 @@ private:
         for (int k = 0; k < 3; ++k) tokens_.next();
     }
     void vertex() {
-        for (int k = 0; k < 3; ++k) mesh_.positions.push_back(number());
+        for (int k = 0; k < 3; ++k) mesh_.positions.push_back(coordinate(k));
         ++corners_;
     }
     // A loop is normally a triangle; a longer one is fanned (its corners are already stored in order).
@@ -150,6 +168,7 @@ private:
     const ReadInput& input_;
     Tokens tokens_;
     ReadTicker ticker_;
+    Coordinates coordinates_;
     Mesh mesh_;
     uint32_t corners_ = 0;
 };

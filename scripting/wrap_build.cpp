@@ -1,6 +1,5 @@
-// strata.build{…}: `strata build` from Lua, with every option, a progress callback, and the
-// statistics returned; strata.build_folder{…} builds every scan of a folder whose model is missing or
-// older than the scan.
+// strata.build{…}: `strata build` from Lua, with every option (one scan or the tiles of one, a memory
+// ceiling), a progress callback, and the statistics returned.
 #include <atomic>
 #include <chrono>
 #include <climits>
@@ -13,6 +12,8 @@
 
 #include <lua.hpp>
 
+#include "preprocess/build_inputs.h"
+#include "preprocess/byte_size.h"
 #include "preprocess/hlod_builder.h"
 #include "preprocess/mesh_io.h"
 #include "scripting/lua_util.h"
@@ -25,18 +26,78 @@ namespace {
 constexpr lua_Integer kMaxThreads = 1024;  // far beyond any machine's cores; a typo of 1e9 threads is refused
 
 struct BuildJob {
-    std::string input, output;
+    std::vector<std::string> inputs;  // files and @lists, as `strata build` takes them
+    std::string output;
     BuildSettings settings;
+    uint64_t memory_limit = 0;
+    std::string limit_name;  // where the limit came from, for the refusal's message
 };
+
+// `input`: a string (a file or an @list) or a list of strings (the tiles of one model).
+std::vector<std::string> check_inputs(lua_State* L, int index) {
+    std::vector<std::string> inputs;
+    lua_getfield(L, index, "input");
+    if (lua_type(L, -1) == LUA_TSTRING) {
+        inputs.emplace_back(lua_tostring(L, -1));
+    } else if (lua_istable(L, -1)) {
+        const lua_Integer count = luaL_len(L, -1);
+        for (lua_Integer i = 1; i <= count; ++i) {
+            if (lua_rawgeti(L, -1, i) != LUA_TSTRING)
+                luaL_error(L, "option 'input': item %d must be a string (a file name), got %s", int(i), luaL_typename(L, -1));
+            inputs.emplace_back(lua_tostring(L, -1));
+            lua_pop(L, 1);
+        }
+        if (inputs.empty()) luaL_error(L, "option 'input' is an empty list: name at least one file");
+    } else if (!lua_isnil(L, -1)) {
+        luaL_error(L, "option 'input' must be a string or a list of strings, got %s", luaL_typename(L, -1));
+    }
+    lua_pop(L, 1);
+    for (const std::string& input : inputs)
+        if (input.empty()) luaL_error(L, "option 'input': a file name is empty");
+    return inputs;
+}
+
+// `memory`: a size as `--memory` takes it ("2G") or a number of bytes; default a quarter of RAM.
+void check_memory_option(lua_State* L, int index, BuildJob& job) {
+    job.memory_limit = default_memory_limit();
+    job.limit_name = "the default memory, a quarter of physical memory";
+    lua_getfield(L, index, "memory");
+    const int type = lua_type(L, -1);
+    if (type == LUA_TNUMBER) {
+        lua_Integer bytes = lua::opt_integer_in(L, index, "memory", 1, 1, LUA_MAXINTEGER);
+        job.memory_limit = uint64_t(bytes);
+        job.limit_name = "memory = " + std::to_string(bytes);
+    } else if (type == LUA_TSTRING) {
+        const std::string text = lua_tostring(L, -1);
+        std::string problem;
+        try {
+            job.memory_limit = parse_byte_size(text);
+        } catch (const std::invalid_argument& e) {
+            problem = e.what();
+        }
+        if (!problem.empty()) luaL_error(L, "option 'memory': %s", problem.c_str());
+        job.limit_name = "memory = \"" + text + "\"";
+    } else if (type != LUA_TNIL) {
+        luaL_error(L, "option 'memory' must be a size such as \"2G\" or a number of bytes, got %s", luaL_typename(L, -1));
+    }
+    lua_pop(L, 1);
+}
 
 BuildJob check_job(lua_State* L, int index) {
     luaL_checktype(L, index, LUA_TTABLE);
-    lua::check_keys(L, index, {"input", "output", "levels", "block", "ratio", "sigma0", "error", "threads", "on_progress"});
+    lua::check_keys(L, index,
+                    {"input", "output", "levels", "block", "ratio", "sigma0", "error", "threads", "memory", "on_progress"});
     BuildJob job;
-    job.input = lua::opt_string(L, index, "input", "");
+    job.inputs = check_inputs(L, index);
     job.output = lua::opt_string(L, index, "output", "");
-    if (job.input.empty()) luaL_error(L, "option 'input' (the scan to build) is required");
-    if (job.output.empty()) job.output = std::filesystem::path(job.input).replace_extension(".hlod").string();
+    if (job.inputs.empty()) luaL_error(L, "option 'input' (the scan to build) is required");
+    if (job.output.empty() && job.inputs.size() > 1)
+        luaL_error(L, "option 'output' is required when 'input' names several files");
+    if (job.output.empty()) {
+        const std::string& only = job.inputs.front();
+        job.output = std::filesystem::path(only[0] == '@' ? only.substr(1) : only).replace_extension(".hlod").string();
+    }
+    check_memory_option(L, index, job);
     // The builder checks what the values mean; here only that they fit its types.
     job.settings.levels = int(lua::opt_integer_in(L, index, "levels", -1, -1, INT_MAX));
     job.settings.block = int(lua::opt_integer_in(L, index, "block", job.settings.block, 1, INT_MAX));
@@ -87,12 +148,16 @@ int build(lua_State* L) {
     bool cancelled = false;
     const auto start = std::chrono::steady_clock::now();
     size_t triangles = 0;
+    MemoryEstimate estimate;
     std::thread worker([&] {
         try {
-            Mesh mesh = read_mesh(job.input, progress, warnings);
+            const std::vector<std::filesystem::path> files = expand_inputs(job.inputs);
+            estimate = estimate_build_memory(files);
+            check_memory(estimate, job.memory_limit, job.limit_name);
+            Mesh mesh = read_tiles(files, progress, warnings);
             triangles = mesh.triangle_count();
-            report = build_hlod(std::move(mesh), job.output, job.settings,
-                                std::filesystem::path(job.input).filename().string(), progress);
+            report = build_hlod(std::move(mesh), job.output, job.settings, source_name(job.inputs, files.size()),
+                                progress);
         } catch (const Cancelled&) {
             cancelled = true;
         } catch (const std::exception& e) {
@@ -148,10 +213,11 @@ int build(lua_State* L) {
     worker.join();
     if (!callback_error.empty()) return luaL_error(L, "on_progress: %s", callback_error.c_str());
     if (!error.empty()) return luaL_error(L, "%s", error.c_str());
-    if (cancelled) return luaL_error(L, "build of %s cancelled; %s was not written", job.input.c_str(), job.output.c_str());
+    if (cancelled)
+        return luaL_error(L, "build of %s cancelled; %s was not written", job.inputs.front().c_str(), job.output.c_str());
 
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    lua_createtable(L, 0, 9);
+    lua_createtable(L, 0, 10);
     lua_pushstring(L, job.output.c_str());
     lua_setfield(L, -2, "output");
     lua_pushinteger(L, report.max_level + 1);
@@ -166,6 +232,8 @@ int build(lua_State* L) {
     lua_setfield(L, -2, "bytes");
     lua_pushnumber(L, seconds);
     lua_setfield(L, -2, "seconds");
+    lua_pushinteger(L, lua_Integer(estimate.bytes));
+    lua_setfield(L, -2, "memory_estimate");
     lua_createtable(L, int(report.levels.size()), 0);
     for (size_t i = 0; i < report.levels.size(); ++i) {
         const LevelStats& l = report.levels[i];

@@ -52,6 +52,19 @@ checks=$((checks + 1))
     fail "unwritable output: left $(ls "$WORK")"
 
 expect_failure "levels too fine for the edges" "use fewer --levels" "$STRATA" build "$WORK/octahedron.off" -o "$out" --levels 3; no_output "levels too fine"
+# Tiles and lists: every error names the file, and nothing is written.
+expect_failure "missing tile" "missing_tile.off" "$STRATA" build "$WORK/octahedron.off" "$WORK/missing_tile.off" -o "$out"; no_output "missing tile"
+printf 'octahedron.off\nabsent.off\n' >"$WORK/names_missing.txt"
+expect_failure "list naming a missing file" "absent.off" "$STRATA" build @"$WORK/names_missing.txt" -o "$out"; no_output "list naming a missing file"
+printf '# nothing here\n\n' >"$WORK/empty_list.txt"
+expect_failure "empty list" "empty_list.txt: the list names no input files" "$STRATA" build @"$WORK/empty_list.txt" -o "$out"; no_output "empty list"
+expect_failure "missing list" "no_list.txt: cannot read the list of inputs" "$STRATA" build @"$WORK/no_list.txt" -o "$out"; no_output "missing list"
+expect_failure "bad tile" "past.off: line" "$STRATA" build "$WORK/octahedron.off" "$WORK/past.off" -o "$out"; no_output "bad tile"
+
+# The in-core builder refuses at once what it estimates will not fit under --memory.
+expect_failure "memory ceiling" "needs about .* in memory for 8 triangles, more than --memory 1M (1.0 MiB); the out-of-core builder is not yet available" \
+    "$STRATA" build "$WORK/octahedron.off" -o "$out" --memory 1M; no_output "memory ceiling"
+expect_usage "bad memory size" "'lots' is not a size in bytes" "$STRATA" build "$WORK/octahedron.off" -o "$out" --memory lots; no_output "bad memory size"
 expect_usage "bad option value" "levels" "$STRATA" build "$WORK/octahedron.off" -o "$out" --levels many
 expect_usage "bad block size" "block" "$STRATA" build "$WORK/octahedron.off" -o "$out" --block 6
 expect_usage "no arguments" "input" "$STRATA" build

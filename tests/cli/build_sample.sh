@@ -11,7 +11,42 @@ expect_success "info" "$STRATA" info "$WORK/bunny.hlod"
 checks=$((checks + 1)); grep -q "75408 triangles" "$WORK/out.txt" || fail "info: wrong input triangle count"
 expect_success "build on one thread" "$STRATA" build "$sample" -o "$WORK/one.hlod" --threads 1 -q
 checks=$((checks + 1)); cmp -s "$WORK/bunny.hlod" "$WORK/one.hlod" || fail "output depends on the thread count"
+# The sample cut into three tiles by triangle barycenter (x), each tile an OFF file of its own
+# triangles: the tiles build into one closed model holding every triangle, the same from an @list.
+awk -v dir="$WORK" '
+    NF == 0 { next }
+    state == 0 { state = 1; next }                        # "OFF"
+    state == 1 { nv = $1; nf = $2; state = 2; next }
+    state == 2 { x[v++] = $1; vertex[v - 1] = $0; if (v == nv) state = 3; next }
+    { c = (x[$2] + x[$3] + x[$4]) / 3; t = c < -0.3 ? 0 : (c < 0.1 ? 1 : 2); faces[t] = faces[t] $0 "\n"; count[t]++ }
+    END {
+        for (t = 0; t < 3; t++) {
+            file = dir "/tile" t ".off"
+            printf "OFF\n%d %d 0\n", nv, count[t] > file
+            for (i = 0; i < nv; i++) print vertex[i] > file
+            printf "%s", faces[t] > file
+            close(file)
+        }
+    }' "$sample"
+expect_success "build from tiles" "$STRATA" build "$WORK"/tile0.off "$WORK"/tile1.off "$WORK"/tile2.off -o "$WORK/tiles.hlod" -q
+expect_success "verify tiles" "$STRATA" verify "$WORK/tiles.hlod"
+checks=$((checks + 1)); grep -q "every level closed" "$WORK/out.txt" || fail "verify: the tiles did not weld into a closed model"
+expect_success "info tiles" "$STRATA" info "$WORK/tiles.hlod"
+checks=$((checks + 1)); grep -q "source      3 files: 37706 vertices, 75408 triangles" "$WORK/out.txt" ||
+    fail "info: the tiles' model is not the whole sample: $(grep source "$WORK/out.txt")"
+printf '# the sample in tiles\ntile0.off\n\ntile1.off\n' >"$WORK/tiles.txt"
+expect_success "build from a list" "$STRATA" build @"$WORK/tiles.txt" "$WORK/tile2.off" -o "$WORK/listed.hlod" -q
+checks=$((checks + 1)); cmp -s "$WORK/tiles.hlod" "$WORK/listed.hlod" || fail "the @list build differs from the tiles' build"
+printf 'tile0.off\ntile1.off\ntile2.off\n' >"$WORK/all.txt"
+expect_success "build from one list" "$STRATA" build @"$WORK/all.txt" -o "$WORK/all.hlod" -q
+expect_success "info list" "$STRATA" info "$WORK/all.hlod"
+checks=$((checks + 1)); grep -q "source      all.txt:" "$WORK/out.txt" || fail "info: the list's name is not the source"
+
+expect_success "build verbose" "$STRATA" build "$sample" -o "$WORK/verbose.hlod" -v --memory 1G
+checks=$((checks + 1)); grep -q "memory: about .* MiB for 75408 triangles in 1 file (limit 1.0 GiB)" "$WORK/out.txt" ||
+    fail "-v does not print the memory estimate: $(cat "$WORK/out.txt")"
 expect_success "help" "$STRATA" --help
 expect_success "build help" "$STRATA" build --help
 checks=$((checks + 1)); grep -q -- "--sigma0" "$WORK/out.txt" || fail "build --help lacks --sigma0"
+checks=$((checks + 1)); grep -q -- "--memory" "$WORK/out.txt" || fail "build --help lacks --memory"
 finish

@@ -25,6 +25,11 @@ expect_usage "build: --levels many" "levels takes 'auto' or a number" "$STRATA" 
 expect_usage "build: --threads -1" "threads must be 0" "$STRATA" build "$WORK/octa.off" -o "$out" --threads -1
 expect_usage "build: --error -3" "error must be positive" "$STRATA" build "$WORK/octa.off" -o "$out" --error -3
 expect_usage "build: --ratio abc" "ratio" "$STRATA" build "$WORK/octa.off" -o "$out" --ratio abc
+expect_usage "build: --memory 2X" "--memory: '2X' is not a size in bytes" "$STRATA" build "$WORK/octa.off" -o "$out" --memory 2X
+expect_usage "build: --memory 0" "'0' is not a size in bytes" "$STRATA" build "$WORK/octa.off" -o "$out" --memory 0
+expect_usage "build: --memory before a missing input" "memory" "$STRATA" build "$WORK/missing.off" -o "$out" --memory -1G
+expect_failure "build: over --memory" "more than --memory 1k" "$STRATA" build "$WORK/octa.off" -o "$out" --memory 1k
+expect_success "build: under --memory" "$STRATA" build "$WORK/octa.off" -o "$WORK/fits.hlod" -q --memory 1.5G
 expect_usage "build: settings before a missing input" "block" "$STRATA" build "$WORK/missing.off" -o "$out" --block 6
 expect_failure "build: missing input" "missing.off: cannot open" "$STRATA" build "$WORK/missing.off" -o "$out"
 expect_failure "build: unwritable output" "cannot create the output file" "$STRATA" build "$WORK/octa.off" -o "$WORK/no/dir/x.hlod"

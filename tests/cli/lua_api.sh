@@ -66,6 +66,31 @@ expect_status_1 "callback raising nothing" "on_progress: (error object is a nil 
 checks=$((checks + 1)); [ ! -e "$WORK/x.hlod" ] || fail "a cancelled build left its output"
 expect_status_1 "printf pattern" "frame pattern '/tmp/%s%s%s%n'" \
     'strata.video{frames = "/tmp/%s%s%s%n", output = "'"$WORK"'/x.mp4"}'
+# strata.build with tiles and a memory ceiling: a list of files (the octahedron's halves, which share
+# their equator) builds one closed model; bad memory values and a ceiling too low are errors naming them.
+printf 'OFF\n6 4 0\n1 0 0\n-1 0 0\n0 1 0\n0 -1 0\n0 0 1\n0 0 -1\n3 0 2 4\n3 2 1 4\n3 1 3 4\n3 3 0 4\n' >"$WORK/top.off"
+printf 'OFF\n6 4 0\n1 0 0\n-1 0 0\n0 1 0\n0 -1 0\n0 0 1\n0 0 -1\n3 2 0 5\n3 1 2 5\n3 3 1 5\n3 0 3 5\n' >"$WORK/bottom.off"
+cat >"$WORK/tiles.lua" <<EOF
+local strata = require "strata"
+local stats = strata.build{ input = { "$WORK/top.off", "$WORK/bottom.off" }, output = "$WORK/octa.hlod", memory = "1G" }
+assert(stats.triangles == 8, stats.triangles)
+assert(stats.memory_estimate > 0 and stats.memory_estimate < 2^30, stats.memory_estimate)
+assert(strata.build{ input = "$WORK/top.off", output = "$WORK/top.hlod", memory = 1 << 30 }.triangles == 4)
+print("tiles: ok")
+EOF
+expect_success "build tiles from Lua" "$STRATA" run "$WORK/tiles.lua"
+checks=$((checks + 1)); grep -q "^tiles: ok$" "$WORK/out.txt" || fail "build tiles from Lua did not finish"
+expect_success "verify Lua tiles" "$STRATA" verify "$WORK/octa.hlod"
+checks=$((checks + 1)); grep -q "every level closed" "$WORK/out.txt" || fail "the Lua tiles did not weld into a closed model"
+expect_status_1 "bad memory size" "option 'memory': '2 GB' is not a size in bytes" \
+    "strata.build{input = \"$WORK/top.off\", output = \"$WORK/m.hlod\", memory = \"2 GB\"}"
+expect_status_1 "memory ceiling" "more than memory = \"1k\"" \
+    "strata.build{input = \"$WORK/top.off\", output = \"$WORK/m.hlod\", memory = \"1k\"}"
+checks=$((checks + 1)); [ ! -e "$WORK/m.hlod" ] || fail "a refused build left its output"
+expect_status_1 "input list of numbers" "option 'input': item 2 must be a string" \
+    "strata.build{input = {\"$WORK/top.off\", 3}, output = \"$WORK/m.hlod\"}"
+expect_status_1 "several inputs, no output" "option 'output' is required when 'input' names several files" \
+    "strata.build{input = {\"$WORK/top.off\", \"$WORK/bottom.off\"}}"
 # Error values that are not strings, at the top level.
 expect_status_1 "error()" "(error object is a nil value)" 'error()'
 expect_status_1 "error({})" "(error object is a table value)" 'error({})'

@@ -18,6 +18,8 @@
 #include <utility>
 #include <vector>
 
+#include "preprocess/build_inputs.h"
+#include "preprocess/byte_size.h"
 #include "preprocess/mesh_io.h"
 
 namespace strata {
@@ -904,6 +906,249 @@ TEST_F(MeshIo, MalformedStl) {
     expect_error(write("two.stl", "solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nendloop\n"
                                   "endfacet\nendsolid x\n"),
                  "facet has 2 vertices");
+}
+
+
+// ---- survey coordinates ---------------------------------------------------------------------------
+
+// UTM-like coordinates with millimetre detail, which a float holding the whole coordinate rounds to
+// 3 cm (eastings) and 25 cm (northings).
+const std::vector<std::array<double, 3>> kSurveyPoints = {
+    {512345.678, 5412345.123, 300.001}, {512346.679, 5412345.124, 300.002}, {512345.677, 5412346.125, 300.003}};
+
+std::array<double, 3> true_position(const Mesh& mesh, uint32_t v) {
+    return {mesh.origin[0] + double(mesh.positions[3 * v]), mesh.origin[1] + double(mesh.positions[3 * v + 1]),
+            mesh.origin[2] + double(mesh.positions[3 * v + 2])};
+}
+
+void expect_survey_points(const Mesh& mesh) {
+    ASSERT_EQ(mesh.vertex_count(), kSurveyPoints.size());
+    EXPECT_EQ(mesh.origin, (std::array<double, 3>{512000, 5411840, 0})) << "the first vertex truncated to 1024s";
+    for (uint32_t v = 0; v < 3; ++v)
+        for (int a = 0; a < 3; ++a)
+            EXPECT_NEAR(true_position(mesh, v)[a], kSurveyPoints[v][a], 1e-4) << "vertex " << v << " axis " << a;
+}
+
+std::string survey_text_vertices(const char* prefix) {
+    std::string out;
+    char line[128];
+    for (const auto& p : kSurveyPoints) {
+        std::snprintf(line, sizeof line, "%s%.3f %.3f %.3f\n", prefix, p[0], p[1], p[2]);
+        out += line;
+    }
+    return out;
+}
+
+TEST_F(MeshIo, BinaryPlyDoublesKeepSurveyPrecision) {
+    for (bool big : {false, true}) {
+        Bytes b(big);
+        b.text(ply_header(big ? "binary_big_endian" : "binary_little_endian",
+                          "element vertex 3\nproperty double x\nproperty double y\nproperty double z\n"
+                          "element face 1\nproperty list uchar int vertex_indices\n"));
+        for (const auto& p : kSurveyPoints) b.put(p[0]).put(p[1]).put(p[2]);
+        b.put(uint8_t(3)).put(int32_t(0)).put(int32_t(1)).put(int32_t(2));
+        expect_survey_points(read_mesh(write(big ? "big.ply" : "little.ply", b.data)));
+    }
+}
+
+TEST_F(MeshIo, TextFormatsKeepSurveyPrecision) {
+    expect_survey_points(read_mesh(write("survey.ply", ply_header("ascii", "element vertex 3\nproperty double x\n"
+                                                                            "property double y\nproperty double z\n"
+                                                                            "element face 1\nproperty list uchar int vertex_indices\n") +
+                                                             survey_text_vertices("") + "3 0 1 2\n")));
+    // Declared float, but written with more digits than a float holds: still read in double.
+    expect_survey_points(read_mesh(write("float.ply", ply_header("ascii", "element vertex 3\nproperty float x\n"
+                                                                           "property float y\nproperty float z\n"
+                                                                           "element face 1\nproperty list uchar int vertex_indices\n") +
+                                                            survey_text_vertices("") + "3 0 1 2\n")));
+    expect_survey_points(read_mesh(write("survey.obj", survey_text_vertices("v ") + "f 1 2 3\n")));
+    expect_survey_points(read_mesh(write("survey.off", "OFF\n3 1 0\n" + survey_text_vertices("") + "3 0 1 2\n")));
+    expect_survey_points(read_mesh(write("survey.stl", "solid s\nfacet normal 0 0 1\nouter loop\n" +
+                                                           survey_text_vertices("vertex ") + "endloop\nendfacet\nendsolid s\n")));
+}
+
+TEST_F(MeshIo, DataNearZeroKeepsOriginZero) {
+    const Mesh mesh = read_mesh(write("near.off", "OFF\n3 1 0\n1023.5 -1023.25 0.1\n2000 0 0\n0 5000 0\n3 0 1 2\n"));
+    EXPECT_EQ(mesh.origin, (std::array<double, 3>{}));
+    EXPECT_EQ(position(mesh, 0), (std::array<float, 3>{1023.5f, -1023.25f, 0.1f}));
+    EXPECT_EQ(position(mesh, 2), (std::array<float, 3>{0, 5000, 0}));
+}
+
+TEST_F(MeshIo, WritePlyWritesTruePositionsInDouble) {
+    Mesh mesh = read_mesh(write("survey.off", "OFF\n3 1 0\n" + survey_text_vertices("") + "3 0 1 2\n"));
+    for (PlyEncoding encoding : kEncodings) {
+        write_ply(dir_ / "out.ply", mesh, encoding);
+        expect_survey_points(read_mesh(dir_ / "out.ply"));
+    }
+}
+
+// ---- tiles ----------------------------------------------------------------------------------------
+
+// The unit cube in two OBJ tiles: its quads go to one tile or the other by their centre's x (the four
+// whose centre is at x = 0.5 by their first corner), so the tiles share six corners along their border.
+// `low_corner_suffix` follows every corner of the low tile's faces ("//1": a normal).
+std::pair<std::string, std::string> cube_halves_as_obj(const std::string& preamble, const std::string& low_corner_suffix = "") {
+    std::string low = preamble, high = preamble;
+    for (const auto& q : kCubeQuads) {
+        float x = 0;
+        for (uint32_t c : q) x += kCubeCorners[c][0] / 4;
+        const bool is_low = x < 0.5f || (x == 0.5f && q[0] == 0);
+        std::string& out = is_low ? low : high;
+        out += "f";
+        for (uint32_t c : q) out += " " + std::to_string(c + 1) + (is_low ? low_corner_suffix : "");
+        out += "\n";
+    }
+    return {low, high};
+}
+
+TEST_F(MeshIo, TilesWeldAlongSharedBorders) {
+    const auto [low, high] = cube_halves_as_obj(cube_vertex_lines("v "));
+    std::vector<std::string> warnings;
+    const Mesh mesh = read_tiles({write("low.obj", low), write("high.obj", high)}, {}, warnings);
+    EXPECT_TRUE(warnings.empty());
+    EXPECT_EQ(mesh.vertex_count(), 8u);
+    EXPECT_EQ(mesh.triangle_count(), 12u);
+    EXPECT_TRUE(is_closed(mesh));
+}
+
+TEST_F(MeshIo, TilesShareTheFirstTilesOrigin) {
+    // Survey tiles whose first vertices lie in different 1024 m squares still weld exactly.
+    const std::string a = "OFF\n3 1 0\n512345.678 5412345.123 300.001\n513100.5 5412345.123 300\n512345.678 5413000.25 300\n3 0 1 2\n";
+    const std::string b = "OFF\n3 1 0\n513100.5 5412345.123 300\n513100.5 5413000.25 300\n512345.678 5413000.25 300\n3 0 1 2\n";
+    std::vector<std::string> warnings;
+    const Mesh mesh = read_tiles({write("a.off", a), write("b.off", b)}, {}, warnings);
+    EXPECT_EQ(mesh.vertex_count(), 4u) << "the shared edge was not welded";
+    EXPECT_EQ(mesh.origin, (std::array<double, 3>{512000, 5411840, 0}));
+    EXPECT_NEAR(true_position(mesh, 3)[1], 5413000.25, 1e-4);
+}
+
+TEST_F(MeshIo, TilesDropAnAttributeNotAllHave) {
+    const auto [low, high] = cube_halves_as_obj(cube_vertex_lines("v ") + "vn 0 0 1\n", "//1");
+    std::vector<std::string> warnings;
+    const std::filesystem::path a = write("a.obj", low), b = write("b.obj", high);
+    const Mesh mesh = read_tiles({a, b}, {}, warnings);
+    EXPECT_FALSE(mesh.has_normals());
+    EXPECT_EQ(mesh.vertex_count(), 8u) << "the corners' copies with and without normals did not weld";
+    ASSERT_EQ(warnings.size(), 1u);
+    EXPECT_THAT(warnings[0], StartsWith(b.string() + ": no normals, which the other 1 of the 2 files have"));
+}
+
+TEST_F(MeshIo, TilesNamingDifferentTexturesAreRefused) {
+    const std::filesystem::path a = write("a.ply", ply_header("ascii", "comment TextureFile one.png\nelement vertex 3\n"
+                                                                        "property float x\nproperty float y\nproperty float z\n"
+                                                                        "element face 1\nproperty list uchar int vertex_indices\n") +
+                                                       "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n");
+    const std::filesystem::path b = write("b.ply", ply_header("ascii", "comment TextureFile two.png\nelement vertex 3\n"
+                                                                        "property float x\nproperty float y\nproperty float z\n"
+                                                                        "element face 1\nproperty list uchar int vertex_indices\n") +
+                                                       "1 0 0\n1 1 0\n0 1 0\n3 0 1 2\n");
+    std::vector<std::string> warnings;
+    try {
+        read_tiles({a, b}, {}, warnings);
+        ADD_FAILURE() << "different textures accepted";
+    } catch (const InputError& e) {
+        EXPECT_THAT(e.what(), StartsWith(b.string() + ": names texture 'two.png', but " + a.string() + " names texture 'one.png'"));
+    }
+}
+
+TEST_F(MeshIo, TileErrorsNameTheTile) {
+    const std::filesystem::path good = write("good.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n");
+    const std::filesystem::path bad = write("bad.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n");
+    std::vector<std::string> warnings;
+    for (const auto& [paths, named] : std::vector<std::pair<std::vector<std::filesystem::path>, std::filesystem::path>>{
+             {{good, bad}, bad}, {{good, dir_ / "missing.off"}, dir_ / "missing.off"}}) {
+        try {
+            read_tiles(paths, {}, warnings);
+            ADD_FAILURE() << "no error for " << named;
+        } catch (const InputError& e) {
+            EXPECT_THAT(e.what(), StartsWith(named.string() + ": "));
+        }
+    }
+}
+
+// ---- what a build takes in ------------------------------------------------------------------------
+
+TEST_F(MeshIo, InputListsExpandRelativeToTheirFolder) {
+    std::filesystem::create_directories(dir_ / "site");
+    write("site/list.txt", "# tiles of the site\n\n  a.ply  \r\nsub/b.ply\n/abs/c.ply\n#last\n");
+    const std::vector<std::filesystem::path> files =
+        expand_inputs({"first.off", "@" + (dir_ / "site/list.txt").string(), "last.off"});
+    const std::vector<std::filesystem::path> expected = {"first.off", dir_ / "site/a.ply", dir_ / "site/sub/b.ply",
+                                                         "/abs/c.ply", "last.off"};
+    EXPECT_EQ(files, expected);
+    EXPECT_EQ(source_name({"@" + (dir_ / "site/list.txt").string()}, 3), "list.txt");
+    EXPECT_EQ(source_name({"one.ply"}, 1), "one.ply");
+    EXPECT_EQ(source_name({"a.ply", "b.ply"}, 2), "2 files");
+}
+
+TEST_F(MeshIo, InputListErrorsNameTheList) {
+    const std::filesystem::path empty = write("empty.txt", "# nothing\n\n");
+    for (const auto& [list, detail] : std::vector<std::pair<std::filesystem::path, std::string>>{
+             {empty, "names no input files"}, {dir_ / "missing.txt", "cannot read the list of inputs"}}) {
+        try {
+            expand_inputs({"@" + list.string()});
+            ADD_FAILURE() << "no error for " << list;
+        } catch (const InputError& e) {
+            EXPECT_THAT(e.what(), StartsWith(list.string() + ": "));
+            EXPECT_THAT(e.what(), HasSubstr(detail));
+        }
+    }
+}
+
+TEST_F(MeshIo, TrianglesAreEstimatedFromHeaders) {
+    EXPECT_EQ(estimate_triangles(write("a.ply", ply_header("binary_little_endian",
+                                                           "element vertex 1000\nproperty float x\nproperty float y\n"
+                                                           "property float z\nelement face 1234567\n"
+                                                           "property list uchar int vertex_indices\n"))).triangles,
+              1234567u);
+    EXPECT_EQ(estimate_triangles(write("a.off", "OFF\n# counts\n8 6 0\n")).triangles, 6u);
+    Bytes stl;
+    stl.text(std::string(80, ' ')).put(uint32_t(2)).text(std::string(100, '\0'));
+    const TriangleEstimate binary = estimate_triangles(write("a.stl", stl.data));
+    EXPECT_EQ(binary.triangles, 2u);
+    EXPECT_TRUE(binary.from_header);
+    const TriangleEstimate obj = estimate_triangles(write("a.obj", std::string(3200, '#')));
+    EXPECT_FALSE(obj.from_header);
+    EXPECT_EQ(obj.triangles, 100u);
+    try {
+        estimate_triangles(dir_ / "missing.ply");
+        ADD_FAILURE() << "a missing file estimated";
+    } catch (const InputError& e) {
+        EXPECT_THAT(e.what(), StartsWith((dir_ / "missing.ply").string() + ": cannot open"));
+    }
+}
+
+TEST(ByteSize, ParsesBinarySuffixesInEitherCase) {
+    EXPECT_EQ(parse_byte_size("4096"), 4096u);
+    EXPECT_EQ(parse_byte_size("2G"), uint64_t(2) << 30);
+    EXPECT_EQ(parse_byte_size("2g"), uint64_t(2) << 30);
+    EXPECT_EQ(parse_byte_size("512M"), uint64_t(512) << 20);
+    EXPECT_EQ(parse_byte_size("1.5G"), uint64_t(3) << 29);
+    EXPECT_EQ(parse_byte_size("8k"), 8192u);
+    EXPECT_EQ(parse_byte_size("1T"), uint64_t(1) << 40);
+    for (const char* bad : {"", "G", "-1G", "+2G", "2GB", "1e9", "inf", "0", "0.1", "2 G", "1.2.3M", "9000000T", "nan"}) {
+        try {
+            parse_byte_size(bad);
+            ADD_FAILURE() << "accepted '" << bad << "'";
+        } catch (const std::invalid_argument& e) {
+            EXPECT_THAT(e.what(), StartsWith("'" + std::string(bad) + "'"));
+        }
+    }
+    EXPECT_EQ(describe_bytes(uint64_t(3) << 30), "3.0 GiB");
+    EXPECT_EQ(describe_bytes(800), "800 B");
+    EXPECT_GT(default_memory_limit(), 0u);
+}
+
+TEST(ByteSize, MemoryPreflightRefusesWhatDoesNotFit) {
+    const MemoryEstimate estimate{.triangles = 75'000'000, .bytes = uint64_t(3) << 30, .guessed = false};
+    EXPECT_NO_THROW(check_memory(estimate, uint64_t(4) << 30, "--memory 4G"));
+    try {
+        check_memory(estimate, uint64_t(2) << 30, "--memory 2G");
+        ADD_FAILURE() << "3 GiB fit under 2";
+    } catch (const InputError& e) {
+        EXPECT_THAT(e.what(), HasSubstr("needs about 3.0 GiB in memory for 75000000 triangles, more than --memory 2G"));
+        EXPECT_THAT(e.what(), HasSubstr("out-of-core builder is not yet available"));
+    }
 }
 
 }  // namespace
