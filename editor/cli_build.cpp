@@ -83,8 +83,8 @@ int run_build(const BuildOptions& o) {
                 std::printf("  level %2u: %7llu cubes %11llu vertices %11llu triangles %10.2f MB\n", l.level,
                             (unsigned long long)l.cubes, (unsigned long long)l.vertices,
                             (unsigned long long)l.triangles, l.bytes / 1e6);
-            std::printf("  seconds: read %.2f, partition %.2f, simplify %.2f, normals %.2f, write %.2f\n", read_seconds,
-                        report.partition_seconds, report.simplify_seconds, report.normals_seconds, report.write_seconds);
+            std::printf("  seconds: read %.2f, partition %.2f, simplify %.2f, write %.2f\n", read_seconds,
+                        report.partition_seconds, report.simplify_seconds, report.write_seconds);
         }
         return kOk;
     } catch (const Cancelled&) {

@@ -44,7 +44,7 @@ std::shared_ptr<Geometry> Geometry::plane(const glm::dvec3& center, const glm::d
 Box Geometry::compute_bound() const {
     Box box;
     for (size_t v = 0; v < mesh_.vertex_count(); ++v)
-        box.expand(glm::dvec3(mesh_.positions[3 * v], mesh_.positions[3 * v + 1], mesh_.positions[3 * v + 2]));
+        box.expand(origin() + glm::dvec3(mesh_.positions[3 * v], mesh_.positions[3 * v + 1], mesh_.positions[3 * v + 2]));
     return box;
 }
 
@@ -57,7 +57,7 @@ void Geometry::cull(CullVisitor& cull) {
 // for this to matter belongs in an HLOD model.
 std::optional<SurfaceHit> Geometry::intersect(const Ray& ray, const PickContext&) const {
     const std::vector<float>& p = mesh_.positions;
-    return nearest_triangle(ray, mesh_.indices, [&](uint32_t v) { return glm::dvec3(p[3 * v], p[3 * v + 1], p[3 * v + 2]); });
+    return nearest_triangle(ray, mesh_.indices, [&](uint32_t v) { return origin() + glm::dvec3(p[3 * v], p[3 * v + 1], p[3 * v + 2]); });
 }
 
 void compute_vertex_normals(Mesh& mesh) {

@@ -37,6 +37,8 @@ public:
     static std::shared_ptr<Geometry> plane(const glm::dvec3& center, const glm::dvec3& up, double width, double depth);
 
     const Mesh& mesh() const { return mesh_; }
+    // Where the mesh's float positions are measured from, in the node's frame.
+    glm::dvec3 origin() const { return {mesh_.origin[0], mesh_.origin[1], mesh_.origin[2]}; }
     const GeometrySource& source() const { return source_; }
     Material material;
 

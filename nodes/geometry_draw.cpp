@@ -3,6 +3,8 @@
 #include <stdexcept>
 #include <string>
 
+#include <glm/gtc/matrix_transform.hpp>
+
 #include "engine/gl/buffer.h"
 #include "engine/gl/framebuffer.h"
 #include "engine/gl/program.h"
@@ -100,7 +102,8 @@ void Geometry::draw(DrawContext& context, const DrawItem& item) {
     const gl::Program& program =
         context.cache.get_shared<GeometryProgram>(kProgramKey, [] { return std::make_unique<GeometryProgram>(); }).program;
     GeometryGpu& gpu = context.cache.get<GeometryGpu>(*this, [&] { return upload(mesh_, name()); });
-    program.set("clip_from_local", glm::mat4(context.projection * context.view * item.model));
+    // The mesh's float positions are relative to its double-precision origin (survey coordinates).
+    program.set("clip_from_local", glm::mat4(context.projection * context.view * item.model * glm::translate(glm::dmat4(1.0), origin())));
     program.set("world_from_local_normal", glm::mat3(glm::transpose(glm::inverse(glm::dmat3(item.model)))));
     program.set("has_colors", int(mesh_.has_colors()));
     program.set("base_color", material.base_color);

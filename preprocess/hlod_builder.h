@@ -33,8 +33,9 @@ struct BuildReport {
     std::vector<LevelStats> levels;  // finest first
     std::vector<std::string> notes;  // choices the builder made that the user should know of
     uint64_t output_bytes = 0;
-    // Wall seconds per stage, for benchmarks: partition, simplify, normals, write.
-    double partition_seconds = 0, simplify_seconds = 0, normals_seconds = 0, write_seconds = 0;
+    // Wall seconds per stage, for benchmarks: partition (level L's cubes), simplify (each level's
+    // blocks, normals and encoding), write (the root and the file's assembly).
+    double partition_seconds = 0, simplify_seconds = 0, write_seconds = 0;
 };
 
 // Throws InputError naming the first setting out of range (checked before any input is read, so a

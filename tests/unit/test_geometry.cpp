@@ -30,6 +30,23 @@ TEST(Geometry, LoadsAMeshFileAndComputesNormals) {
     EXPECT_THROW(Geometry::load(dir / "missing.ply"), std::runtime_error);
 }
 
+TEST(Geometry, SurveyCoordinatesKeepTheirOrigin) {
+    // A reader keeps UTM-sized coordinates as a double origin plus small floats; bound and pick add it.
+    Mesh mesh;
+    mesh.origin = {512000, 5412000, 0};
+    mesh.positions = {345.678f, 345.123f, 300, 346.678f, 345.123f, 300, 345.678f, 346.123f, 300};
+    mesh.indices = {0, 1, 2};
+    auto geometry = Geometry::from_mesh(mesh);
+    EXPECT_NEAR(geometry->bound().lo.x, 512345.678, 1e-4);
+    EXPECT_NEAR(geometry->bound().hi.y, 5412346.123, 1e-4);
+    const Camera camera;
+    const PickContext context{camera, glm::dmat4(1.0), {512345.9, 5412345.3, 400}};
+    const auto hit = geometry->intersect(Ray{{512345.9, 5412345.3, 400}, {0, 0, -1}}, context);
+    ASSERT_TRUE(hit.has_value());
+    EXPECT_NEAR(hit->t, 100, 1e-6);
+    EXPECT_FALSE(geometry->intersect(Ray{{345.9, 345.3, 400}, {0, 0, -1}}, context).has_value());
+}
+
 TEST(Geometry, PlaneFacesUpAndCoversItsExtent) {
     auto floor = Geometry::plane({1, 0, 2}, {0, 1, 0}, 4, 6);
     const Mesh& m = floor->mesh();
