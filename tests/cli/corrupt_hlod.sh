@@ -53,7 +53,7 @@ printf 'not an hlod at all, just some text that is long enough to pass the size 
 expect_failure "not a .hlod" "not a .hlod" "$STRATA" info "$WORK/text.hlod"
 expect_failure "missing .hlod" "nothere.hlod" "$STRATA" info "$WORK/nothere.hlod"
 
-cp "$SOURCE_DIR/tests/data/hlod/octahedron_v1.hlod" "$WORK/old.hlod"
+cp "$SOURCE_DIR/tests/data/octahedron_v1.hlod" "$WORK/old.hlod"
 rebuild="$WORK/old.hlod: a version 1 model (from an older Strata); rebuild it from its scan: strata build SCAN -o $WORK/old.hlod"
 expect_failure "info: a version 1 model" "$rebuild" "$STRATA" info "$WORK/old.hlod"
 expect_failure "verify: a version 1 model" "$rebuild" "$STRATA" verify "$WORK/old.hlod"

@@ -761,7 +761,7 @@ TEST_F(BadFile, BadMagic) {
 }
 
 TEST_F(BadFile, VersionOneIsRefusedWithHowToRebuild) {
-    const std::filesystem::path fixture = std::filesystem::path(STRATA_SOURCE_DIR) / "tests/data/hlod/octahedron_v1.hlod";
+    const std::filesystem::path fixture = std::filesystem::path(STRATA_SOURCE_DIR) / "tests/data/octahedron_v1.hlod";
     const std::vector<uint8_t> old = read_bytes(fixture);
     ASSERT_GT(old.size(), 128u) << fixture;
     ASSERT_EQ(get<uint32_t>(old, 8), 1u);
