@@ -1,19 +1,37 @@
 #include "preprocess/hlod_format.h"
 
+#include <fcntl.h>
 #include <meshoptimizer.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <stdexcept>
+#include <tuple>
 
 namespace strata {
 namespace {
 
-constexpr size_t kHeaderBytes = 128;
+// FORMAT.md §3–§4.
+constexpr size_t kFixedHeaderBytes = 32;
+constexpr size_t kHeaderCrcAt = 28;
+constexpr size_t kSectionEntryBytes = 32;
+constexpr uint32_t kMaxSections = 256;
+constexpr uint32_t kRequiredSection = 1u << 0;
 constexpr size_t kNodeBytes = 48;
 constexpr size_t kMaxNameBytes = 4096;
+constexpr size_t kMaxCrsBytes = 65536;
+constexpr size_t kModelFixedBytes = 88;        // MODL before its two names
+constexpr size_t kGeoreferenceFixedBytes = 24;  // GEOR before its CRS string
+constexpr uint64_t kSectionAlignment = 8;
+constexpr uint64_t kPayloadAlignment = 4096;
+constexpr size_t kChunkBytes = size_t(8) << 20;  // copies and streamed checksums go this many bytes at a time
+
+constexpr uint32_t kCrc32cPolynomial = 0x82F63B78u;  // reflected
+
+constexpr char kModelTag[5] = "MODL", kNodeTag[5] = "NODE", kPayloadTag[5] = "PAYL", kGeoreferenceTag[5] = "GEOR";
 
 // ---- little-endian byte packing -------------------------------------------------------------
 
@@ -54,13 +72,14 @@ public:
         at_ += size;
         return span;
     }
-    std::string get_string() {
+    std::string get_string(size_t max_bytes) {
         uint32_t size = get<uint32_t>();
-        if (size > kMaxNameBytes) throw std::runtime_error(what_ + ": name of " + std::to_string(size) + " bytes");
+        if (size > max_bytes) throw std::runtime_error(what_ + ": name of " + std::to_string(size) + " bytes");
         auto span = get_bytes(size);
         return std::string(span.begin(), span.end());
     }
     size_t position() const { return at_; }
+    bool at_end() const { return at_ == bytes_.size(); }
 
 private:
     void need(size_t size) const {
@@ -78,7 +97,7 @@ uint32_t crc32c_table(uint32_t crc, const uint8_t* p, size_t n) {
         std::array<uint32_t, 256> t{};
         for (uint32_t i = 0; i < 256; ++i) {
             uint32_t c = i;
-            for (int k = 0; k < 8; ++k) c = (c >> 1) ^ (0x82F63B78u & (0u - (c & 1u)));
+            for (int k = 0; k < 8; ++k) c = (c >> 1) ^ (kCrc32cPolynomial & (0u - (c & 1u)));
             t[i] = c;
         }
         return t;
@@ -142,9 +161,43 @@ std::vector<uint8_t> decode_vertices(std::span<const uint8_t> encoded, size_t co
     return out;
 }
 
-void write_header(ByteWriter& w, const HlodHeader& h) {
-    w.put_bytes(kHlodMagic, sizeof(kHlodMagic));
-    w.put(h.version);
+
+// ---- sections ------------------------------------------------------------------------------
+
+// a·b modulo the CRC-32C polynomial, in the reflected bit order the CRC uses (x^0 is the top bit).
+uint32_t multiply_modulo_polynomial(uint32_t a, uint32_t b) {
+    uint32_t product = 0;
+    for (uint32_t bit = 1u << 31; bit != 0; bit >>= 1) {
+        if (a & bit) product ^= b;
+        b = (b & 1) ? (b >> 1) ^ kCrc32cPolynomial : b >> 1;
+    }
+    return product;
+}
+
+// x^(8·n) modulo the polynomial: what running n more bytes through the CRC register multiplies it by.
+uint32_t shift_by_bytes(uint64_t n) {
+    uint32_t result = 1u << 31;  // x^0
+    uint32_t power = 1u << 23;   // x^8, squared for each bit of n
+    for (; n != 0; n >>= 1) {
+        if (n & 1) result = multiply_modulo_polynomial(result, power);
+        power = multiply_modulo_polynomial(power, power);
+    }
+    return result;
+}
+
+uint64_t align_up(uint64_t x, uint64_t alignment) { return (x + alignment - 1) / alignment * alignment; }
+
+bool is_tag(const HlodSection& s, const char (&tag)[5]) { return std::memcmp(s.tag.data(), tag, 4) == 0; }
+
+std::string quoted(const HlodSection& s) { return "section '" + s.name() + "'"; }
+
+// Payloads in the file: coarse levels first, each level in (k, j, i) order.
+bool in_file_order(const HlodNode& a, const HlodNode& b) {
+    return std::tie(a.level, a.k, a.j, a.i) < std::tie(b.level, b.k, b.j, b.i);
+}
+
+void write_model(ByteWriter& w, const HlodHeader& h) {
+    w.put(h.payload_codec);
     w.put(h.flags);
     for (double o : h.origin) w.put(o);
     w.put(h.root_size);
@@ -157,31 +210,81 @@ void write_header(ByteWriter& w, const HlodHeader& h) {
     w.put(h.input_vertices);
     w.put(h.input_triangles);
     w.put(h.node_count);
-    w.put(h.node_table_offset);
-    w.put(crc32c(w.bytes.data(), w.bytes.size()));
-    w.bytes.resize(kHeaderBytes, 0);
+    w.put_string(h.source);
+    w.put_string(h.texture);
+}
+
+void write_georeference(ByteWriter& w, const HlodHeader& h) {
+    for (double o : h.geo_origin) w.put(o);
+    w.put_string(h.crs);
 }
 
 void write_node(ByteWriter& w, const HlodNode& n) {
+    w.put(n.offset), w.put(n.size);
     w.put(n.level), w.put(n.i), w.put(n.j), w.put(n.k);
     w.put(n.error);
     w.put(n.vertex_count), w.put(n.triangle_count);
     w.put(n.checksum);
-    w.put(n.offset), w.put(n.size);
 }
 
 HlodNode read_node(ByteReader& r) {
     HlodNode n;
+    n.offset = r.get<uint64_t>(), n.size = r.get<uint64_t>();
     n.level = r.get<uint32_t>(), n.i = r.get<uint32_t>(), n.j = r.get<uint32_t>(), n.k = r.get<uint32_t>();
     n.error = r.get<float>();
     n.vertex_count = r.get<uint32_t>(), n.triangle_count = r.get<uint32_t>();
     n.checksum = r.get<uint32_t>();
-    n.offset = r.get<uint64_t>(), n.size = r.get<uint64_t>();
     return n;
 }
 
 std::string io_error(const std::filesystem::path& path, const std::string& what) {
     return path.string() + ": " + what + (errno ? std::string(" (") + std::strerror(errno) + ")" : "");
+}
+
+void write_all(int fd, const uint8_t* data, size_t size, const std::filesystem::path& path) {
+    while (size > 0) {
+        errno = 0;
+        const ssize_t n = ::write(fd, data, std::min(size, kChunkBytes));
+        if (n < 0 && errno == EINTR) continue;
+        if (n <= 0) throw std::runtime_error(io_error(path, "write failed"));
+        data += n, size -= size_t(n);
+    }
+}
+
+// Reads exactly `size` bytes at `offset`; false if the file ends first or a read fails.
+bool read_fully(int fd, uint64_t offset, uint8_t* data, size_t size) {
+    while (size > 0) {
+        errno = 0;
+        const ssize_t n = ::pread(fd, data, size, off_t(offset));
+        if (n < 0 && errno == EINTR) continue;
+        if (n <= 0) return false;
+        data += n, size -= size_t(n), offset += uint64_t(n);
+    }
+    return true;
+}
+
+// Appends `size` bytes of `from`, starting at `offset`, to `to` at its file position: inside the kernel
+// with copy_file_range (nothing passes through memory; some filesystems share the blocks), else, where
+// the kernel or filesystem cannot, through a buffer of a few MB.
+void copy_bytes(int from, uint64_t offset, int to, uint64_t size, const std::filesystem::path& path) {
+    while (size > 0) {
+        off_t in = off_t(offset);
+        errno = 0;
+        const ssize_t n = ::copy_file_range(from, &in, to, nullptr, std::min<uint64_t>(size, kChunkBytes), 0);
+        if (n < 0 && errno == EINTR) continue;
+        if (n < 0 && (errno == EXDEV || errno == ENOSYS || errno == EOPNOTSUPP || errno == EINVAL)) break;
+        if (n == 0) errno = 0;  // the spool ended early
+        if (n <= 0) throw std::runtime_error(io_error(path, "write failed"));
+        offset += uint64_t(n), size -= uint64_t(n);
+    }
+    std::vector<uint8_t> buffer(std::min<uint64_t>(size, kChunkBytes));
+    while (size > 0) {
+        const size_t chunk = std::min<uint64_t>(size, buffer.size());
+        if (!read_fully(from, offset, buffer.data(), chunk))
+            throw std::runtime_error(io_error(path, "cannot read back the spooled payloads"));
+        write_all(to, buffer.data(), chunk, path);
+        offset += chunk, size -= chunk;
+    }
 }
 
 }  // namespace
@@ -193,6 +296,20 @@ uint32_t crc32c(const void* data, size_t size) {
     if (hardware) return ~crc32c_hardware(~0u, p, size);
 #endif
     return ~crc32c_table(~0u, p, size);
+}
+
+uint32_t crc32c_combine(uint32_t first, uint32_t second, uint64_t second_size) {
+    return multiply_modulo_polynomial(shift_by_bytes(second_size), first) ^ second;
+}
+
+FileHandle::~FileHandle() {
+    if (fd_ >= 0) ::close(fd_);
+}
+
+int FileHandle::release() {
+    const int fd = fd_;
+    fd_ = -1;
+    return fd >= 0 ? ::close(fd) : 0;
 }
 
 std::string describe_cube(const HlodNode& node) {
@@ -328,85 +445,317 @@ void resolve_parents(CubeData& cube, const VertexArrays& from, const std::string
 HlodWriter::HlodWriter(std::filesystem::path path) : path_(std::move(path)) {
     temp_path_ = path_;
     temp_path_ += ".tmp-" + std::to_string(::getpid());
+    spool_path_ = temp_path_;
+    spool_path_ += ".payloads";
     errno = 0;
-    file_ = std::fopen(temp_path_.c_str(), "wb");
-    if (!file_) throw std::runtime_error(io_error(path_, "cannot create the output file"));
-    std::vector<uint8_t> placeholder(kHeaderBytes, 0);
-    write(placeholder.data(), placeholder.size());
+    spool_ = std::fopen(spool_path_.c_str(), "w+b");
+    if (!spool_) throw std::runtime_error(io_error(path_, "cannot create the output file"));
 }
 
-HlodWriter::~HlodWriter() {
-    if (file_) {
-        std::fclose(file_);
-        std::error_code ignored;
-        std::filesystem::remove(temp_path_, ignored);
-    }
-}
+HlodWriter::~HlodWriter() { remove_temporaries(); }
 
-void HlodWriter::write(const void* data, size_t size) {
-    errno = 0;
-    if (size && std::fwrite(data, 1, size, file_) != size) throw std::runtime_error(io_error(path_, "write failed"));
-    offset_ += size;
+void HlodWriter::remove_temporaries() {
+    if (spool_) std::fclose(spool_);
+    spool_ = nullptr;
+    std::error_code ignored;
+    std::filesystem::remove(spool_path_, ignored);
+    std::filesystem::remove(temp_path_, ignored);
 }
 
 void HlodWriter::add_cube(HlodNode node, std::span<const uint8_t> payload) {
-    node.offset = offset_;
+    if (!spool_) throw std::logic_error("HlodWriter::add_cube after finish()");
+    node.offset = spooled_;
     node.size = payload.size();
     node.checksum = crc32c(payload.data(), payload.size());
-    write(payload.data(), payload.size());
+    errno = 0;
+    if (!payload.empty() && std::fwrite(payload.data(), 1, payload.size(), spool_) != payload.size())
+        throw std::runtime_error(io_error(path_, "write failed"));
+    spooled_ += payload.size();
     nodes_.push_back(node);
 }
 
-void HlodWriter::finish(HlodHeader header) {
-    header.node_count = nodes_.size();
-    header.node_table_offset = offset_;
-    ByteWriter table;
-    table.put_string(header.source);
-    table.put_string(header.texture);
-    for (const HlodNode& n : nodes_) write_node(table, n);
-    table.put(crc32c(table.bytes.data(), table.bytes.size()));
-    write(table.bytes.data(), table.bytes.size());
+namespace {
 
-    ByteWriter head;
-    write_header(head, header);
+// Where each payload goes: level by level from `start`, every level from a multiple of 4 KiB (so a
+// reader fetches a level with aligned reads), the payloads of a level packed. Returns the region's end.
+uint64_t place_payloads(std::vector<HlodNode>& nodes, uint64_t start) {
+    uint64_t at = start;
+    for (size_t n = 0; n < nodes.size(); ++n) {
+        if (n > 0 && nodes[n].level != nodes[n - 1].level) at = align_up(at, kPayloadAlignment);
+        nodes[n].offset = at;
+        at += nodes[n].size;
+    }
+    return at;
+}
+
+// The CRC of the payload region from the payloads' own CRCs and the zero padding between levels.
+uint32_t payload_region_checksum(const std::vector<HlodNode>& nodes, uint64_t start) {
+    static const std::array<uint8_t, kPayloadAlignment> zeros{};
+    uint32_t crc = 0;  // CRC-32C of nothing
+    uint64_t at = start;
+    for (const HlodNode& n : nodes) {
+        const uint64_t gap = n.offset - at;
+        if (gap) crc = crc32c_combine(crc, crc32c(zeros.data(), gap), gap);
+        crc = crc32c_combine(crc, n.checksum, n.size);
+        at = n.offset + n.size;
+    }
+    return crc;
+}
+
+// Makes a rename durable: the directory entry is on disk too, not only the file's bytes.
+void sync_directory(const std::filesystem::path& file) {
+    const std::filesystem::path dir = file.has_parent_path() ? file.parent_path() : ".";
+    FileHandle handle(::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC));
+    if (handle.get() >= 0) ::fsync(handle.get());
+}
+
+}  // namespace
+
+void HlodWriter::finish(HlodHeader header) {
+    if (!spool_) throw std::logic_error("HlodWriter::finish twice");
     errno = 0;
-    if (std::fseek(file_, 0, SEEK_SET) != 0) throw std::runtime_error(io_error(path_, "seek failed"));
-    write(head.bytes.data(), head.bytes.size());
-    if (std::fflush(file_) != 0 || ::fsync(::fileno(file_)) != 0)
-        throw std::runtime_error(io_error(path_, "write failed"));
-    int closed = std::fclose(file_);
-    file_ = nullptr;
+    if (std::fflush(spool_) != 0) throw std::runtime_error(io_error(path_, "write failed"));
+    header.version = kHlodVersion;
+    header.node_count = nodes_.size();
+
+    // Payloads arrive finest level first; sorting their entries is all the reordering costs in memory.
+    std::vector<HlodNode> spooled = nodes_;
+    std::stable_sort(spooled.begin(), spooled.end(), in_file_order);
+    ByteWriter model, node_table, georeference;
+    write_model(model, header);
+    if (!header.crs.empty()) write_georeference(georeference, header);
+
+    // Layout (FORMAT.md §1): header, section table, the small sections on 8-byte boundaries, then the
+    // payloads from a 4 KiB boundary. Sizes are known before contents: NODE is 48 bytes a cube.
+    std::vector<HlodSection> table;
+    std::vector<const std::vector<uint8_t>*> contents;  // per section; null for PAYL, copied from the spool
+    auto add = [&](const char(&tag)[5], uint32_t flags, const std::vector<uint8_t>* bytes, uint64_t size) {
+        HlodSection s;
+        std::memcpy(s.tag.data(), tag, 4);
+        s.flags = flags;
+        s.size = size;
+        table.push_back(s);
+        contents.push_back(bytes);
+    };
+    add(kModelTag, kRequiredSection, &model.bytes, model.bytes.size());
+    add(kNodeTag, kRequiredSection, &node_table.bytes, kNodeBytes * spooled.size());
+    if (!georeference.bytes.empty()) add(kGeoreferenceTag, 0, &georeference.bytes, georeference.bytes.size());
+    add(kPayloadTag, kRequiredSection, nullptr, 0);
+    uint64_t at = kFixedHeaderBytes + kSectionEntryBytes * table.size();
+    for (HlodSection& s : table) {
+        s.offset = align_up(at, contents[&s - table.data()] ? kSectionAlignment : kPayloadAlignment);
+        at = s.offset + s.size;
+    }
+    HlodSection& payloads = table.back();
+    std::vector<HlodNode> placed = spooled;
+    const uint64_t file_size = place_payloads(placed, payloads.offset);
+    payloads.size = file_size - payloads.offset;
+    payloads.checksum = payload_region_checksum(placed, payloads.offset);
+    for (const HlodNode& n : placed) write_node(node_table, n);
+    for (size_t s = 0; s < table.size(); ++s)
+        if (contents[s]) table[s].checksum = crc32c(contents[s]->data(), contents[s]->size());
+
+    ByteWriter head, entries;
+    head.put_bytes(kHlodMagic, sizeof(kHlodMagic));
+    head.put(kHlodVersion);
+    head.put(uint32_t(table.size()));
+    head.put(file_size);
+    head.put(uint32_t(0));
+    for (const HlodSection& s : table) {
+        entries.put_bytes(s.tag.data(), s.tag.size());
+        entries.put(s.flags), entries.put(s.offset), entries.put(s.size), entries.put(s.checksum);
+        entries.put(uint32_t(0));
+    }
+    head.put(crc32c_combine(crc32c(head.bytes.data(), kHeaderCrcAt), crc32c(entries.bytes.data(), entries.bytes.size()),
+                            entries.bytes.size()));
+
+    errno = 0;
+    FileHandle out(::open(temp_path_.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666));
+    if (out.get() < 0) throw std::runtime_error(io_error(path_, "cannot create the output file"));
+    uint64_t written = 0;
+    auto append = [&](const std::vector<uint8_t>& bytes) {
+        write_all(out.get(), bytes.data(), bytes.size(), path_);
+        written += bytes.size();
+    };
+    auto pad_to = [&](uint64_t offset) {  // every gap of the layout is under 4 KiB
+        static const std::array<uint8_t, kPayloadAlignment> zeros{};
+        write_all(out.get(), zeros.data(), offset - written, path_);
+        written = offset;
+    };
+    append(head.bytes);
+    append(entries.bytes);
+    for (size_t s = 0; s < table.size(); ++s)
+        if (contents[s]) pad_to(table[s].offset), append(*contents[s]);
+    const int spool = ::fileno(spool_);
+    for (size_t n = 0; n < placed.size();) {
+        pad_to(placed[n].offset);
+        // Payloads that lie back to back in both files go in one copy.
+        size_t end = n + 1;
+        uint64_t size = placed[n].size;
+        while (end < placed.size() && placed[end].offset == placed[n].offset + size &&
+               spooled[end].offset == spooled[n].offset + size)
+            size += placed[end++].size;
+        copy_bytes(spool, spooled[n].offset, out.get(), size, path_);
+        written += size;
+        n = end;
+    }
+    errno = 0;
+    if (::fsync(out.get()) != 0 || out.release() != 0) throw std::runtime_error(io_error(path_, "write failed"));
     std::error_code ec;
-    if (closed == 0) std::filesystem::rename(temp_path_, path_, ec);
-    if (closed != 0 || ec) {
-        std::filesystem::remove(temp_path_, ec);
+    std::filesystem::rename(temp_path_, path_, ec);
+    if (ec) {
+        errno = ec.value();
         throw std::runtime_error(io_error(path_, "cannot finish the output file"));
     }
+    sync_directory(path_);
+    nodes_ = std::move(placed);
+    remove_temporaries();  // the spool; the other temporary is now `path`
 }
 
 // ---- reader --------------------------------------------------------------------------------
 
-HlodFile::HlodFile(const std::filesystem::path& path) : path_(path) {
-    errno = 0;
-    file_.reset(std::fopen(path.c_str(), "rb"));
-    if (!file_) throw std::runtime_error(io_error(path, "cannot open"));
-    std::error_code ec;
-    file_size_ = std::filesystem::file_size(path, ec);
-    if (ec) throw std::runtime_error(path.string() + ": cannot read its size");
+HlodFile::HlodFile(const std::filesystem::path& path)
+    : path_(path), file_(::open(path.c_str(), O_RDONLY | O_CLOEXEC)) {
+    if (file_.get() < 0) throw std::runtime_error(io_error(path, "cannot open"));
     const std::string name = path.string();
+    struct stat status;
+    if (::fstat(file_.get(), &status) != 0) throw std::runtime_error(io_error(path, "cannot read its size"));
+    if (!S_ISREG(status.st_mode)) throw std::runtime_error(name + ": not a regular file");
+    file_size_ = uint64_t(status.st_size);
 
-    std::vector<uint8_t> head(kHeaderBytes);
-    if (file_size_ < kHeaderBytes || std::fread(head.data(), 1, head.size(), file_.get()) != head.size())
-        throw std::runtime_error(name + ": too short to be a .hlod file");
-    if (std::memcmp(head.data(), kHlodMagic, sizeof(kHlodMagic)) != 0)
+    // Magic and version first: they sit where version 1 had them (its header was 128 bytes), so an old
+    // file is named as one.
+    std::array<uint8_t, kFixedHeaderBytes> fixed{};
+    const size_t head = size_t(std::min<uint64_t>(file_size_, fixed.size()));
+    read_at(0, fixed.data(), head, "the header");
+    if (head < kFixedHeaderBytes) throw std::runtime_error(name + ": too short to be a .hlod file");
+    if (std::memcmp(fixed.data(), kHlodMagic, sizeof(kHlodMagic)) != 0)
         throw std::runtime_error(name + ": not a .hlod file (bad magic)");
-    ByteReader r(head, name + ": header");
-    r.get_bytes(sizeof(kHlodMagic));
+    uint32_t version;
+    std::memcpy(&version, fixed.data() + sizeof(kHlodMagic), 4);
+    if (version == 1)
+        throw std::runtime_error(name + ": a version 1 model (from an older Strata); rebuild it from its scan: strata build SCAN -o " + name);
+    if (version != kHlodVersion)
+        throw std::runtime_error(name + ": .hlod version " + std::to_string(version) + ", but this Strata reads version " +
+                                 std::to_string(kHlodVersion) + (version > kHlodVersion ? "; it was written by a newer version" : ""));
+    read_section_table(fixed);
+
+    const HlodSection* model = find_section(kModelTag);
+    const HlodSection* nodes = find_section(kNodeTag);
+    const HlodSection* payloads = find_section(kPayloadTag);
+    for (auto [section, tag] : {std::pair{model, kModelTag}, std::pair{nodes, kNodeTag}, std::pair{payloads, kPayloadTag}})
+        if (!section) throw std::runtime_error(name + ": has no section '" + tag + "' (the file is corrupt)");
+    read_model_section(*model);
+    read_node_section(*nodes, *payloads);
+    if (const HlodSection* georeference = find_section(kGeoreferenceTag)) read_georeference_section(*georeference);
+}
+
+void HlodFile::read_at(uint64_t offset, void* data, size_t size, const std::string& what) const {
+    if (!read_fully(file_.get(), offset, static_cast<uint8_t*>(data), size))
+        throw std::runtime_error(io_error(path_, "cannot read " + what));
+}
+
+const HlodSection* HlodFile::find_section(const char (&tag)[5]) const {
+    for (const HlodSection& s : sections_)
+        if (is_tag(s, tag)) return &s;
+    return nullptr;
+}
+
+// The table: every section inside the file, after the table, none overlapping another, no tag twice,
+// and no required section this reader does not know.
+void HlodFile::read_section_table(std::span<const uint8_t> fixed) {
+    const std::string name = path_.string();
+    ByteReader r(fixed, name + ": header");
+    r.get_bytes(sizeof(kHlodMagic) + 4);  // magic and version, checked
+    const uint32_t count = r.get<uint32_t>();
+    const uint64_t declared_size = r.get<uint64_t>();
+    r.get<uint32_t>();  // reserved
+    const uint32_t stored_crc = r.get<uint32_t>();
+    if (count == 0 || count > kMaxSections)
+        throw std::runtime_error(name + ": " + std::to_string(count) + " sections (the file is corrupt)");
+    const uint64_t table_end = kFixedHeaderBytes + uint64_t(kSectionEntryBytes) * count;
+    if (table_end > file_size_)
+        throw std::runtime_error(name + ": truncated inside its section table (" + std::to_string(file_size_) + " bytes)");
+    std::vector<uint8_t> table(table_end - kFixedHeaderBytes);
+    read_at(kFixedHeaderBytes, table.data(), table.size(), "the section table");
+    if (crc32c_combine(crc32c(fixed.data(), kHeaderCrcAt), crc32c(table.data(), table.size()), table.size()) != stored_crc)
+        throw std::runtime_error(name + ": header checksum mismatch (the file is corrupt)");
+    if (file_size_ < declared_size)
+        throw std::runtime_error(name + ": truncated: " + std::to_string(file_size_) + " of its " +
+                                 std::to_string(declared_size) + " bytes");
+    if (file_size_ > declared_size)
+        throw std::runtime_error(name + ": " + std::to_string(file_size_ - declared_size) +
+                                 " bytes past the end its header declares (the file is corrupt)");
+
+    ByteReader t(table, name + ": section table");
+    for (uint32_t e = 0; e < count; ++e) {
+        HlodSection s;
+        auto tag = t.get_bytes(4);
+        if (!std::all_of(tag.begin(), tag.end(), [](uint8_t c) { return c >= 0x20 && c <= 0x7E; }))
+            throw std::runtime_error(name + ": section table entry " + std::to_string(e) + " has a tag that is not ASCII");
+        std::copy(tag.begin(), tag.end(), s.tag.begin());
+        s.flags = t.get<uint32_t>();
+        s.offset = t.get<uint64_t>();
+        s.size = t.get<uint64_t>();
+        s.checksum = t.get<uint32_t>();
+        t.get<uint32_t>();  // reserved
+        if (s.offset < table_end) throw std::runtime_error(name + ": " + quoted(s) + " overlaps the header");
+        if (s.offset > file_size_ || s.size > file_size_ - s.offset)
+            throw std::runtime_error(name + ": " + quoted(s) + " reaches past the end of the file");
+        for (const HlodSection& other : sections_)
+            if (other.tag == s.tag) throw std::runtime_error(name + ": " + quoted(s) + " appears twice");
+        sections_.push_back(s);
+    }
+    std::vector<const HlodSection*> by_offset;
+    for (const HlodSection& s : sections_) by_offset.push_back(&s);
+    std::sort(by_offset.begin(), by_offset.end(), [](auto* a, auto* b) { return a->offset < b->offset; });
+    for (size_t s = 1; s < by_offset.size(); ++s)
+        if (by_offset[s - 1]->offset + by_offset[s - 1]->size > by_offset[s]->offset)
+            throw std::runtime_error(name + ": sections '" + by_offset[s - 1]->name() + "' and '" + by_offset[s]->name() +
+                                     "' overlap");
+    for (const HlodSection& s : sections_) {
+        const bool known = is_tag(s, kModelTag) || is_tag(s, kNodeTag) || is_tag(s, kPayloadTag) || is_tag(s, kGeoreferenceTag);
+        if (!known && (s.flags & kRequiredSection))
+            throw std::runtime_error(name + ": needs section '" + s.name() +
+                                     "', which this Strata does not know; it was written by a newer version");
+    }
+}
+
+// A small section, read whole and checked against its CRC; `max_size` bounds what is allocated.
+std::vector<uint8_t> HlodFile::read_section(const HlodSection& section, uint64_t max_size) const {
+    const std::string name = path_.string();
+    if (section.size > max_size)
+        throw std::runtime_error(name + ": " + quoted(section) + " is " + std::to_string(section.size) +
+                                 " bytes, more than the " + std::to_string(max_size) + " it can need");
+    std::vector<uint8_t> bytes(section.size);
+    read_at(section.offset, bytes.data(), bytes.size(), quoted(section));
+    if (crc32c(bytes.data(), bytes.size()) != section.checksum)
+        throw std::runtime_error(name + ": " + quoted(section) + " checksum mismatch (the file is corrupt)");
+    return bytes;
+}
+
+void HlodFile::check_section(const HlodSection& section) const {
+    std::vector<uint8_t> chunk(std::min<uint64_t>(section.size, kChunkBytes));
+    uint32_t crc = 0;
+    for (uint64_t done = 0; done < section.size;) {
+        const size_t size = size_t(std::min<uint64_t>(section.size - done, chunk.size()));
+        read_at(section.offset + done, chunk.data(), size, quoted(section));
+        crc = crc32c_combine(crc, crc32c(chunk.data(), size), size);
+        done += size;
+    }
+    if (crc != section.checksum)
+        throw std::runtime_error(path_.string() + ": " + quoted(section) + " checksum mismatch (the file is corrupt)");
+}
+
+void HlodFile::read_model_section(const HlodSection& section) {
+    const std::string name = path_.string();
+    const std::vector<uint8_t> bytes = read_section(section, kModelFixedBytes + 2 * (4 + kMaxNameBytes));
+    ByteReader r(bytes, name + ": " + quoted(section));
     HlodHeader& h = header_;
-    h.version = r.get<uint32_t>();
-    if (h.version != kHlodVersion)
-        throw std::runtime_error(name + ": .hlod version " + std::to_string(h.version) + ", this build reads " +
-                                 std::to_string(kHlodVersion));
+    h.payload_codec = r.get<uint32_t>();
+    if (h.payload_codec != kCubePayloadCodec)
+        throw std::runtime_error(name + ": payload codec " + std::to_string(h.payload_codec) +
+                                 ", which this Strata does not know; it was written by a newer version");
     h.flags = r.get<uint32_t>();
     for (double& o : h.origin) o = r.get<double>();
     h.root_size = r.get<double>();
@@ -419,48 +768,53 @@ HlodFile::HlodFile(const std::filesystem::path& path) : path_(path) {
     h.input_vertices = r.get<uint64_t>();
     h.input_triangles = r.get<uint64_t>();
     h.node_count = r.get<uint64_t>();
-    h.node_table_offset = r.get<uint64_t>();
-    size_t checked = r.position();
-    if (r.get<uint32_t>() != crc32c(head.data(), checked))
-        throw std::runtime_error(name + ": header checksum mismatch (the file is corrupt)");
+    h.source = r.get_string(kMaxNameBytes);
+    h.texture = r.get_string(kMaxNameBytes);
+    if (!r.at_end()) throw std::runtime_error(name + ": " + quoted(section) + " is longer than its fields");
     bool finite = std::isfinite(h.root_size) && std::isfinite(h.error_q) && std::isfinite(h.ratio) &&
                   std::isfinite(h.error_limit) && h.error_q >= 0;
     for (double o : h.origin) finite &= std::isfinite(o);
     if (!finite || h.max_level > 15 || !(h.root_size > 0) || !(h.sigma0 > 0 && h.sigma0 < 0.5f))
-        throw std::runtime_error(name + ": header values out of range");
+        throw std::runtime_error(name + ": model values out of range (" + quoted(section) + ")");
+}
 
-    uint64_t table_bytes = file_size_ - std::min(file_size_, h.node_table_offset);
-    if (h.node_table_offset < kHeaderBytes || h.node_table_offset > file_size_ ||
-        h.node_count > table_bytes / kNodeBytes)
-        throw std::runtime_error(name + ": node table out of range (the file is truncated or corrupt)");
-    std::vector<uint8_t> table(table_bytes);
-    std::fseek(file_.get(), long(h.node_table_offset), SEEK_SET);
-    if (std::fread(table.data(), 1, table.size(), file_.get()) != table.size())
-        throw std::runtime_error(name + ": cannot read the node table");
-    ByteReader t(table, name + ": node table");
-    h.source = t.get_string();
-    h.texture = t.get_string();
-    nodes_.reserve(h.node_count);
-    for (uint64_t i = 0; i < h.node_count; ++i) nodes_.push_back(read_node(t));
-    size_t table_checked = t.position();
-    if (t.get<uint32_t>() != crc32c(table.data(), table_checked))
-        throw std::runtime_error(name + ": node table checksum mismatch (the file is corrupt)");
-    for (const HlodNode& n : nodes_) {
+void HlodFile::read_node_section(const HlodSection& section, const HlodSection& payloads) {
+    const std::string name = path_.string();
+    const uint64_t count = header_.node_count;
+    // The size is checked against the count before anything is allocated for the count.
+    if (count > section.size / kNodeBytes || section.size != kNodeBytes * count)
+        throw std::runtime_error(name + ": " + quoted(section) + " holds " + std::to_string(section.size) +
+                                 " bytes, not 48 for each of the model's " + std::to_string(count) + " cubes");
+    const std::vector<uint8_t> bytes = read_section(section, section.size);
+    ByteReader r(bytes, name + ": " + quoted(section));
+    nodes_.reserve(count);
+    const uint64_t payloads_end = payloads.offset + payloads.size;
+    for (uint64_t i = 0; i < count; ++i) {
+        const HlodNode n = read_node(r);
         // The level first: shifting by a level past 63 would be undefined.
-        if (n.level > h.max_level || n.i >= (1u << n.level) || n.j >= (1u << n.level) || n.k >= (1u << n.level))
+        if (n.level > header_.max_level || n.i >= (1u << n.level) || n.j >= (1u << n.level) || n.k >= (1u << n.level))
             throw std::runtime_error(name + ": " + describe_cube(n) + " outside the octree");
-        if (n.offset < kHeaderBytes || n.offset > h.node_table_offset || n.size > h.node_table_offset - n.offset)
-            throw std::runtime_error(name + ": " + describe_cube(n) + " payload out of range");
+        if (n.offset < payloads.offset || n.offset > payloads_end || n.size > payloads_end - n.offset)
+            throw std::runtime_error(name + ": " + describe_cube(n) + " payload out of range (outside section 'PAYL')");
+        nodes_.push_back(n);
     }
 }
 
-HlodFile::~HlodFile() = default;
+void HlodFile::read_georeference_section(const HlodSection& section) {
+    const std::string name = path_.string();
+    const std::vector<uint8_t> bytes = read_section(section, kGeoreferenceFixedBytes + 4 + kMaxCrsBytes);
+    ByteReader r(bytes, name + ": " + quoted(section));
+    for (double& o : header_.geo_origin) {
+        o = r.get<double>();
+        if (!std::isfinite(o)) throw std::runtime_error(name + ": " + quoted(section) + ": origin not finite");
+    }
+    header_.crs = r.get_string(kMaxCrsBytes);
+    if (!r.at_end()) throw std::runtime_error(name + ": " + quoted(section) + " is longer than its fields");
+}
 
 std::vector<uint8_t> HlodFile::read_payload(const HlodNode& node) const {
     std::vector<uint8_t> bytes(node.size);
-    if (std::fseek(file_.get(), long(node.offset), SEEK_SET) != 0 ||
-        std::fread(bytes.data(), 1, bytes.size(), file_.get()) != bytes.size())
-        throw std::runtime_error(path_.string() + ": cannot read " + describe_cube(node));
+    read_at(node.offset, bytes.data(), bytes.size(), describe_cube(node));
     if (crc32c(bytes.data(), bytes.size()) != node.checksum)
         throw std::runtime_error(path_.string() + ": " + describe_cube(node) +
                                  " checksum mismatch (the file is corrupt)");

@@ -1,13 +1,13 @@
-// The .hlod file, version 1 (preprocess/FORMAT.md describes it byte by byte): a header, compressed
-// per-cube payloads, and a node table at the end. Everything here is plain data plus the code that
-// turns it into bytes and back; the builder, `strata info` and `strata verify` all go through it.
+// The .hlod file, version 2 (preprocess/FORMAT.md describes it byte by byte): a small header, a table
+// of tagged sections (the model's fields, the node table, the cube payloads coarse levels first, an
+// optional georeference), each with its own CRC. Everything here is plain data plus the code that turns
+// it into bytes and back; the builder, `strata info` and `strata verify` all go through it.
 #pragma once
 
 #include <array>
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
-#include <memory>
 #include <span>
 #include <string>
 #include <vector>
@@ -15,7 +15,10 @@
 namespace strata {
 
 inline constexpr char kHlodMagic[8] = {'S', 'T', 'R', 'A', 'T', 'A', 'H', 'L'};
-inline constexpr uint32_t kHlodVersion = 1;
+inline constexpr uint32_t kHlodVersion = 2;
+// MODL's payload codec id: 1 is the five-stream cube payload, parents as indices (FORMAT.md §5). A later payload layout
+// gets a new id, which older readers refuse by name instead of misreading.
+inline constexpr uint32_t kCubePayloadCodec = 1;
 
 // Vertex positions live on one lattice per level anchored at the model origin (DESIGN.md §2):
 // q = round((x − O)/h_l) with h_l = 2^-15·s_l, stored as the 16-bit q − 2^15·cell + 2^14.
@@ -29,6 +32,7 @@ enum HlodFlags : uint32_t {
 
 struct HlodHeader {
     uint32_t version = kHlodVersion;
+    uint32_t payload_codec = kCubePayloadCodec;
     uint32_t flags = 0;
     double origin[3] = {0, 0, 0};  // O: the input's bounding-box minimum
     double root_size = 0;          // L_c: its longest side; s_l = 2^-l·L_c
@@ -41,9 +45,12 @@ struct HlodHeader {
     uint64_t input_vertices = 0;
     uint64_t input_triangles = 0;
     uint64_t node_count = 0;
-    uint64_t node_table_offset = 0;
     std::string source;            // the input file's name (no directories)
     std::string texture;           // texture image the source named, or empty
+    // Georeference (section GEOR, written only when crs is not empty): model coordinates x are
+    // geo_origin + x in the coordinate reference system crs ("EPSG:32633", or WKT).
+    double geo_origin[3] = {0, 0, 0};
+    std::string crs;
 
     bool has_colors() const { return flags & kHasColors; }
     bool has_uvs() const { return flags & kHasUvs; }
@@ -61,6 +68,16 @@ struct HlodNode {
     uint64_t offset = 0;       // payload position in the file
     uint64_t size = 0;         // payload bytes
     uint32_t checksum = 0;     // CRC-32C of the payload bytes
+};
+
+// One entry of the section table (FORMAT.md §3).
+struct HlodSection {
+    std::array<char, 4> tag{};
+    uint32_t flags = 0;  // bit 0: required (a reader that does not know the tag refuses the file)
+    uint64_t offset = 0, size = 0;
+    uint32_t checksum = 0;  // CRC-32C of the section's bytes
+
+    std::string name() const { return std::string(tag.data(), tag.size()); }
 };
 
 // Vertices in struct-of-arrays form: a cube's own vertices, or its table of parents.
@@ -98,6 +115,9 @@ struct CubeData {
 void resolve_parents(CubeData& cube, const VertexArrays& parent_vertices, const std::string& what);
 
 uint32_t crc32c(const void* data, size_t size);
+// CRC-32C of A followed by B, from CRC-32C(A), CRC-32C(B) and B's length: the writer checksums the
+// payload section from the payloads' own checksums, without reading the bytes it copies.
+uint32_t crc32c_combine(uint32_t first, uint32_t second, uint64_t second_size);
 
 std::vector<uint8_t> encode_cube(const CubeData& cube, uint32_t flags);
 // Throws std::runtime_error("...") describing what is wrong with the bytes.
@@ -109,8 +129,26 @@ inline constexpr int kNormalBits = 12;
 std::array<int16_t, 2> encode_normal(float x, float y, float z);
 std::array<float, 3> decode_normal(int16_t u, int16_t v);
 
-// Writes to "<path>.tmp-<pid>" and renames over `path` in finish(); a writer destroyed before finish()
-// removes its temporary file, so a failed or cancelled build leaves nothing behind.
+// A file descriptor that closes itself, so that a constructor throwing after open() leaks nothing.
+class FileHandle {
+public:
+    FileHandle() = default;
+    explicit FileHandle(int fd) : fd_(fd) {}
+    ~FileHandle();
+    FileHandle(const FileHandle&) = delete;
+    FileHandle& operator=(const FileHandle&) = delete;
+    int get() const { return fd_; }
+    int release();  // closes and reports close()'s result (0 or -1 with errno), so writes can be checked
+
+private:
+    int fd_ = -1;
+};
+
+// The builder adds payloads finest level first; the file stores them coarsest first. So add_cube
+// spools payloads to "<path>.tmp-<pid>.payloads", and finish() writes "<path>.tmp-<pid>" (header,
+// sections, then the payloads copied level by level from the spool), fsyncs it and renames it over
+// `path`. A writer destroyed before finish() removes both temporaries, so a failed or cancelled build
+// leaves nothing behind. Memory: the node entries only.
 class HlodWriter {
 public:
     explicit HlodWriter(std::filesystem::path path);
@@ -118,47 +156,58 @@ public:
     HlodWriter(const HlodWriter&) = delete;
     HlodWriter& operator=(const HlodWriter&) = delete;
 
-    // Appends a payload; fills node.offset, node.size and node.checksum.
+    // Spools a payload, in any order; fills node.size and node.checksum.
     void add_cube(HlodNode node, std::span<const uint8_t> payload);
+    // Writes the file; header.node_count is set from the cubes added. Throws std::runtime_error naming
+    // the path when a write fails.
     void finish(HlodHeader header);
+    // After finish(): the node table as written, in file order, with the payloads' final offsets.
     const std::vector<HlodNode>& nodes() const { return nodes_; }
 
 private:
-    void write(const void* data, size_t size);
-    std::filesystem::path path_, temp_path_;
-    std::FILE* file_ = nullptr;
-    uint64_t offset_ = 0;
-    std::vector<HlodNode> nodes_;
+    void remove_temporaries();
+    std::filesystem::path path_, temp_path_, spool_path_;
+    std::FILE* spool_ = nullptr;
+    uint64_t spooled_ = 0;
+    std::vector<HlodNode> nodes_;  // until finish(), offsets are spool offsets
 };
 
-// An opened .hlod: header and node table read and checked; payloads read on demand.
+// An opened .hlod: header, section table, model fields and node table read and checked (kilobytes,
+// whatever the model's size: no payload byte is read); payloads are read on demand.
 class HlodFile {
 public:
-    // Throws std::runtime_error naming the file and the problem (not a .hlod, wrong version, truncated,
-    // node table out of range, ...).
+    // Throws std::runtime_error naming the file and the problem (not a .hlod, a version 1 model,
+    // truncated, a section out of range or corrupt, a section or payload codec this Strata does not know…).
     explicit HlodFile(const std::filesystem::path& path);
-    ~HlodFile();
-    HlodFile(const HlodFile&) = delete;
-    HlodFile& operator=(const HlodFile&) = delete;
 
     const HlodHeader& header() const { return header_; }
     const std::vector<HlodNode>& nodes() const { return nodes_; }
+    const std::vector<HlodSection>& sections() const { return sections_; }
     uint64_t file_size() const { return file_size_; }
     const std::filesystem::path& path() const { return path_; }
 
-    // Reads node's payload and checks its checksum; throws naming the cube on mismatch.
+    // Reads node's payload and checks its checksum; throws naming the cube on mismatch. Safe to call
+    // from several threads at once (positioned reads).
     std::vector<uint8_t> read_payload(const HlodNode& node) const;
     CubeData read_cube(const HlodNode& node) const;
+    // Reads a whole section in chunks of a few MB and checks its CRC (for PAYL, which opening does not read).
+    void check_section(const HlodSection& section) const;
+    // The section with this tag, or null.
+    const HlodSection* find_section(const char (&tag)[5]) const;
 
 private:
-    struct Closer {
-        void operator()(std::FILE* file) const { std::fclose(file); }
-    };
+    void read_section_table(std::span<const uint8_t> fixed_header);
+    std::vector<uint8_t> read_section(const HlodSection& section, uint64_t max_size) const;
+    void read_model_section(const HlodSection& section);
+    void read_node_section(const HlodSection& section, const HlodSection& payloads);
+    void read_georeference_section(const HlodSection& section);
+    void read_at(uint64_t offset, void* data, size_t size, const std::string& what) const;
+
     std::filesystem::path path_;
-    // Owned, so a constructor that throws after opening still closes the file.
-    std::unique_ptr<std::FILE, Closer> file_;
+    FileHandle file_;
     uint64_t file_size_ = 0;
     HlodHeader header_;
+    std::vector<HlodSection> sections_;
     std::vector<HlodNode> nodes_;
 };
 

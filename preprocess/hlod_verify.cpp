@@ -3,21 +3,12 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
-#include <map>
 #include <sstream>
+#include <tuple>
 #include <unordered_map>
 
 namespace strata {
 namespace {
-
-using CubeKey = std::array<uint32_t, 3>;
-
-struct LevelData {
-    uint32_t level = 0;
-    std::vector<const HlodNode*> nodes;
-    std::vector<CubeData> cubes;
-    std::map<CubeKey, size_t> index;
-};
 
 std::string fmt(double x) {
     std::ostringstream s;
@@ -25,6 +16,14 @@ std::string fmt(double x) {
     s << x;
     return s.str();
 }
+
+uint32_t octant_of(const HlodNode& n) { return (n.i & 1) | (n.j & 1) << 1 | (n.k & 1) << 2; }
+
+// (level, i, j, k) packed in 64 bits: 4 bits of level, 15 bits per index (levels go to 15).
+uint64_t cube_key(uint32_t level, uint32_t i, uint32_t j, uint32_t k) {
+    return uint64_t(level) << 60 | uint64_t(k) << 30 | uint64_t(j) << 15 | i;
+}
+uint64_t parent_key(const HlodNode& n) { return cube_key(n.level - 1, n.i / 2, n.j / 2, n.k / 2); }
 
 // A vertex as its bytes: position ints, normal, colour, UV. Parent copies are compared this way.
 std::string vertex_bytes(const VertexArrays& a, uint32_t v) {
@@ -49,6 +48,43 @@ bool same_position(const CubeData& c, uint32_t a, uint32_t b) {
     return std::memcmp(&c.vertices.positions[3 * size_t(a)], &c.vertices.positions[3 * size_t(b)], 6) == 0;
 }
 
+using LatticePoint = std::array<int32_t, 3>;
+
+// splitmix64's finalizer: a bijection of 64-bit words in which every input bit flips every output bit
+// with probability about one half.
+uint64_t mix(uint64_t x) {
+    x ^= x >> 30, x *= 0xbf58476d1ce4e5b9u;
+    x ^= x >> 27, x *= 0x94d049bb133111ebu;
+    return x ^ (x >> 31);
+}
+
+uint64_t edge_hash(const LatticePoint& from, const LatticePoint& to) {
+    uint64_t h = 0x9e3779b97f4a7c15u;
+    for (int32_t c : from) h = mix(h ^ uint32_t(c));
+    for (int32_t c : to) h = mix(h ^ uint32_t(c));
+    return h;
+}
+
+// Whether one level is closed, in memory that does not grow with the level: the sum (mod 2^64) of a
+// 64-bit hash of every directed edge, minus that of every reversed edge, is zero exactly when each
+// directed edge is matched by as many reverse edges, up to a collision of probability about 2^-64.
+// Fins and doubled faces are found within each cube (an exact check needs every edge at once).
+struct Closure {
+    uint64_t edge_balance = 0;
+    std::string defect;  // a local defect ("has an edge with two faces the same way"), or empty
+
+    bool closed() const { return edge_balance == 0 && defect.empty(); }
+    std::string what() const { return defect.empty() ? "has a boundary edge" : defect; }
+};
+
+// The cube whose children are being checked, decoded once for all its children.
+struct ParentCube {
+    const HlodNode* node = nullptr;
+    CubeData data;
+    // A vertex's bytes → the first vertex with them: triangles are compared by vertex, not by index.
+    std::unordered_map<std::string, uint32_t> lookup;
+};
+
 class Verifier {
 public:
     Verifier(const HlodFile& file, const Progress& progress)
@@ -63,73 +99,96 @@ private:
         double extent = std::max({std::fabs(h_.origin[0]), std::fabs(h_.origin[1]), std::fabs(h_.origin[2])}) + h_.root_size;
         return 4 * extent * 0x1p-23;
     }
-    LevelData load_level(uint32_t level);
-    void resolve_level(LevelData& level, const LevelData* parents);
-    void check_cube_bounds(const LevelData& level, size_t c);
-    void check_root(const CubeData& cube, const HlodNode& node);
-    void check_against_parent(const LevelData& level, size_t c, const LevelData& parents);
-    bool check_watertight(const LevelData& level, bool required);
-    void check_parent_groups(const LevelData& children, const LevelData& parents);
+    void check_node_table();
+    void check_payload_layout();
+    std::vector<const HlodNode*> walk_order(uint32_t level) const;
+    const ParentCube& parent_of(const HlodNode& n);
+    void check_cube_bounds(const HlodNode& n, const CubeData& cube);
+    void check_parent_index(const HlodNode& n, const CubeData& cube, uint32_t v, uint32_t parent_vertices) const;
+    void check_root(const HlodNode& n, const CubeData& cube);
+    void check_child_groups(const HlodNode& n, const CubeData& cube);
+    void check_against_parent(const HlodNode& n, const CubeData& cube, const ParentCube& parent);
+    void add_to_closure(const HlodNode& n, const CubeData& cube, Closure& closure);
 
     const HlodFile& file_;
     const HlodHeader& h_;
     std::string name_;
     const Progress& progress_;
     VerifyReport report_;
-    // Per parent cube: its vertices' bytes → first index with those bytes.
-    std::vector<std::unordered_map<std::string, uint32_t>> parent_lookup_;
+    std::vector<std::vector<const HlodNode*>> levels_;  // the node table by level
+    std::unordered_map<uint64_t, const HlodNode*> cubes_;  // by cube_key
+    ParentCube parent_;
 };
 
-LevelData Verifier::load_level(uint32_t level) {
-    LevelData data;
-    data.level = level;
-    for (const HlodNode& n : file_.nodes())
-        if (n.level == level) {
-            if (!data.index.emplace(CubeKey{n.i, n.j, n.k}, data.nodes.size()).second)
-                fail(describe_cube(n) + " appears twice in the node table");
-            data.nodes.push_back(&n);
-        }
-    if (data.nodes.empty()) fail("level " + std::to_string(level) + " has no cubes");
-    for (const HlodNode* n : data.nodes) {
-        progress_.check();
-        data.cubes.push_back(file_.read_cube(*n));
-        report_.cubes++, report_.vertices += n->vertex_count, report_.triangles += n->triangle_count;
-        if (!std::isfinite(n->error) || n->error < 0) fail(describe_cube(*n) + " has error " + fmt(n->error));
-        double relative = n->error / h_.cube_size(level);
+// Everything the node table alone shows: errors, no cube twice, every level present, the root, a
+// parent for every cube, and no parent more exact than its children.
+void Verifier::check_node_table() {
+    levels_.assign(h_.max_level + 1, {});
+    for (const HlodNode& n : file_.nodes()) {
+        if (!std::isfinite(n.error) || n.error < 0) fail(describe_cube(n) + " has error " + fmt(n.error));
+        const double relative = n.error / h_.cube_size(n.level);
         if (relative > h_.error_q * (1 + 1e-5) + 1e-7)
-            fail(describe_cube(*n) + " has error " + fmt(relative) + "·s_l, above the header's ε_q " + fmt(h_.error_q));
-        if (level == h_.max_level && n->error != 0) fail(describe_cube(*n) + " at full resolution has nonzero error");
+            fail(describe_cube(n) + " has error " + fmt(relative) + "·s_l, above the header's ε_q " + fmt(h_.error_q));
+        if (n.level == h_.max_level && n.error != 0) fail(describe_cube(n) + " at full resolution has nonzero error");
+        if (!cubes_.emplace(cube_key(n.level, n.i, n.j, n.k), &n).second) fail(describe_cube(n) + " appears twice in the node table");
+        levels_[n.level].push_back(&n);
     }
-    return data;
+    for (uint32_t l = 0; l <= h_.max_level; ++l)
+        if (levels_[l].empty()) fail("level " + std::to_string(l) + " has no cubes");
+    if (levels_[0].size() != 1) fail("level 0 must be exactly the root cube");
+    for (const HlodNode& n : file_.nodes()) {
+        if (n.level == 0) continue;
+        auto parent = cubes_.find(parent_key(n));
+        if (parent == cubes_.end()) fail(describe_cube(n) + " has no parent cube");
+        if (parent->second->error < n.error)
+            fail(describe_cube(*parent->second) + " has error " + fmt(parent->second->error) + ", less than its child " +
+                 describe_cube(n) + "'s " + fmt(n.error));
+    }
 }
 
-// Each vertex's parent, copied from the parent cube (from the cube itself at level 0).
-void Verifier::resolve_level(LevelData& level, const LevelData* parents) {
-    for (size_t c = 0; c < level.cubes.size(); ++c) {
-        const HlodNode& n = *level.nodes[c];
-        const CubeData* parent = &level.cubes[c];
-        if (parents) {
-            auto it = parents->index.find(CubeKey{n.i / 2, n.j / 2, n.k / 2});
-            if (it == parents->index.end()) fail(describe_cube(n) + " has no parent cube");
-            parent = &parents->cubes[it->second];
-        }
-        try {
-            resolve_parents(level.cubes[c], parent->vertices, describe_cube(n));
-        } catch (const std::runtime_error& e) {
-            fail(e.what());
-        }
+// FORMAT.md §4: levels in order, each from a 4 KiB boundary, no payload overlapping another.
+void Verifier::check_payload_layout() {
+    std::vector<const HlodNode*> order;
+    for (const HlodNode& n : file_.nodes()) order.push_back(&n);
+    std::sort(order.begin(), order.end(), [](auto* a, auto* b) { return a->offset < b->offset; });
+    for (size_t p = 0; p < order.size(); ++p) {
+        const HlodNode& n = *order[p];
+        const HlodNode* previous = p ? order[p - 1] : nullptr;
+        if (previous && previous->offset + previous->size > n.offset)
+            fail(describe_cube(n) + "'s payload overlaps that of " + describe_cube(*previous));
+        if (previous && previous->level > n.level)
+            fail(describe_cube(n) + "'s payload lies after a finer level's (coarse levels come first)");
+        if ((!previous || previous->level != n.level) && n.offset % 4096 != 0)
+            fail("level " + std::to_string(n.level) + "'s payloads do not start on a 4 KiB boundary");
     }
+}
+
+// A level's cubes sorted by (parent, octant): siblings come together, so one decoded parent serves them
+// all, and the parents come in key order, as do their payloads in the file.
+std::vector<const HlodNode*> Verifier::walk_order(uint32_t level) const {
+    std::vector<const HlodNode*> order = levels_[level];
+    auto key = [](const HlodNode* n) { return std::tuple(n->k / 2, n->j / 2, n->i / 2, octant_of(*n)); };
+    std::sort(order.begin(), order.end(), [&](auto* a, auto* b) { return key(a) < key(b); });
+    return order;
+}
+
+const ParentCube& Verifier::parent_of(const HlodNode& n) {
+    if (parent_.node && parent_key(n) == cube_key(parent_.node->level, parent_.node->i, parent_.node->j, parent_.node->k))
+        return parent_;
+    parent_.node = cubes_.at(parent_key(n));  // the node table check found every parent
+    parent_.data = file_.read_cube(*parent_.node);
+    parent_.lookup.clear();
+    for (uint32_t v = parent_.data.vertex_count(); v-- > 0;) parent_.lookup[vertex_bytes(parent_.data.vertices, v)] = v;
+    return parent_;
 }
 
 // No vertex farther than σ0·s_l from its cell (give or take the lattice step).
-void Verifier::check_cube_bounds(const LevelData& level, size_t c) {
-    const HlodNode& n = *level.nodes[c];
-    const CubeData& cube = level.cubes[c];
-    const double s = h_.cube_size(level.level), tolerance = h_.sigma0 * s + h_.lattice_step(level.level) + float_slack();
+void Verifier::check_cube_bounds(const HlodNode& n, const CubeData& cube) {
+    const double s = h_.cube_size(n.level), tolerance = h_.sigma0 * s + h_.lattice_step(n.level) + float_slack();
     const uint32_t cell[3] = {n.i, n.j, n.k};
     for (uint32_t v = 0; v < cube.vertex_count(); ++v)
         for (int a = 0; a < 3; ++a) {
-            double x = decode_coordinate(h_, a, level.level, cell[a], cube.vertices.positions[3 * v + a]);
+            double x = decode_coordinate(h_, a, n.level, cell[a], cube.vertices.positions[3 * v + a]);
             double lo = h_.origin[a] + cell[a] * s, hi = lo + s;
             double d = std::max({0.0, lo - x, x - hi});
             if (d > tolerance)
@@ -138,41 +197,48 @@ void Verifier::check_cube_bounds(const LevelData& level, size_t c) {
         }
 }
 
-// At level 0 every vertex is its own parent.
-void Verifier::check_root(const CubeData& cube, const HlodNode& n) {
-    for (uint32_t v = 0; v < cube.vertex_count(); ++v)
-        if (vertex_bytes(cube.vertices, v) != vertex_bytes(cube.parents, cube.parent_of[v]))
-            fail(describe_cube(n) + ": vertex " + std::to_string(v) + " is not its own parent at level 0");
+// P(v) names a vertex of the parent cube (of the cube itself at level 0).
+void Verifier::check_parent_index(const HlodNode& n, const CubeData& cube, uint32_t v, uint32_t parent_vertices) const {
+    if (cube.parent_vertex[v] >= parent_vertices)
+        fail(describe_cube(n) + ": vertex " + std::to_string(v) + "'s parent " + std::to_string(cube.parent_vertex[v]) +
+             " lies past the parent cube's " + std::to_string(parent_vertices) + " vertices");
 }
 
-void Verifier::check_against_parent(const LevelData& level, size_t c, const LevelData& parents) {
-    const HlodNode& n = *level.nodes[c];
-    const CubeData& cube = level.cubes[c];
-    const uint32_t l = level.level;
-    auto it = parents.index.find(CubeKey{n.i / 2, n.j / 2, n.k / 2});
-    if (it == parents.index.end()) fail(describe_cube(n) + " has no parent cube");
-    const size_t p = it->second;
-    const HlodNode& pn = *parents.nodes[p];
-    const CubeData& parent = parents.cubes[p];
-    auto& lookup = parent_lookup_[p];
-    if (lookup.empty())
-        for (uint32_t v = parent.vertex_count(); v-- > 0;) lookup[vertex_bytes(parent.vertices, v)] = v;
+// At level 0 every vertex is its own parent.
+void Verifier::check_root(const HlodNode& n, const CubeData& cube) {
+    for (uint32_t v = 0; v < cube.vertex_count(); ++v) {
+        check_parent_index(n, cube, v, cube.vertex_count());
+        if (vertex_bytes(cube.vertices, v) != vertex_bytes(cube.vertices, cube.parent_vertex[v]))
+            fail(describe_cube(n) + ": vertex " + std::to_string(v) + " is not its own parent at level 0");
+    }
+}
 
+// Every triangle of a cube came from a child that exists (FORMAT.md §8).
+void Verifier::check_child_groups(const HlodNode& n, const CubeData& cube) {
+    if (n.level == h_.max_level) return;
+    for (uint32_t o = 0; o < 8; ++o)
+        if (cube.child_triangle_counts[o] &&
+            !cubes_.count(cube_key(n.level + 1, 2 * n.i + (o & 1), 2 * n.j + (o >> 1 & 1), 2 * n.k + (o >> 2 & 1))))
+            fail(describe_cube(n) + " has triangles from child octant " + std::to_string(o) + ", which has no cube");
+}
+
+void Verifier::check_against_parent(const HlodNode& n, const CubeData& cube, const ParentCube& parent) {
+    const uint32_t l = n.level;
+    const HlodNode& pn = *parent.node;
     // P(v): a vertex of the parent cube, within σ0·s_{l+1} of v.
     const double bound = h_.sigma0 * h_.cube_size(l + 1) + h_.lattice_step(l) + h_.lattice_step(l - 1) + 2 * float_slack();
     const uint32_t cell[3] = {n.i, n.j, n.k}, parent_cell[3] = {pn.i, pn.j, pn.k};
-    std::vector<uint32_t> parent_of(cube.vertex_count());
+    const CubeData& p = parent.data;
+    auto canonical_parent_index = [&](uint32_t v) { return parent.lookup.at(vertex_bytes(p.vertices, v)); };
+    std::vector<uint32_t> parent_vertex(cube.vertex_count());
     for (uint32_t v = 0; v < cube.vertex_count(); ++v) {
-        const uint32_t pv = cube.parent_of[v];
-        auto found = lookup.find(vertex_bytes(cube.parents, pv));
-        if (found == lookup.end())
-            fail(describe_cube(n) + ": the parent of vertex " + std::to_string(v) + " is not a vertex of " +
-                 describe_cube(pn));
-        parent_of[v] = found->second;
+        check_parent_index(n, cube, v, p.vertex_count());
+        const uint32_t pv = cube.parent_vertex[v];
+        parent_vertex[v] = canonical_parent_index(pv);
         double d = 0;
         for (int a = 0; a < 3; ++a) {
             float x = decode_coordinate(h_, a, l, cell[a], cube.vertices.positions[3 * v + a]);
-            float px = decode_coordinate(h_, a, l - 1, parent_cell[a], cube.parents.positions[3 * size_t(pv) + a]);
+            float px = decode_coordinate(h_, a, l - 1, parent_cell[a], p.vertices.positions[3 * size_t(pv) + a]);
             d = std::max(d, std::fabs(double(x) - double(px)));
         }
         if (d > bound)
@@ -180,26 +246,23 @@ void Verifier::check_against_parent(const LevelData& level, size_t c, const Leve
                  " from its parent, more than σ0·s_{l+1} = " + fmt(h_.sigma0 * h_.cube_size(l + 1)));
     }
 
-    // P(T(C)) ≃ the parent's triangles from this child, up to degenerates and cyclic rotation.
-    auto canonical_parent_index = [&](uint32_t v) { return lookup.at(vertex_bytes(parent.vertices, v)); };
+    // P(T(C)) ≃ the parent's triangles from this child, up to degenerates and cyclic rotation. Both
+    // sides are one cube's worth, so sorting them is bounded by the cube.
+    auto degenerate = [&](const Triangle& t) {
+        return same_position(p, t[0], t[1]) || same_position(p, t[1], t[2]) || same_position(p, t[0], t[2]);
+    };
     std::vector<Triangle> mapped, expected;
     for (size_t t = 0; t < cube.indices.size(); t += 3) {
-        Triangle tri{parent_of[cube.indices[t]], parent_of[cube.indices[t + 1]], parent_of[cube.indices[t + 2]]};
-        if (same_position(parent, tri[0], tri[1]) || same_position(parent, tri[1], tri[2]) ||
-            same_position(parent, tri[0], tri[2]))
-            continue;
-        mapped.push_back(canonical(tri));
+        Triangle tri{parent_vertex[cube.indices[t]], parent_vertex[cube.indices[t + 1]], parent_vertex[cube.indices[t + 2]]};
+        if (!degenerate(tri)) mapped.push_back(canonical(tri));
     }
-    const uint32_t octant = (n.i & 1) | (n.j & 1) << 1 | (n.k & 1) << 2;
+    const uint32_t octant = octant_of(n);
     size_t first = 0;
-    for (uint32_t o = 0; o < octant; ++o) first += parent.child_triangle_counts[o];
-    for (size_t t = first; t < first + parent.child_triangle_counts[octant]; ++t) {
-        Triangle tri{canonical_parent_index(parent.indices[3 * t]), canonical_parent_index(parent.indices[3 * t + 1]),
-                     canonical_parent_index(parent.indices[3 * t + 2])};
-        if (same_position(parent, tri[0], tri[1]) || same_position(parent, tri[1], tri[2]) ||
-            same_position(parent, tri[0], tri[2]))
-            continue;
-        expected.push_back(canonical(tri));
+    for (uint32_t o = 0; o < octant; ++o) first += p.child_triangle_counts[o];
+    for (size_t t = first; t < first + p.child_triangle_counts[octant]; ++t) {
+        Triangle tri{canonical_parent_index(p.indices[3 * t]), canonical_parent_index(p.indices[3 * t + 1]),
+                     canonical_parent_index(p.indices[3 * t + 2])};
+        if (!degenerate(tri)) expected.push_back(canonical(tri));
     }
     std::sort(mapped.begin(), mapped.end());
     std::sort(expected.begin(), expected.end());
@@ -208,100 +271,60 @@ void Verifier::check_against_parent(const LevelData& level, size_t c, const Leve
              std::to_string(expected.size()) + " of its part of " + describe_cube(pn));
 }
 
-// Every triangle of a parent came from a child that exists, and no parent is more exact than its children.
-void Verifier::check_parent_groups(const LevelData& children, const LevelData& parents) {
-    std::vector<uint8_t> has_child(parents.cubes.size(), 0);
-    for (size_t c = 0; c < children.cubes.size(); ++c) {
-        const HlodNode& n = *children.nodes[c];
-        size_t p = parents.index.at(CubeKey{n.i / 2, n.j / 2, n.k / 2});
-        has_child[p] |= uint8_t(1u << ((n.i & 1) | (n.j & 1) << 1 | (n.k & 1) << 2));
-        if (parents.nodes[p]->error < n.error)
-            fail(describe_cube(*parents.nodes[p]) + " has error " + fmt(parents.nodes[p]->error) + ", less than its child " +
-                 describe_cube(n) + "'s " + fmt(n.error));
+// Positions are compared on the level's global lattice, so a vertex shared by two cubes is one vertex;
+// triangles with two corners at one position are skipped.
+void Verifier::add_to_closure(const HlodNode& n, const CubeData& cube, Closure& closure) {
+    const uint32_t cell[3] = {n.i, n.j, n.k};
+    std::vector<LatticePoint> q(cube.vertex_count());
+    for (uint32_t v = 0; v < cube.vertex_count(); ++v)
+        for (int a = 0; a < 3; ++a)
+            q[v][a] = int32_t(cube.vertices.positions[3 * v + a]) + int32_t(cell[a] << kLatticeBits) - kLatticeBias;
+    std::vector<std::pair<LatticePoint, LatticePoint>> edges;
+    std::vector<std::array<LatticePoint, 3>> faces;
+    for (size_t t = 0; t < cube.indices.size(); t += 3) {
+        std::array<LatticePoint, 3> f{q[cube.indices[t]], q[cube.indices[t + 1]], q[cube.indices[t + 2]]};
+        if (f[0] == f[1] || f[1] == f[2] || f[0] == f[2]) continue;
+        for (int e = 0; e < 3; ++e) {
+            const LatticePoint &from = f[e], &to = f[(e + 1) % 3];
+            closure.edge_balance += edge_hash(from, to) - edge_hash(to, from);
+            edges.emplace_back(from, to);
+        }
+        std::sort(f.begin(), f.end());
+        faces.push_back(f);
     }
-    for (size_t p = 0; p < parents.cubes.size(); ++p)
-        for (uint32_t o = 0; o < 8; ++o)
-            if (parents.cubes[p].child_triangle_counts[o] && !(has_child[p] >> o & 1))
-                fail(describe_cube(*parents.nodes[p]) + " has triangles from child octant " + std::to_string(o) +
-                     ", which has no cube");
-}
-
-// Closed and manifold: every edge carries exactly one face each way, and no two triangles share their
-// three vertices (which would be a fin or a face folded flat onto its twin). Positions are compared
-// on the global lattice, so a vertex shared by two cubes is one vertex.
-bool Verifier::check_watertight(const LevelData& level, bool required) {
-    struct Hash {
-        size_t operator()(const std::array<int32_t, 3>& q) const {
-            return size_t(q[0]) * 73856093u ^ size_t(q[1]) * 19349663u ^ size_t(q[2]) * 83492791u;
-        }
-    };
-    std::unordered_map<std::array<int32_t, 3>, uint32_t, Hash> ids;
-    std::vector<uint64_t> edges;
-    std::vector<std::array<uint32_t, 3>> faces;
-    for (size_t c = 0; c < level.cubes.size(); ++c) {
-        const CubeData& cube = level.cubes[c];
-        const HlodNode& n = *level.nodes[c];
-        const uint32_t cell[3] = {n.i, n.j, n.k};
-        std::vector<uint32_t> id(cube.vertex_count());
-        for (uint32_t v = 0; v < cube.vertex_count(); ++v) {
-            std::array<int32_t, 3> q;
-            for (int a = 0; a < 3; ++a)
-                q[a] = int32_t(cube.vertices.positions[3 * v + a]) + int32_t(cell[a] << kLatticeBits) - kLatticeBias;
-            id[v] = ids.emplace(q, uint32_t(ids.size())).first->second;
-        }
-        for (size_t t = 0; t < cube.indices.size(); t += 3) {
-            std::array<uint32_t, 3> f{id[cube.indices[t]], id[cube.indices[t + 1]], id[cube.indices[t + 2]]};
-            if (f[0] == f[1] || f[1] == f[2] || f[0] == f[2]) continue;
-            for (int e = 0; e < 3; ++e) edges.push_back(uint64_t(f[e]) << 32 | f[(e + 1) % 3]);
-            std::sort(f.begin(), f.end());
-            faces.push_back(f);
-        }
-    }
-    auto open = [&](const std::string& what) {
-        if (required)
-            fail("level " + std::to_string(level.level) + " " + what + ", though the full-resolution level is closed");
-        return false;
-    };
+    if (!closure.defect.empty()) return;
     std::sort(edges.begin(), edges.end());
-    for (size_t i = 0; i < edges.size(); ++i) {
-        if (i + 1 < edges.size() && edges[i + 1] == edges[i]) return open("has an edge with two faces the same way");
-        uint64_t reverse = (edges[i] & 0xFFFFFFFFu) << 32 | edges[i] >> 32;
-        if (!std::binary_search(edges.begin(), edges.end(), reverse)) return open("has a boundary edge");
-    }
     std::sort(faces.begin(), faces.end());
-    if (std::adjacent_find(faces.begin(), faces.end()) != faces.end()) return open("has two faces on the same three vertices");
-    return true;
+    if (std::adjacent_find(edges.begin(), edges.end()) != edges.end()) closure.defect = "has an edge with two faces the same way";
+    else if (std::adjacent_find(faces.begin(), faces.end()) != faces.end()) closure.defect = "has two faces on the same three vertices";
 }
 
 VerifyReport Verifier::run() {
     if (h_.node_count == 0) fail("no cubes");
-    std::vector<LevelData> levels(2);
-    LevelData* parents = nullptr;
-    // Level L first, for watertightness; then 0 … L keeping only a level and its parents decoded.
-    {
-        LevelData finest = load_level(h_.max_level);
-        report_.watertight = check_watertight(finest, false);
-        report_ = VerifyReport{0, 0, 0, report_.watertight};
-    }
+    check_node_table();
+    check_payload_layout();
+    // Level by level, coarse to fine, one cube decoded at a time besides the parent its siblings share.
+    std::vector<Closure> closures(h_.max_level + 1);
     for (uint32_t l = 0; l <= h_.max_level; ++l) {
         progress_("verify", l, h_.max_level + 1, "level");
-        LevelData& current = levels[l % 2];
-        current = load_level(l);
-        resolve_level(current, parents);
-        if (l == 0) {
-            if (current.nodes.size() != 1 || current.index.count(CubeKey{0, 0, 0}) == 0)
-                fail("level 0 must be exactly the root cube");
+        for (const HlodNode* n : walk_order(l)) {
+            progress_.check();
+            const CubeData cube = file_.read_cube(*n);
+            report_.cubes++, report_.vertices += n->vertex_count, report_.triangles += n->triangle_count;
+            check_cube_bounds(*n, cube);
+            if (l == 0) check_root(*n, cube);
+            else check_against_parent(*n, cube, parent_of(*n));
+            check_child_groups(*n, cube);
+            add_to_closure(*n, cube, closures[l]);
         }
-        parent_lookup_.assign(parents ? parents->cubes.size() : 0, {});
-        for (size_t c = 0; c < current.cubes.size(); ++c) {
-            check_cube_bounds(current, c);
-            if (l == 0) check_root(current.cubes[c], *current.nodes[c]);
-            else check_against_parent(current, c, *parents);
-        }
-        if (parents) check_parent_groups(current, *parents);
-        if (report_.watertight) check_watertight(current, true);
-        parents = &current;
     }
+    // If level L is closed, the input was: every level must be closed too.
+    report_.watertight = closures[h_.max_level].closed();
+    for (uint32_t l = 0; report_.watertight && l < h_.max_level; ++l)
+        if (!closures[l].closed())
+            fail("level " + std::to_string(l) + " " + closures[l].what() + ", though the full-resolution level is closed");
+    // Payloads were checked one by one; this also covers the padding between levels.
+    file_.check_section(*file_.find_section("PAYL"));
     progress_("verify", h_.max_level + 1, h_.max_level + 1, "level");
     return report_;
 }

@@ -1,12 +1,13 @@
 // Fuzz target: the .hlod reader (preprocess/hlod_format.cpp) as `strata verify` and the viewer use it:
-// open the file (header, node table), decode every cube's payload, then check the model as
-// `strata verify` does. Properties: every failure is a std::runtime_error naming the file; nothing
-// crashes or allocates without bound.
+// open the file (header, section table, MODL, NODE, GEOR), decode every cube's payload, then check the
+// model as `strata verify` does. Properties: every failure is a std::runtime_error naming the file;
+// nothing crashes or allocates without bound.
 //
-// The input is a .hlod file. A mutated byte would almost always break a CRC-32C and stop the reader at
-// the first check, so before the file is written its checksums are recomputed wherever its structure
-// lets them be found (payloads, node table, header; FORMAT.md). The reader itself is unchanged, and the
-// same inputs replay the same way in the ordinary build.
+// The input is a .hlod file. A mutated byte would almost always break a CRC-32C (or the file size the
+// header declares) and stop the reader at the first check, so before the file is written those are
+// recomputed wherever its structure lets them be found (payload CRCs in NODE, each section's CRC, the
+// declared size, the header CRC; FORMAT.md §3–4). The reader itself is unchanged, and the same inputs
+// replay the same way in the ordinary build.
 #include <cstring>
 #include <stdexcept>
 #include <vector>
@@ -18,9 +19,9 @@
 namespace {
 
 // FORMAT.md §3–4.
-constexpr size_t kHeaderBytes = 128;
-constexpr size_t kNodeCountAt = 88, kNodeTableOffsetAt = 96, kHeaderCrcAt = 104;
-constexpr size_t kNodeBytes = 48, kNodeChecksumAt = 28, kNodeOffsetAt = 32, kNodeSizeAt = 40;
+constexpr size_t kFixedHeaderBytes = 32, kSectionCountAt = 12, kFileSizeAt = 16, kHeaderCrcAt = 28;
+constexpr size_t kEntryBytes = 32, kEntryOffsetAt = 8, kEntrySizeAt = 16, kEntryCrcAt = 24;
+constexpr size_t kNodeBytes = 48, kNodeOffsetAt = 0, kNodeSizeAt = 8, kNodeChecksumAt = 44;
 
 template <class T>
 T load(const std::vector<uint8_t>& bytes, size_t at) {
@@ -29,35 +30,40 @@ T load(const std::vector<uint8_t>& bytes, size_t at) {
     return value;
 }
 
-void store_crc(std::vector<uint8_t>& bytes, size_t at, size_t begin, size_t end) {
-    const uint32_t crc = strata::crc32c(bytes.data() + begin, end - begin);
-    std::memcpy(bytes.data() + at, &crc, 4);
+template <class T>
+void store(std::vector<uint8_t>& bytes, size_t at, T value) {
+    std::memcpy(bytes.data() + at, &value, sizeof(T));
 }
 
-// Fixes the payload checksums, then the node table's, inside the table at [table, end); stops where
-// the table does not hold what it claims.
-void repair_node_table(std::vector<uint8_t>& file, uint64_t table, uint64_t node_count) {
-    uint64_t at = table;
-    for (int name = 0; name < 2; ++name) {
-        if (file.size() - at < 4) return;
-        at += 4 + uint64_t(load<uint32_t>(file, at));
-        if (at > file.size()) return;
+bool inside(const std::vector<uint8_t>& file, uint64_t offset, uint64_t size) {
+    return offset <= file.size() && size <= file.size() - offset;
+}
+
+// Fixes the payload checksums of the node entries in [offset, offset + size).
+void repair_node_entries(std::vector<uint8_t>& file, uint64_t offset, uint64_t size) {
+    for (uint64_t at = offset; at + kNodeBytes <= offset + size; at += kNodeBytes) {
+        const uint64_t payload = load<uint64_t>(file, at + kNodeOffsetAt), bytes = load<uint64_t>(file, at + kNodeSizeAt);
+        if (inside(file, payload, bytes)) store(file, at + kNodeChecksumAt, strata::crc32c(file.data() + payload, bytes));
     }
-    if (node_count > (file.size() - at) / kNodeBytes) return;
-    for (uint64_t n = 0; n < node_count; ++n, at += kNodeBytes) {
-        const uint64_t offset = load<uint64_t>(file, at + kNodeOffsetAt);
-        const uint64_t size = load<uint64_t>(file, at + kNodeSizeAt);
-        if (offset <= file.size() && size <= file.size() - offset)
-            store_crc(file, at + kNodeChecksumAt, offset, offset + size);
-    }
-    if (file.size() - at >= 4) store_crc(file, at, table, at);
 }
 
 void repair_checksums(std::vector<uint8_t>& file) {
-    if (file.size() < kHeaderBytes) return;
-    const uint64_t table = load<uint64_t>(file, kNodeTableOffsetAt);
-    if (table >= kHeaderBytes && table <= file.size()) repair_node_table(file, table, load<uint64_t>(file, kNodeCountAt));
-    store_crc(file, kHeaderCrcAt, 0, kHeaderCrcAt);
+    if (file.size() < kFixedHeaderBytes) return;
+    const uint64_t count = load<uint32_t>(file, kSectionCountAt);
+    if (count > (file.size() - kFixedHeaderBytes) / kEntryBytes) return;
+    store<uint64_t>(file, kFileSizeAt, file.size());
+    // NODE first: the payload CRCs it holds are part of its own CRC.
+    for (int pass = 0; pass < 2; ++pass)
+        for (uint64_t e = 0; e < count; ++e) {
+            const size_t entry = kFixedHeaderBytes + kEntryBytes * e;
+            const uint64_t offset = load<uint64_t>(file, entry + kEntryOffsetAt), size = load<uint64_t>(file, entry + kEntrySizeAt);
+            if (!inside(file, offset, size)) continue;
+            if (pass == 0 && std::memcmp(&file[entry], "NODE", 4) == 0) repair_node_entries(file, offset, size);
+            if (pass == 1) store(file, entry + kEntryCrcAt, strata::crc32c(file.data() + offset, size));
+        }
+    std::vector<uint8_t> covered(file.begin(), file.begin() + kHeaderCrcAt);
+    covered.insert(covered.end(), file.begin() + kFixedHeaderBytes, file.begin() + long(kFixedHeaderBytes + kEntryBytes * count));
+    store(file, kHeaderCrcAt, strata::crc32c(covered.data(), covered.size()));
 }
 
 }  // namespace

@@ -11,6 +11,7 @@
 #include "engine/path/camera_path.h"
 #include "engine/path/osg_path.h"
 #include "preprocess/hlod_builder.h"
+#include "preprocess/hlod_format.h"
 #include "preprocess/mesh_io.h"
 #include "tests/support/test_meshes.h"
 
@@ -118,6 +119,17 @@ void mesh_seeds(const fs::path& dir) {
     write_text(dir / "stl/sphere_binary.stl", stl_binary(sphere));
 }
 
+// `from` again with a GEOR section (the builder writes none yet).
+void georeferenced_copy(const fs::path& from, const fs::path& to) {
+    strata::HlodFile file(from);
+    strata::HlodHeader header = file.header();
+    header.crs = "EPSG:32633";
+    header.geo_origin[0] = 500000, header.geo_origin[1] = 5400000, header.geo_origin[2] = 300;
+    strata::HlodWriter writer(to);
+    for (const strata::HlodNode& node : file.nodes()) writer.add_cube(node, file.read_payload(node));
+    writer.finish(header);
+}
+
 void hlod_seeds(const fs::path& dir) {
     fs::create_directories(dir / "hlod");
     strata::BuildSettings settings;
@@ -127,6 +139,7 @@ void hlod_seeds(const fs::path& dir) {
     Mesh grid = strata::test::colored_grid(6);  // colours and UVs: streams 1, 2, 5 and 6
     grid.texture = "grid.png";
     strata::build_hlod(std::move(grid), dir / "hlod/grid", settings, "grid.obj");
+    georeferenced_copy(dir / "hlod/sphere", dir / "hlod/sphere_georeferenced");
 }
 
 void path_seeds(const fs::path& dir) {

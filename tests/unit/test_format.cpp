@@ -1,6 +1,7 @@
 // The .hlod format (preprocess/FORMAT.md): CRC-32C, octahedral normals, lattice coordinates that decode
 // bit-identically from neighbouring cells, cube payloads (round trip and every kind of bad payload), and
-// whole files through HlodWriter / HlodFile (round trip, no leftovers, bad files named in the error).
+// whole files through HlodWriter / HlodFile (round trip and layout, no leftovers, opening without payload
+// reads, every kind of bad header, section table and section named in the error, version 1 refused).
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -155,6 +156,17 @@ TEST(Crc32c, MatchesTheBitwiseDefinitionAtEveryLengthAndAlignment) {
     uint32_t before = crc32c(data.data(), data.size());
     data[150] ^= 0x10;
     EXPECT_NE(crc32c(data.data(), data.size()), before);
+}
+
+TEST(Crc32c, CombineEqualsTheCrcOfTheConcatenation) {
+    std::vector<uint8_t> data(9000);
+    std::mt19937 rng(5);
+    for (uint8_t& b : data) b = uint8_t(rng());
+    std::fill(data.begin() + 5000, data.begin() + 9000, 0);  // zero runs, as the padding between levels
+    for (size_t split : {size_t(0), size_t(1), size_t(7), size_t(4096), size_t(5000), size_t(8999), size_t(9000)}) {
+        const uint32_t a = crc32c(data.data(), split), b = crc32c(data.data() + split, data.size() - split);
+        EXPECT_EQ(crc32c_combine(a, b, data.size() - split), crc32c(data.data(), data.size())) << "split at " << split;
+    }
 }
 
 // ---- normals ----------------------------------------------------------------------------------------
@@ -407,7 +419,7 @@ TEST_F(BadPayload, IndexPastTheVertices) {
 
 // ---- files ------------------------------------------------------------------------------------------
 
-// A two-level model's worth of cubes: the root and two level-1 children.
+// A two-level model's worth of cubes: the root and two level-1 children, georeferenced.
 struct SmallModel {
     HlodHeader header;
     std::vector<HlodNode> nodes;
@@ -427,17 +439,18 @@ struct SmallModel {
         header.input_triangles = 67890;
         header.source = "scan.ply";
         header.texture = "scan texture.png";
+        header.geo_origin[0] = 500000.25, header.geo_origin[1] = 5400000.5, header.geo_origin[2] = 312.75;
+        header.crs = "EPSG:32633";
         cubes = {make_cube(10, 10, 8, header.flags), make_cube(12, 4, 9, header.flags), make_cube(5, 2, 0, header.flags)};
         nodes = {node_for(cubes[0], 0, 0, 0, 0), node_for(cubes[1], 1, 1, 0, 1), node_for(cubes[2], 1, 0, 1, 0)};
         nodes[1].error = 0.01f, nodes[2].error = 0.02f;
     }
-    // Writes the model; returns the writer's node table.
+    // Writes the model, finest level first as the builder does; returns the writer's node table.
     std::vector<HlodNode> write(const std::filesystem::path& path) const {
         HlodWriter writer(path);
-        for (size_t c = 0; c < cubes.size(); ++c) writer.add_cube(nodes[c], encode_cube(cubes[c], header.flags));
-        std::vector<HlodNode> written = writer.nodes();
+        for (size_t c = cubes.size(); c-- > 0;) writer.add_cube(nodes[c], encode_cube(cubes[c], header.flags));
         writer.finish(header);
-        return written;
+        return writer.nodes();
     }
 };
 
@@ -458,26 +471,54 @@ void expect_same_nodes(const std::vector<HlodNode>& got, const std::vector<HlodN
     }
 }
 
+// FORMAT.md §3: header and section table offsets.
+constexpr size_t kSectionCountAt = 12, kFileSizeAt = 16, kHeaderCrcAt = 28, kTableAt = 32, kEntryBytes = 32;
+// FORMAT.md §4: MODL and NODE field offsets.
+constexpr size_t kCodecAt = 0, kMaxLevelAt = 40, kSigma0At = 48, kNodeCountAt = 80, kSourceAt = 88;
+constexpr size_t kNodeBytes = 48, kNodeOffsetAt = 0, kNodeSizeAt = 8, kNodeLevelAt = 16, kNodeVerticesAt = 36,
+                 kNodeChecksumAt = 44;
+
+// The byte offset of the section table entry tagged `tag` (0 if there is none).
+size_t entry_of(const std::vector<uint8_t>& bytes, const char* tag) {
+    for (size_t e = 0; e < get<uint32_t>(bytes, kSectionCountAt); ++e)
+        if (std::memcmp(&bytes[kTableAt + kEntryBytes * e], tag, 4) == 0) return kTableAt + kEntryBytes * e;
+    return 0;
+}
+uint64_t section_offset(const std::vector<uint8_t>& bytes, const char* tag) { return get<uint64_t>(bytes, entry_of(bytes, tag) + 8); }
+uint64_t section_size(const std::vector<uint8_t>& bytes, const char* tag) { return get<uint64_t>(bytes, entry_of(bytes, tag) + 16); }
+
 TEST(HlodFileRoundTrip, HeaderNodesAndCubesComeBack) {
     test::TempDir dir;
     SmallModel model;
     std::vector<HlodNode> written = model.write(dir / "model.hlod");
     EXPECT_EQ(directory_entries(dir.path()), std::vector<std::string>{"model.hlod"});  // no temporary left
 
-    // The writer filled in where each payload went.
-    uint64_t offset = 128;
-    for (size_t c = 0; c < written.size(); ++c) {
+    // File order: the root, then level 1 in (k, j, i) order, whatever order the cubes were added in.
+    const std::vector<size_t> file_order = {0, 2, 1};
+    const std::vector<uint8_t> bytes = read_bytes(dir / "model.hlod");
+    const uint64_t payloads = section_offset(bytes, "PAYL");
+    EXPECT_EQ(payloads % 4096, 0u);
+    ASSERT_EQ(written.size(), 3u);
+    for (size_t w = 0; w < written.size(); ++w) {
+        const size_t c = file_order[w];
         std::vector<uint8_t> payload = encode_cube(model.cubes[c], model.header.flags);
-        EXPECT_EQ(written[c].offset, offset);
-        EXPECT_EQ(written[c].size, payload.size());
-        EXPECT_EQ(written[c].checksum, crc32c(payload.data(), payload.size()));
-        offset += payload.size();
+        EXPECT_EQ(written[w].level, model.nodes[c].level);
+        EXPECT_EQ(written[w].k, model.nodes[c].k);
+        EXPECT_EQ(written[w].size, payload.size());
+        EXPECT_EQ(written[w].checksum, crc32c(payload.data(), payload.size()));
+        EXPECT_TRUE(std::equal(payload.begin(), payload.end(), bytes.begin() + long(written[w].offset)));
     }
+    // Each level starts on a 4 KiB boundary; within a level the payloads are packed.
+    EXPECT_EQ(written[0].offset, payloads);
+    EXPECT_EQ(written[1].offset, (payloads + written[0].size + 4095) / 4096 * 4096);
+    EXPECT_EQ(written[2].offset, written[1].offset + written[1].size);
+    EXPECT_EQ(section_size(bytes, "PAYL"), written[2].offset + written[2].size - payloads);
 
     HlodFile file(dir / "model.hlod");
     const HlodHeader& h = file.header();
     const HlodHeader& want = model.header;
     EXPECT_EQ(h.version, kHlodVersion);
+    EXPECT_EQ(h.payload_codec, kCubePayloadCodec);
     EXPECT_EQ(h.flags, want.flags);
     for (int a = 0; a < 3; ++a) EXPECT_EQ(h.origin[a], want.origin[a]);
     EXPECT_EQ(h.root_size, want.root_size);
@@ -490,18 +531,55 @@ TEST(HlodFileRoundTrip, HeaderNodesAndCubesComeBack) {
     EXPECT_EQ(h.input_vertices, want.input_vertices);
     EXPECT_EQ(h.input_triangles, want.input_triangles);
     EXPECT_EQ(h.node_count, 3u);
-    EXPECT_EQ(h.node_table_offset, offset);  // 128 + every payload
     EXPECT_EQ(h.source, want.source);
     EXPECT_EQ(h.texture, want.texture);
-    // The node table region ends the file: 12 + S + T + 48·N bytes.
-    EXPECT_EQ(file.file_size(), offset + 12 + want.source.size() + want.texture.size() + 48 * 3);
+    for (int a = 0; a < 3; ++a) EXPECT_EQ(h.geo_origin[a], want.geo_origin[a]);
+    EXPECT_EQ(h.crs, want.crs);
+    EXPECT_EQ(file.file_size(), bytes.size());
+    EXPECT_EQ(get<uint64_t>(bytes, kFileSizeAt), bytes.size());
     EXPECT_EQ(file.path(), dir / "model.hlod");
+    std::vector<std::string> tags;
+    for (const HlodSection& s : file.sections()) tags.push_back(s.name());
+    EXPECT_EQ(tags, (std::vector<std::string>{"MODL", "NODE", "GEOR", "PAYL"}));
     expect_same_nodes(file.nodes(), written);
-    for (size_t c = 0; c < model.cubes.size(); ++c) {
-        SCOPED_TRACE("cube " + std::to_string(c));
-        expect_same_cube(file.read_cube(file.nodes()[c]), model.cubes[c], want.flags);
-        EXPECT_EQ(file.read_payload(file.nodes()[c]), encode_cube(model.cubes[c], want.flags));
+    for (size_t w = 0; w < written.size(); ++w) {
+        SCOPED_TRACE("cube " + std::to_string(w));
+        expect_same_cube(file.read_cube(file.nodes()[w]), model.cubes[file_order[w]], want.flags);
     }
+    EXPECT_NO_THROW(file.check_section(*file.find_section("PAYL")));  // its CRC covers the padding too
+}
+
+TEST(HlodFileRoundTrip, NoGeoreferenceSectionWithoutACrs) {
+    test::TempDir dir;
+    SmallModel model;
+    model.header.crs.clear();
+    model.write(dir / "model.hlod");
+    HlodFile file(dir / "model.hlod");
+    EXPECT_EQ(file.find_section("GEOR"), nullptr);
+    EXPECT_EQ(file.sections().size(), 3u);
+    EXPECT_TRUE(file.header().crs.empty());
+    EXPECT_EQ(file.header().geo_origin[0], 0.0);
+}
+
+// Opening reads the header, the table, MODL and NODE, never a payload byte: a file whose payloads are
+// all overwritten opens and lists its cubes, and only reading a cube fails, naming it.
+TEST(HlodFileRoundTrip, OpeningReadsNoPayloadByte) {
+    test::TempDir dir;
+    SmallModel().write(dir / "model.hlod");
+    std::vector<uint8_t> bytes = read_bytes(dir / "model.hlod");
+    const uint64_t payloads = section_offset(bytes, "PAYL");
+    std::fill(bytes.begin() + long(payloads), bytes.end(), 0xAA);
+    write_bytes(dir / "model.hlod", bytes);
+    HlodFile file(dir / "model.hlod");
+    ASSERT_EQ(file.nodes().size(), 3u);
+    EXPECT_EQ(file.nodes()[0].level, 0u);
+    try {
+        file.read_cube(file.nodes()[1]);
+        ADD_FAILURE() << "read an overwritten payload";
+    } catch (const std::runtime_error& e) {
+        EXPECT_THAT(e.what(), HasSubstr((dir / "model.hlod").string() + ": " + describe_cube(file.nodes()[1]) + " checksum mismatch"));
+    }
+    EXPECT_THROW(file.check_section(*file.find_section("PAYL")), std::runtime_error);
 }
 
 TEST(HlodFileRoundTrip, FinishReplacesAnExistingFile) {
@@ -517,13 +595,13 @@ TEST(HlodFileRoundTrip, FinishReplacesAnExistingFile) {
 TEST(HlodWriterCleanup, UnfinishedWriterLeavesNothing) {
     test::TempDir dir;
     const auto path = dir / "model.hlod";
-    const auto temporary = dir / ("model.hlod.tmp-" + std::to_string(::getpid()));
+    const auto spool = dir / ("model.hlod.tmp-" + std::to_string(::getpid()) + ".payloads");
     {
         HlodWriter writer(path);
         CubeData cube = make_cube(6, 3, 4, 0);
         writer.add_cube(node_for(cube, 0, 0, 0, 0), encode_cube(cube, 0));
-        EXPECT_TRUE(std::filesystem::exists(temporary));  // the work goes to "<path>.tmp-<pid>"…
-        EXPECT_FALSE(std::filesystem::exists(path));       // …never straight to the output
+        EXPECT_TRUE(std::filesystem::exists(spool));  // payloads go to "<path>.tmp-<pid>.payloads"…
+        EXPECT_FALSE(std::filesystem::exists(path));   // …never straight to the output
     }
     EXPECT_TRUE(directory_entries(dir.path()).empty());
 
@@ -545,12 +623,32 @@ TEST(HlodWriterCleanup, UnwritableDirectoryThrowsNamingThePath) {
     }
 }
 
+TEST(HlodWriterCleanup, FailedFinishThrowsNamingThePathAndLeavesNothing) {
+    test::TempDir dir;
+    const auto path = dir / "model.hlod";
+    std::filesystem::create_directory(path);  // the rename over it fails
+    {
+        HlodWriter writer(path);
+        CubeData cube = make_cube(6, 3, 4, 0);
+        writer.add_cube(node_for(cube, 0, 0, 0, 0), encode_cube(cube, 0));
+        SmallModel model;
+        try {
+            writer.finish(model.header);
+            ADD_FAILURE() << "renamed over a directory";
+        } catch (const std::runtime_error& e) {
+            EXPECT_THAT(e.what(), HasSubstr(path.string()));
+        }
+    }
+    EXPECT_EQ(directory_entries(dir.path()), std::vector<std::string>{"model.hlod"});
+    EXPECT_TRUE(std::filesystem::is_directory(path));
+}
+
 class BadFile : public ::testing::Test {
 protected:
     void SetUp() override {
         SmallModel().write(dir / "good.hlod");
         good = read_bytes(dir / "good.hlod");
-        ASSERT_GT(good.size(), 128u);
+        ASSERT_GT(good.size(), 4096u);
     }
     // Opening `bytes` as a file throws std::runtime_error naming the file and containing `what`.
     void expect_rejected(const std::vector<uint8_t>& bytes, const std::string& what) {
@@ -564,24 +662,45 @@ protected:
             EXPECT_THAT(e.what(), HasSubstr(what));
         }
     }
-    // Re-seals the header checksum after an edit, so that only the edit is wrong.
-    static void reseal_header(std::vector<uint8_t>& bytes) { put<uint32_t>(bytes, 104, crc32c(bytes.data(), 104)); }
-    // Where node entry `index` starts (FORMAT.md §4: after the two names).
-    static size_t node_entry(const std::vector<uint8_t>& bytes, size_t index) {
-        const size_t table = get<uint64_t>(bytes, 96);
-        const size_t texture = table + 4 + get<uint32_t>(bytes, table);
-        return texture + 4 + get<uint32_t>(bytes, texture) + 48 * index;
+    // Re-seals the header checksum (bytes 0‥27, then the section table) after an edit of either.
+    static void reseal_header(std::vector<uint8_t>& bytes) {
+        std::vector<uint8_t> covered(bytes.begin(), bytes.begin() + kHeaderCrcAt);
+        covered.insert(covered.end(), bytes.begin() + kTableAt,
+                       bytes.begin() + long(kTableAt + kEntryBytes * get<uint32_t>(bytes, kSectionCountAt)));
+        put<uint32_t>(bytes, kHeaderCrcAt, crc32c(covered.data(), covered.size()));
     }
-    // Re-seals every payload's checksum, then the node table's, after an edit of either.
-    static void reseal_table(std::vector<uint8_t>& bytes) {
-        const size_t nodes = get<uint64_t>(bytes, 88);
-        for (size_t n = 0; n < nodes; ++n) {
+    // Re-seals a section's checksum, then the header's.
+    static void reseal_section(std::vector<uint8_t>& bytes, const char* tag) {
+        const size_t entry = entry_of(bytes, tag);
+        put<uint32_t>(bytes, entry + 24, crc32c(bytes.data() + get<uint64_t>(bytes, entry + 8), get<uint64_t>(bytes, entry + 16)));
+        reseal_header(bytes);
+    }
+    static size_t node_entry(const std::vector<uint8_t>& bytes, size_t index) { return section_offset(bytes, "NODE") + kNodeBytes * index; }
+    // Re-seals every payload's checksum, then NODE's and the header's, after an edit of either.
+    static void reseal_nodes(std::vector<uint8_t>& bytes) {
+        for (size_t n = 0; n < section_size(bytes, "NODE") / kNodeBytes; ++n) {
             const size_t entry = node_entry(bytes, n);
-            const uint64_t offset = get<uint64_t>(bytes, entry + 32), size = get<uint64_t>(bytes, entry + 40);
-            put<uint32_t>(bytes, entry + 28, crc32c(bytes.data() + offset, size));
+            const uint64_t offset = get<uint64_t>(bytes, entry + kNodeOffsetAt), size = get<uint64_t>(bytes, entry + kNodeSizeAt);
+            put<uint32_t>(bytes, entry + kNodeChecksumAt, crc32c(bytes.data() + offset, size));
         }
-        const size_t table = get<uint64_t>(bytes, 96), end = node_entry(bytes, nodes);
-        put<uint32_t>(bytes, end, crc32c(bytes.data() + table, end - table));
+        reseal_section(bytes, "NODE");
+    }
+    // An edit of MODL's bytes at `at`, resealed.
+    template <class T>
+    std::vector<uint8_t> with_model_field(size_t at, T value) const {
+        std::vector<uint8_t> bytes = good;
+        put<T>(bytes, section_offset(bytes, "MODL") + at, value);
+        reseal_section(bytes, "MODL");
+        return bytes;
+    }
+    // The GEOR entry retagged (and flagged) as a section this reader does not know.
+    std::vector<uint8_t> with_georeference_as(const char* tag, uint32_t flags) const {
+        std::vector<uint8_t> bytes = good;
+        const size_t entry = entry_of(bytes, "GEOR");
+        std::memcpy(&bytes[entry], tag, 4);
+        put<uint32_t>(bytes, entry + 4, flags);
+        reseal_header(bytes);
+        return bytes;
     }
     // Opening `bytes` succeeds, but reading cube `index` throws naming the file and containing `what`.
     void expect_cube_rejected(const std::vector<uint8_t>& bytes, size_t index, const std::string& what) {
@@ -601,10 +720,12 @@ protected:
     std::vector<uint8_t> good;
 };
 
-TEST_F(BadFile, TheGoodOneOpens) {
+TEST_F(BadFile, TheResealedGoodOneOpens) {
     std::vector<uint8_t> copy = good;
-    reseal_header(copy);
-    EXPECT_EQ(copy, good);  // the header CRC sits at byte 104 and covers bytes 0‥103
+    reseal_nodes(copy);
+    reseal_section(copy, "MODL");
+    reseal_section(copy, "GEOR");
+    EXPECT_EQ(copy, good);  // the helpers find the checksums where the writer put them
     write_bytes(dir / "copy.hlod", copy);
     EXPECT_NO_THROW(HlodFile(dir / "copy.hlod"));
 }
@@ -620,19 +741,14 @@ TEST_F(BadFile, Missing) {
 
 TEST_F(BadFile, Truncated) {
     expect_rejected({}, "too short");
-    expect_rejected(std::vector<uint8_t>(good.begin(), good.begin() + 127), "too short");
-    const uint64_t table = get<uint64_t>(good, 96);
-    expect_rejected(std::vector<uint8_t>(good.begin(), good.begin() + long(table)), "node table out of range");
-    expect_rejected(std::vector<uint8_t>(good.begin(), good.begin() + long(table) + 20), "node table out of range");
-    // Only the node table's CRC is missing.
-    std::vector<uint8_t> cut(good.begin(), good.end() - 1);
-    write_bytes(dir / "cut.hlod", cut);
-    try {
-        HlodFile file(dir / "cut.hlod");
-        ADD_FAILURE() << "opened a file one byte short";
-    } catch (const std::runtime_error& e) {
-        EXPECT_THAT(e.what(), HasSubstr((dir / "cut.hlod").string()));
-    }
+    expect_rejected(std::vector<uint8_t>(good.begin(), good.begin() + 31), "too short");
+    expect_rejected(std::vector<uint8_t>(good.begin(), good.begin() + 40), "truncated inside its section table");
+    expect_rejected(std::vector<uint8_t>(good.begin(), good.end() - 1),
+                    "truncated: " + std::to_string(good.size() - 1) + " of its " + std::to_string(good.size()) + " bytes");
+    expect_rejected(std::vector<uint8_t>(good.begin(), good.begin() + long(section_offset(good, "PAYL"))), "truncated");
+    std::vector<uint8_t> longer = good;
+    longer.push_back(0);
+    expect_rejected(longer, "1 bytes past the end its header declares");
 }
 
 size_t open_descriptors() {
@@ -641,7 +757,8 @@ size_t open_descriptors() {
 
 TEST_F(BadFile, RejectedFilesAreClosed) {
     std::vector<uint8_t> bytes = good;
-    bytes[0] = 'X';
+    put<uint64_t>(bytes, entry_of(bytes, "NODE") + 16, 1);  // rejected after the table is read
+    reseal_header(bytes);
     write_bytes(dir / "bad.hlod", bytes);
     const size_t before = open_descriptors();
     for (int i = 0; i < 20; ++i) EXPECT_THROW(HlodFile(dir / "bad.hlod"), std::runtime_error);
@@ -655,82 +772,161 @@ TEST_F(BadFile, BadMagic) {
     expect_rejected(std::vector<uint8_t>(200, 0), "bad magic");
 }
 
-TEST_F(BadFile, WrongVersion) {
+TEST_F(BadFile, VersionOneIsRefusedWithHowToRebuild) {
+    const std::filesystem::path fixture = std::filesystem::path(STRATA_SOURCE_DIR) / "tests/data/octahedron_v1.hlod";
+    const std::vector<uint8_t> old = read_bytes(fixture);
+    ASSERT_GT(old.size(), 128u) << fixture;
+    ASSERT_EQ(get<uint32_t>(old, 8), 1u);
+    const std::string path = (dir / "bad.hlod").string();
+    expect_rejected(old, path + ": a version 1 model (from an older Strata); rebuild it from its scan: strata build SCAN -o " + path);
+}
+
+TEST_F(BadFile, NewerVersion) {
     std::vector<uint8_t> bytes = good;
-    put<uint32_t>(bytes, 8, 2);
+    put<uint32_t>(bytes, 8, 3);
     reseal_header(bytes);
-    expect_rejected(bytes, "version 2");
+    expect_rejected(bytes, ".hlod version 3, but this Strata reads version 2; it was written by a newer version");
 }
 
 TEST_F(BadFile, HeaderChecksumMismatch) {
     std::vector<uint8_t> bytes = good;
-    put<float>(bytes, 64, 0.5f);  // ratio, without resealing
+    bytes[kFileSizeAt] ^= 1;  // in the header, without resealing
     expect_rejected(bytes, "header checksum mismatch");
     bytes = good;
-    bytes[104] ^= 1;  // the CRC itself
+    bytes[kTableAt + 9] ^= 1;  // in the section table
+    expect_rejected(bytes, "header checksum mismatch");
+    bytes = good;
+    bytes[kHeaderCrcAt] ^= 1;  // the CRC itself
     expect_rejected(bytes, "header checksum mismatch");
 }
 
-TEST_F(BadFile, NodeTableChecksumMismatch) {
+TEST_F(BadFile, SectionCountOutOfRange) {
     std::vector<uint8_t> bytes = good;
-    const uint64_t table = get<uint64_t>(good, 96);
-    bytes[table + 4] ^= 0x20;  // a letter of the source name
-    expect_rejected(bytes, "node table checksum mismatch");
+    put<uint32_t>(bytes, kSectionCountAt, 0);
+    reseal_header(bytes);
+    expect_rejected(bytes, "0 sections");
+    put<uint32_t>(bytes, kSectionCountAt, 4'000'000'000u);  // checked before the table is read or its CRC
+    expect_rejected(bytes, "4000000000 sections");
 }
 
-TEST_F(BadFile, HeaderValuesOutOfRange) {
+TEST_F(BadFile, SectionOutOfTheFile) {
     std::vector<uint8_t> bytes = good;
-    put<float>(bytes, 56, 0.5f);  // σ0 must stay below one half
+    put<uint64_t>(bytes, entry_of(bytes, "NODE") + 16, good.size());  // NODE's size
     reseal_header(bytes);
-    expect_rejected(bytes, "out of range");
+    expect_rejected(bytes, "section 'NODE' reaches past the end of the file");
     bytes = good;
-    put<uint32_t>(bytes, 48, 16);  // max_level at most 15
+    put<uint64_t>(bytes, entry_of(bytes, "PAYL") + 8, ~uint64_t(0) - 8);  // an offset that overflows with the size
     reseal_header(bytes);
-    expect_rejected(bytes, "out of range");
+    expect_rejected(bytes, "section 'PAYL' reaches past the end of the file");
+    bytes = good;
+    put<uint64_t>(bytes, entry_of(bytes, "MODL") + 8, 40);  // inside the table
+    reseal_header(bytes);
+    expect_rejected(bytes, "section 'MODL' overlaps the header");
 }
 
-TEST_F(BadFile, TheResealedGoodOneOpens) {
-    std::vector<uint8_t> copy = good;
-    reseal_table(copy);
-    EXPECT_EQ(copy, good);  // the helpers below find the checksums where the writer put them
+TEST_F(BadFile, SectionsOverlap) {
+    std::vector<uint8_t> bytes = good;
+    put<uint64_t>(bytes, entry_of(bytes, "NODE") + 8, section_offset(good, "MODL") + 8);
+    reseal_header(bytes);
+    expect_rejected(bytes, "sections 'MODL' and 'NODE' overlap");
+}
+
+TEST_F(BadFile, DuplicateTag) {
+    expect_rejected(with_georeference_as("NODE", 1), "section 'NODE' appears twice");
+}
+
+TEST_F(BadFile, SectionChecksumMismatch) {
+    std::vector<uint8_t> bytes = good;
+    bytes[section_offset(good, "MODL") + kSourceAt + 4] ^= 0x20;  // a letter of the source name
+    expect_rejected(bytes, "section 'MODL' checksum mismatch");
+    bytes = good;
+    bytes[node_entry(good, 1) + kNodeLevelAt + 2] ^= 1;
+    expect_rejected(bytes, "section 'NODE' checksum mismatch");
+    bytes = good;
+    bytes[section_offset(good, "GEOR") + 30] ^= 1;  // a letter of the CRS
+    expect_rejected(bytes, "section 'GEOR' checksum mismatch");
+}
+
+TEST_F(BadFile, UnknownRequiredSectionIsRefusedByName) {
+    expect_rejected(with_georeference_as("ABCD", 1),
+                    "needs section 'ABCD', which this Strata does not know; it was written by a newer version");
+    expect_rejected(with_georeference_as("MATL", 3), "needs section 'MATL'");  // other flag bits do not matter
+    std::vector<uint8_t> bytes = with_georeference_as("AB\x01\x02", 1);
+    expect_rejected(bytes, "section table entry 2 has a tag that is not ASCII");
+}
+
+TEST_F(BadFile, UnknownOptionalSectionsAreSkipped) {
+    for (const char* tag : {"ABCD", "MATL", "TERR"}) {
+        SCOPED_TRACE(tag);
+        std::vector<uint8_t> bytes = with_georeference_as(tag, 0);
+        put<uint32_t>(bytes, entry_of(bytes, tag) + 24, 0xBADC0DE);  // skipped unread: its CRC does not matter
+        reseal_header(bytes);
+        write_bytes(dir / "newer.hlod", bytes);
+        HlodFile file(dir / "newer.hlod");
+        EXPECT_TRUE(file.header().crs.empty());  // the georeference is gone with its tag
+        EXPECT_EQ(file.nodes().size(), 3u);
+        EXPECT_NO_THROW(file.read_cube(file.nodes()[2]));
+    }
+}
+
+TEST_F(BadFile, RequiredSectionMissing) {
+    std::vector<uint8_t> bytes = good;
+    std::memcpy(&bytes[entry_of(bytes, "NODE")], "NODX", 4);
+    put<uint32_t>(bytes, entry_of(bytes, "NODX") + 4, 0);
+    reseal_header(bytes);
+    expect_rejected(bytes, "has no section 'NODE'");
+}
+
+TEST_F(BadFile, UnknownPayloadCodec) {
+    expect_rejected(with_model_field<uint32_t>(kCodecAt, 2),
+                    "payload codec 2, which this Strata does not know; it was written by a newer version");
+}
+
+TEST_F(BadFile, ModelValuesOutOfRange) {
+    expect_rejected(with_model_field<float>(kSigma0At, 0.5f), "out of range");  // σ0 must stay below one half
+    expect_rejected(with_model_field<uint32_t>(kMaxLevelAt, 16), "out of range");  // max_level at most 15
 }
 
 // Counts are checked against the bytes that could hold them before anything is allocated for them.
 TEST_F(BadFile, NodeCountOfTenBillion) {
-    std::vector<uint8_t> bytes = good;
-    put<uint64_t>(bytes, 88, 9'999'999'999);
-    reseal_header(bytes);
-    expect_rejected(bytes, "node table out of range");
+    expect_rejected(with_model_field<uint64_t>(kNodeCountAt, 9'999'999'999),
+                    "section 'NODE' holds 144 bytes, not 48 for each of the model's 9999999999 cubes");
 }
 
-TEST_F(BadFile, NameLongerThanTheTable) {
-    std::vector<uint8_t> bytes = good;
-    put<uint32_t>(bytes, get<uint64_t>(good, 96), 4'000'000'000u);  // the source name's length
-    expect_rejected(bytes, "name of 4000000000 bytes");
+TEST_F(BadFile, NameLongerThanTheSection) {
+    expect_rejected(with_model_field<uint32_t>(kSourceAt, 4'000'000'000u), "name of 4000000000 bytes");
+    expect_rejected(with_model_field<uint32_t>(kSourceAt, 4000), "section 'MODL' ends early");
 }
 
 TEST_F(BadFile, NodeLevelPastAnyShift) {
     std::vector<uint8_t> bytes = good;
-    put<uint32_t>(bytes, node_entry(bytes, 1), 64);  // would shift a 64-bit one out of range
-    reseal_table(bytes);
+    put<uint32_t>(bytes, node_entry(bytes, 2) + kNodeLevelAt, 64);  // would shift a 64-bit one out of range
+    reseal_nodes(bytes);
     expect_rejected(bytes, "cube (level 64, 1 0 1) outside the octree");
+}
+
+TEST_F(BadFile, PayloadOutsideItsSection) {
+    std::vector<uint8_t> bytes = good;
+    put<uint64_t>(bytes, node_entry(bytes, 0) + kNodeOffsetAt, section_offset(good, "GEOR"));
+    reseal_section(bytes, "NODE");
+    expect_rejected(bytes, "cube (level 0, 0 0 0) payload out of range");
 }
 
 TEST_F(BadFile, ValidPayloadDeclaringFourBillionVertices) {
     // Node entry and payload agree and every checksum is valid: only the bytes cannot hold the vertices.
     std::vector<uint8_t> bytes = good;
     const size_t entry = node_entry(bytes, 0);
-    put<uint32_t>(bytes, entry + 20, 4'000'000'000u);
-    put<uint32_t>(bytes, get<uint64_t>(bytes, entry + 32), 4'000'000'000u);
-    reseal_table(bytes);
+    put<uint32_t>(bytes, entry + kNodeVerticesAt, 4'000'000'000u);
+    put<uint32_t>(bytes, get<uint64_t>(bytes, entry + kNodeOffsetAt), 4'000'000'000u);
+    reseal_nodes(bytes);
     expect_cube_rejected(bytes, 0, "counts larger than the payload could hold");
 }
 
 TEST_F(BadFile, PayloadChecksumMismatchNamesTheCube) {
     std::vector<uint8_t> bytes = good;
-    bytes[128 + 80] ^= 0xFF;  // inside the first (root) payload's streams
+    bytes[section_offset(good, "PAYL") + 80] ^= 0xFF;  // inside the first (root) payload's streams
     write_bytes(dir / "bad.hlod", bytes);
-    HlodFile file(dir / "bad.hlod");  // the header and node table are fine
+    HlodFile file(dir / "bad.hlod");  // header, table, MODL and NODE are fine
     try {
         file.read_cube(file.nodes()[0]);
         ADD_FAILURE() << "read a corrupt payload";
@@ -739,6 +935,13 @@ TEST_F(BadFile, PayloadChecksumMismatchNamesTheCube) {
         EXPECT_THAT(e.what(), HasSubstr("cube (level 0, 0 0 0) checksum mismatch"));
     }
     EXPECT_NO_THROW(file.read_cube(file.nodes()[1]));
+    // The payload section's own CRC, which opening does not read, catches it too.
+    try {
+        file.check_section(*file.find_section("PAYL"));
+        ADD_FAILURE() << "the payload section's CRC missed a flipped byte";
+    } catch (const std::runtime_error& e) {
+        EXPECT_THAT(e.what(), HasSubstr("section 'PAYL' checksum mismatch"));
+    }
 }
 
 }  // namespace

@@ -9,6 +9,8 @@
 #include <atomic>
 #include <cmath>
 #include <cstring>
+#include <fstream>
+#include <iterator>
 #include <memory>
 #include <regex>
 #include <string>
@@ -275,7 +277,7 @@ TEST_F(Verify, MissingCubes) {
     root.indices.erase(root.indices.begin() + long(3 * first),
                        root.indices.begin() + long(3 * (first + root.child_triangle_counts[gone_octant])));
     root.child_triangle_counts[gone_octant] = 0;
-    // The verifier walks level 2 in file order: the first orphan is named.
+    // The verifier checks the node table in file order: the first orphan is named.
     const HlodNode* orphan = nullptr;
     for (const HlodNode& n : m.nodes)
         if (!orphan && n.level == 2 && n.i / 2 == gone.i && n.j / 2 == gone.j && n.k / 2 == gone.k) orphan = &n;
@@ -332,6 +334,31 @@ TEST_F(Verify, ErrorsInTheNodeTable) {
     EXPECT_THAT(verify(m), HasSubstr(describe_cube(m.nodes[p]) + " has error -1"));
     m.nodes[p].error = NAN;
     EXPECT_THAT(verify(m), HasSubstr(describe_cube(m.nodes[p]) + " has error"));
+}
+
+// A byte of the zero padding before level 1's payloads: no cube reads it, opening does not check PAYL's
+// CRC, but verify does.
+TEST_F(Verify, FlippedPaddingByteBetweenLevels) {
+    std::vector<uint8_t> bytes;
+    {
+        std::ifstream in(*dir_ / "sphere.hlod", std::ios::binary);
+        bytes.assign(std::istreambuf_iterator<char>(in), {});
+    }
+    const HlodNode& root = sphere_->nodes[sphere_->find(0, 0, 0, 0)];
+    const uint64_t padding = root.offset + root.size;
+    ASSERT_NE(padding % 4096, 0u);
+    ASSERT_EQ(bytes.at(padding), 0);
+    bytes[padding] = 0x5a;
+    const auto path = dir.path() / "padding.hlod";
+    std::ofstream(path, std::ios::binary).write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
+    HlodFile file(path);
+    for (const HlodNode& n : file.nodes()) EXPECT_NO_THROW(file.read_cube(n));
+    try {
+        verify_hlod(file);
+        ADD_FAILURE() << "verified a file with a flipped padding byte";
+    } catch (const std::runtime_error& e) {
+        EXPECT_THAT(e.what(), HasSubstr(path.string() + ": section 'PAYL' checksum mismatch"));
+    }
 }
 
 TEST_F(Verify, RootVertexNotItsOwnParent) {
