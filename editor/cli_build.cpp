@@ -85,6 +85,7 @@ int run_build(const BuildOptions& o) {
                             (unsigned long long)l.triangles, l.bytes / 1e6);
             std::printf("  seconds: read %.2f, partition %.2f, simplify %.2f, write %.2f\n", read_seconds,
                         report.partition_seconds, report.simplify_seconds, report.write_seconds);
+            std::printf("  temporary disk: %s at most\n", describe_bytes(report.temp_bytes).c_str());
         }
         return kOk;
     } catch (const Cancelled&) {
@@ -116,6 +117,9 @@ Command add_build(CLI::App& app) {
                     "Memory the build may use, in bytes or with a binary suffix K, M, G, T (2G, 512M, 1.5G); "
                     "default a quarter of physical memory. The builder is in-core: a build estimated "
                     "to need more is refused before reading");
+    sub->add_option("--temp", o->settings.temp_dir,
+                    "Folder for the build's temporary files (each level's cubes between two stages); default "
+                    "beside the output. Removed when the build ends");
     sub->add_flag("-q,--quiet", o->quiet, "No progress bar and no summary");
     sub->add_flag("-v,--verbose", o->verbose, "Also print the memory estimate, each level's counts and each stage's time");
     return {sub, [o] { return run_build(*o); }};

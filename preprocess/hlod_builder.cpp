@@ -3,14 +3,19 @@
 #include "preprocess/block_step.h"
 #include "preprocess/border_table.h"
 #include "preprocess/build_cubes.h"
+#include "preprocess/cube_store.h"
 #include "preprocess/hlod_format.h"
 #include "preprocess/leaf_cubes.h"
 #include "preprocess/parallel.h"
+
+#include <unistd.h>
 
 #include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <memory>
+#include <mutex>
 
 namespace strata {
 namespace {
@@ -94,68 +99,92 @@ double longest_edge(const Mesh& mesh) {
 
 // ---- simplifying level by level ---------------------------------------------------------
 
-// Level l's cubes (key order) grouped by block: each group's first index and size.
-std::vector<std::pair<size_t, size_t>> group_blocks(const std::vector<CubeRecord>& cubes, const Frame& f,
-                                                   std::vector<const CubeRecord*>& by_block) {
-    by_block.clear();
-    for (const CubeRecord& c : cubes) by_block.push_back(&c);
-    std::stable_sort(by_block.begin(), by_block.end(),
-                     [&](const CubeRecord* a, const CubeRecord* b) { return f.block_of(a->key) < f.block_of(b->key); });
-    std::vector<std::pair<size_t, size_t>> groups;
-    for (size_t i = 0; i < by_block.size(); ++i) {
-        if (i == 0 || f.block_of(by_block[i]->key) != f.block_of(by_block[i - 1]->key)) groups.emplace_back(i, 0);
-        ++groups.back().second;
+// The keys of a level's cubes grouped by block (blocks in key order, cubes in key order within one).
+std::vector<std::vector<CubeKey>> group_blocks(const std::vector<CubeKey>& keys, const Frame& f) {
+    std::vector<CubeKey> order = keys;
+    std::stable_sort(order.begin(), order.end(), [&](CubeKey a, CubeKey b) { return f.block_of(a) < f.block_of(b); });
+    std::vector<std::vector<CubeKey>> blocks;
+    for (size_t i = 0; i < order.size(); ++i) {
+        if (i == 0 || f.block_of(order[i]) != f.block_of(order[i - 1])) blocks.emplace_back();
+        blocks.back().push_back(order[i]);
     }
-    return groups;
+    return blocks;
 }
 
-void add_to_stats(LevelStats& stats, const build::EncodedCube& e) {
-    stats.cubes++, stats.vertices += e.node.vertex_count, stats.triangles += e.node.triangle_count;
-    stats.bytes += e.payload.size();
-}
+// The payloads of one level as blocks finish them, from several threads.
+class LevelWriter {
+public:
+    LevelWriter(HlodWriter& writer, LevelStats& stats, const Frame& f) : writer_(writer), stats_(stats), f_(f) {}
+    void add(const build::EncodedCube& e) {
+        std::lock_guard lock(mutex_);
+        writer_.add_cube(e.node, e.payload);
+        stats_.cubes++, stats_.vertices += e.node.vertex_count, stats_.triangles += e.node.triangle_count;
+        stats_.bytes += e.payload.size();
+        relative_error_ = std::max(relative_error_, float(e.node.error / f_.cube_size(e.node.level)));
+    }
+    float relative_error() const { return relative_error_; }  // ε_q's share of this level
 
-// Simplifies level l block by block into level l−1, writing level l's cubes; returns level l−1.
-build::CubeLevel simplify_level(const build::CubeLevel& level, uint32_t l, const Frame& f, const BuildSettings& s,
-                                uint32_t flags, HlodWriter& writer, LevelStats& stats, const Progress& progress) {
-    const build::BorderTable border(level.border);
-    std::vector<const CubeRecord*> by_block;
-    const auto groups = group_blocks(level.cubes, f, by_block);
-    std::vector<build::BlockOutput> outputs(groups.size());
-    const unsigned threads = resolve_thread_count(s.threads);
+private:
+    std::mutex mutex_;
+    HlodWriter& writer_;
+    LevelStats& stats_;
+    const Frame& f_;
+    float relative_error_ = 0;
+};
+
+// Simplifies level l block by block into level l−1 (`next`), writing level l's cubes; returns the
+// points level l−1's cubes list. Only the blocks in flight are in memory.
+std::vector<build::BorderEntry> simplify_level(build::CubeStore& level, const std::vector<build::BorderEntry>& listed,
+                                               uint32_t l, const Frame& f, const BuildSettings& s, uint32_t flags,
+                                               LevelWriter& out, build::CubeStore& next, const Progress& progress) {
+    const build::BorderTable border(listed);
+    const std::vector<std::vector<CubeKey>> blocks = group_blocks(level.keys(), f);
+    std::mutex mutex;
+    std::vector<build::BorderEntry> next_listed;
     std::atomic<uint64_t> done{0};
-    uint64_t total = 0;
-    for (const CubeRecord& c : level.cubes) total += c.triangle_count();
+    const double total = double(level.triangles());
     const std::string stage = "simplify level " + std::to_string(l);
-    parallel_for(groups.size(), threads, [&](size_t b, unsigned worker) {
+    parallel_for(blocks.size(), resolve_thread_count(s.threads), [&](size_t b, unsigned worker) {
         progress.check();
-        const std::span<const CubeRecord* const> cubes(&by_block[groups[b].first], groups[b].second);
-        outputs[b] = build::simplify_block_cubes(cubes, l, border, f, s, flags);
+        std::vector<CubeRecord> records;
+        std::vector<const CubeRecord*> cubes;
         uint64_t triangles = 0;
-        for (const CubeRecord* c : cubes) triangles += c->triangle_count();
-        const uint64_t finished = done += triangles;
-        if (worker == 0) progress(stage, double(finished), double(total), "tri");
-    });
-    progress(stage, double(total), double(total), "tri");
-
-    build::CubeLevel next;
-    for (build::BlockOutput& out : outputs) {
-        for (const build::EncodedCube& e : out.encoded) {
-            writer.add_cube(e.node, e.payload);
-            add_to_stats(stats, e);
+        for (CubeKey key : blocks[b]) records.push_back(level.get(key)), triangles += records.back().triangle_count();
+        for (const CubeRecord& r : records) cubes.push_back(&r);
+        const build::BlockOutput result = build::simplify_block_cubes(cubes, l, border, f, s, flags);
+        for (const build::EncodedCube& e : result.encoded) out.add(e);
+        for (const CubeRecord& parent : result.parents) next.put(parent);
+        {
+            std::lock_guard lock(mutex);
+            next_listed.insert(next_listed.end(), result.border.begin(), result.border.end());
         }
-        std::move(out.parents.begin(), out.parents.end(), std::back_inserter(next.cubes));
-        next.border.insert(next.border.end(), out.border.begin(), out.border.end());
-        out = build::BlockOutput{};
-    }
-    std::sort(next.cubes.begin(), next.cubes.end(), [](const CubeRecord& a, const CubeRecord& b) { return a.key < b.key; });
-    return next;
+        const uint64_t finished = done += triangles;
+        if (worker == 0) progress(stage, double(finished), total, "tri");
+    });
+    progress(stage, total, total, "tri");
+    return next_listed;
 }
 
-float max_relative_error(const build::CubeLevel& level, const Frame& f, uint32_t l) {
-    float error = 0;
-    for (const CubeRecord& c : level.cubes) error = std::max(error, float(c.error / f.cube_size(l)));
-    return error;
-}
+// Where the builder keeps its temporary files: a folder of its own, removed with everything in it.
+class WorkFolder {
+public:
+    WorkFolder(const std::filesystem::path& output, const std::filesystem::path& temp) {
+        const std::filesystem::path parent = temp.empty() ? output.parent_path() : temp;
+        path_ = (parent.empty() ? std::filesystem::path(".") : parent) /
+                (output.filename().string() + ".build-" + std::to_string(::getpid()));
+        std::error_code ec;
+        std::filesystem::create_directories(path_, ec);
+        if (ec) throw std::runtime_error(path_.parent_path().string() + ": cannot create the build's temporary folder (" + ec.message() + ")");
+    }
+    ~WorkFolder() {
+        std::error_code ignored;
+        std::filesystem::remove_all(path_, ignored);
+    }
+    std::filesystem::path operator/(const std::string& name) const { return path_ / name; }
+
+private:
+    std::filesystem::path path_;
+};
 
 }  // namespace
 
@@ -215,32 +244,40 @@ BuildReport build_hlod(Mesh&& mesh, const std::filesystem::path& output, const B
     header.texture = mesh.texture;
 
     HlodWriter writer(output);
+    const WorkFolder work(output, settings.temp_dir);
     const unsigned threads = resolve_thread_count(settings.threads);
     progress("partition", 0, 1, "");
-    build::CubeLevel level;
+    auto level_file = [&](uint32_t l) { return work / ("level-" + std::to_string(l) + ".cubes"); };
+    auto level = std::make_unique<build::CubeStore>(level_file(L));
+    std::vector<build::BorderEntry> listed;
     {
         StageTimer timer(report.partition_seconds);
-        level = build::leaf_cubes(mesh, f, threads);
+        listed = build::leaf_cubes(mesh, f, threads, *level);
     }
     progress.check();
 
     float error_q = 0;
+    uint64_t temp_bytes = level->bytes();
     for (uint32_t l = L; l > 0; --l) {
         report.levels.push_back(LevelStats{l});
         StageTimer timer(report.simplify_seconds);
-        build::CubeLevel next = simplify_level(level, l, f, settings, header.flags, writer, report.levels.back(), progress);
-        error_q = std::max(error_q, max_relative_error(level, f, l));
+        LevelWriter out(writer, report.levels.back(), f);
+        auto next = std::make_unique<build::CubeStore>(level_file(l - 1));
+        listed = simplify_level(*level, listed, l, f, settings, header.flags, out, *next, progress);
+        temp_bytes = std::max(temp_bytes, level->bytes() + next->bytes());
+        error_q = std::max(error_q, out.relative_error());
         level = std::move(next);
     }
     progress.check();
     report.levels.push_back(LevelStats{0});
     {
         StageTimer timer(report.write_seconds);
-        const build::EncodedCube root = build::encode_root(level.cubes.at(0), build::BorderTable(level.border), f, header.flags);
-        writer.add_cube(root.node, root.payload);
-        add_to_stats(report.levels.back(), root);
+        LevelWriter out(writer, report.levels.back(), f);
+        const build::CubeRecord root = level->get(level->keys().at(0));
+        out.add(build::encode_root(root, build::BorderTable(listed), f, header.flags));
+        error_q = std::max(error_q, out.relative_error());
     }
-    error_q = std::max(error_q, max_relative_error(level, f, 0));
+    report.temp_bytes = temp_bytes;
 
     header.error_q = error_q;
     {

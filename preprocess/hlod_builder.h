@@ -19,6 +19,7 @@ struct BuildSettings {
     float error = -1;         // ε_q: stop a level's collapses at ε_q·s_l; −1 for no limit
     int threads = 0;          // 0: every core
     int leaf_triangles = 4096;
+    std::filesystem::path temp_dir;  // the build's temporary files; empty: beside the output
 };
 
 struct LevelStats {
@@ -33,6 +34,7 @@ struct BuildReport {
     std::vector<LevelStats> levels;  // finest first
     std::vector<std::string> notes;  // choices the builder made that the user should know of
     uint64_t output_bytes = 0;
+    uint64_t temp_bytes = 0;  // peak bytes of the temporary cube files (not counting the payload spool)
     // Wall seconds per stage, for benchmarks: partition (level L's cubes), simplify (each level's
     // blocks, normals and encoding), write (the root and the file's assembly).
     double partition_seconds = 0, simplify_seconds = 0, write_seconds = 0;

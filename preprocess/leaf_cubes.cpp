@@ -38,7 +38,7 @@ CubeRecord make_leaf(const Mesh& mesh, CubeKey key, const uint32_t* triangles, s
 
 }  // namespace
 
-CubeLevel leaf_cubes(Mesh& mesh, const Frame& f, unsigned threads) {
+std::vector<BorderEntry> leaf_cubes(Mesh& mesh, const Frame& f, unsigned threads, CubeStore& store) {
     const uint32_t L = f.max_level;
     const size_t triangles = mesh.triangle_count();
     // Sort by the dense linear index k·4^L + j·2^L + i (same order as CubeKey, fewer bits to sort).
@@ -76,16 +76,16 @@ CubeLevel leaf_cubes(Mesh& mesh, const Frame& f, unsigned threads) {
     std::vector<uint64_t>().swap(linear);
     std::vector<uint32_t>().swap(order);
 
-    CubeLevel level;
-    level.cubes.resize(ranges.size());
     std::vector<std::vector<BorderEntry>> border(ranges.size());
     parallel_for(ranges.size(), threads, [&](size_t c, unsigned) {
-        level.cubes[c] = make_leaf(mesh, ranges[c].key, &sorted[3 * ranges[c].first], ranges[c].count);
-        list_border_points(level.cubes[c], f, L, border[c]);
+        const CubeRecord cube = make_leaf(mesh, ranges[c].key, &sorted[3 * ranges[c].first], ranges[c].count);
+        list_border_points(cube, f, L, border[c]);
+        store.put(cube);
     });
-    for (auto& entries : border) level.border.insert(level.border.end(), entries.begin(), entries.end());
     mesh = Mesh{};
-    return level;
+    std::vector<BorderEntry> all;
+    for (auto& entries : border) all.insert(all.end(), entries.begin(), entries.end());
+    return all;
 }
 
 }  // namespace strata::build

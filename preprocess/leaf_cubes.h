@@ -7,16 +7,12 @@
 
 #include "preprocess/border_table.h"
 #include "preprocess/build_cubes.h"
+#include "preprocess/cube_store.h"
 #include "preprocess/mesh.h"
 
 namespace strata::build {
 
-struct CubeLevel {
-    std::vector<CubeRecord> cubes;    // in key order
-    std::vector<BorderEntry> border;  // every cube's listed points (any order)
-};
-
-// Releases the mesh's arrays as it goes.
-CubeLevel leaf_cubes(Mesh& mesh, const Frame& frame, unsigned threads);
+// Puts level L's cubes in `store` and returns the points they list. Releases the mesh's arrays.
+std::vector<BorderEntry> leaf_cubes(Mesh& mesh, const Frame& frame, unsigned threads, CubeStore& store);
 
 }  // namespace strata::build

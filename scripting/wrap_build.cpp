@@ -86,7 +86,7 @@ void check_memory_option(lua_State* L, int index, BuildJob& job) {
 BuildJob check_job(lua_State* L, int index) {
     luaL_checktype(L, index, LUA_TTABLE);
     lua::check_keys(L, index,
-                    {"input", "output", "levels", "block", "ratio", "sigma0", "error", "threads", "memory", "on_progress"});
+                    {"input", "output", "levels", "block", "ratio", "sigma0", "error", "threads", "memory", "temp", "on_progress"});
     BuildJob job;
     job.inputs = check_inputs(L, index);
     job.output = lua::opt_string(L, index, "output", "");
@@ -105,6 +105,7 @@ BuildJob check_job(lua_State* L, int index) {
     job.settings.sigma0 = lua::opt_float(L, index, "sigma0", job.settings.sigma0);
     job.settings.error = lua::opt_float(L, index, "error", job.settings.error);
     job.settings.threads = int(lua::opt_integer_in(L, index, "threads", 0, 0, kMaxThreads));
+    job.settings.temp_dir = lua::opt_string(L, index, "temp", "");
     return job;
 }
 

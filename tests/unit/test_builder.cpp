@@ -5,7 +5,9 @@
 #include "tests/support/test_meshes.h"
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
+#include <algorithm>
 #include <array>
 #include <climits>
 #include <cmath>
@@ -53,6 +55,61 @@ TEST(Builder, OutputIsByteIdenticalAtAnyThreadCount) {
     s.threads = 4;
     build_hlod(test::icosphere(5), dir / "four.hlod", s, "sphere");
     EXPECT_EQ(file_bytes(dir / "one.hlod"), file_bytes(dir / "four.hlod"));
+}
+
+std::vector<std::string> names_in(const std::filesystem::path& dir) {
+    std::vector<std::string> names;
+    for (const auto& e : std::filesystem::directory_iterator(dir)) names.push_back(e.path().filename().string());
+    std::sort(names.begin(), names.end());
+    return names;
+}
+
+TEST(Builder, LevelsPassThroughTheTemporaryFolderWhichIsRemovedAfter) {
+    test::TempDir dir;
+    std::filesystem::create_directory(dir / "scratch");
+    BuildSettings s;
+    s.levels = 3;
+    s.temp_dir = dir / "scratch";
+    // While level 2 is simplified, the folder holds level 2's cubes and the level-1 cubes being made.
+    std::vector<std::string> seen;
+    Progress progress;
+    progress.report = [&](std::string_view stage, double, double, std::string_view) {
+        if (stage != "simplify level 2" || !seen.empty()) return;
+        for (const auto& folder : std::filesystem::directory_iterator(dir / "scratch")) {
+            seen.push_back(folder.path().filename().string());
+            for (const std::string& name : names_in(folder.path())) seen.push_back(name);
+        }
+    };
+    const BuildReport report = build_hlod(test::icosphere(5), dir / "out.hlod", s, "sphere", progress);
+    ASSERT_EQ(seen.size(), 3u);
+    EXPECT_EQ(seen[0], "out.hlod.build-" + std::to_string(::getpid()));
+    EXPECT_EQ(seen[1], "level-1.cubes");
+    EXPECT_EQ(seen[2], "level-2.cubes");
+    EXPECT_TRUE(names_in(dir / "scratch").empty());
+    EXPECT_EQ(names_in(dir.path()), (std::vector<std::string>{"out.hlod", "scratch"}));
+    // The largest two consecutive levels' cubes, raw: more than the model's compressed bytes.
+    EXPECT_GT(report.temp_bytes, report.output_bytes);
+
+    // Where the temporary files go changes nothing in the output.
+    s.temp_dir.clear();
+    build_hlod(test::icosphere(5), dir / "beside.hlod", s, "sphere");
+    EXPECT_EQ(file_bytes(dir / "out.hlod"), file_bytes(dir / "beside.hlod"));
+}
+
+TEST(Builder, TemporaryFolderThatCannotBeMadeIsNamedAndLeavesNothing) {
+    test::TempDir dir;
+    std::ofstream(dir / "plain-file") << "not a folder";
+    BuildSettings s;
+    s.levels = 2;
+    s.temp_dir = dir / "plain-file" / "scratch";
+    try {
+        build_hlod(test::icosphere(3), dir / "out.hlod", s, "sphere");
+        ADD_FAILURE() << "built with its temporary folder under a plain file";
+    } catch (const std::runtime_error& e) {
+        EXPECT_NE(std::string(e.what()).find((dir / "plain-file").string()), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find("cannot create the build's temporary folder"), std::string::npos) << e.what();
+    }
+    EXPECT_EQ(names_in(dir.path()), (std::vector<std::string>{"plain-file"}));
 }
 
 TEST(Builder, OpenGridWithColoursAndUvsVerifies) {
