@@ -16,13 +16,33 @@ namespace {
 
 struct BuildOptions {
     std::vector<std::string> inputs;
-    std::string output, levels = "auto", memory;
+    std::string output, levels = "auto", memory, clean;
     BuildSettings settings;
     bool quiet = false;
     bool verbose = false;
 };
 
+// strata build --clean OUT.hlod: what killed builds of OUT.hlod left.
+int run_clean(const BuildOptions& o) {
+    if (!o.inputs.empty() || !o.output.empty()) {
+        std::fprintf(stderr, "strata build: --clean takes the output's path alone, not inputs or -o\n");
+        return kUsage;
+    }
+    for (const std::filesystem::path& p : remove_build_leftovers(o.clean, o.settings.temp_dir))
+        if (!o.quiet) std::printf("removed %s\n", p.c_str());
+    return kOk;
+}
+
 int run_build(const BuildOptions& o) {
+    if (!o.clean.empty()) return run_clean(o);
+    if (o.inputs.empty()) {
+        std::fprintf(stderr, "strata build: input is required (or --clean OUT.hlod)\n");
+        return kUsage;
+    }
+    if (o.output.empty()) {
+        std::fprintf(stderr, "strata build: --output is required\n");
+        return kUsage;
+    }
     BuildSettings settings = o.settings;
     if (o.levels != "auto") {
         try {
@@ -102,9 +122,11 @@ Command add_build(CLI::App& app) {
     CLI::App* sub = app.add_subcommand("build", "Build a multiresolution model (.hlod) from a scan (PLY, OBJ, OFF, STL).");
     sub->add_option("input", o->inputs,
                     "The scan: one file, or the tiles of one model (welded along shared borders); @LIST reads "
-                    "the inputs from a text file, one per line (# comments; relative to the list's folder)")
-        ->required();
-    sub->add_option("-o,--output", o->output, "The .hlod file to write")->required();
+                    "the inputs from a text file, one per line (# comments; relative to the list's folder)");
+    sub->add_option("-o,--output", o->output, "The .hlod file to write");
+    sub->add_option("--clean", o->clean,
+                    "Instead of building: remove what killed builds of this output left (work folders in --temp "
+                    "or beside it, temporary output files), keeping a running build's");
     sub->add_option("--levels", o->levels, "L, the finest level: 'auto' (a leaf holds a few thousand triangles) or a number")
         ->capture_default_str();
     sub->add_option("--block", o->settings.block, "Cubes per block side (a multiple of 4)")->capture_default_str();

@@ -8,10 +8,13 @@
 #include "preprocess/leaf_cubes.h"
 #include "preprocess/parallel.h"
 
+#include <signal.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <atomic>
+#include <cctype>
+#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <memory>
@@ -165,12 +168,16 @@ std::vector<build::BorderEntry> simplify_level(build::CubeStore& level, const st
     return next_listed;
 }
 
-// Where the builder keeps its temporary files: a folder of its own, removed with everything in it.
+std::filesystem::path folder_or_here(const std::filesystem::path& folder) {
+    return folder.empty() ? std::filesystem::path(".") : folder;
+}
+
+// Where the builder keeps its temporary files: a folder of its own, "OUT.hlod.build-PID", removed with
+// everything in it.
 class WorkFolder {
 public:
     WorkFolder(const std::filesystem::path& output, const std::filesystem::path& temp) {
-        const std::filesystem::path parent = temp.empty() ? output.parent_path() : temp;
-        path_ = (parent.empty() ? std::filesystem::path(".") : parent) /
+        path_ = folder_or_here(temp.empty() ? output.parent_path() : temp) /
                 (output.filename().string() + ".build-" + std::to_string(::getpid()));
         std::error_code ec;
         std::filesystem::create_directories(path_, ec);
@@ -187,6 +194,36 @@ private:
 };
 
 }  // namespace
+
+std::vector<std::filesystem::path> remove_build_leftovers(const std::filesystem::path& output,
+                                                          const std::filesystem::path& temp_dir) {
+    const std::string name = output.filename().string();
+    // "<name><marker><pid>" plus the given suffix, for a process that is gone.
+    auto left_by_dead_build = [&](const std::string& entry, const std::string& marker, const std::string& suffix) {
+        const std::string prefix = name + marker;
+        if (entry.size() <= prefix.size() + suffix.size() || entry.compare(0, prefix.size(), prefix) != 0 ||
+            entry.compare(entry.size() - suffix.size(), suffix.size(), suffix) != 0)
+            return false;
+        const std::string pid = entry.substr(prefix.size(), entry.size() - prefix.size() - suffix.size());
+        if (pid.empty() || pid.size() > 9 || !std::all_of(pid.begin(), pid.end(), ::isdigit)) return false;
+        return ::kill(pid_t(std::stol(pid)), 0) != 0 && errno == ESRCH;
+    };
+    std::vector<std::filesystem::path> removed;
+    auto sweep = [&](const std::filesystem::path& folder, auto&& matches) {
+        std::error_code ec;
+        for (const auto& e : std::filesystem::directory_iterator(folder_or_here(folder), ec))
+            if (matches(e.path().filename().string())) {
+                std::filesystem::remove_all(e.path(), ec);
+                removed.push_back(e.path());
+            }
+    };
+    sweep(temp_dir.empty() ? output.parent_path() : temp_dir,
+          [&](const std::string& entry) { return left_by_dead_build(entry, ".build-", ""); });
+    sweep(output.parent_path(), [&](const std::string& entry) {
+        return left_by_dead_build(entry, ".tmp-", "") || left_by_dead_build(entry, ".tmp-", ".payloads");
+    });
+    return removed;
+}
 
 void check_settings(const BuildSettings& s) {
     auto fail = [](const std::string& what) { throw InputError("build settings: " + what); };

@@ -51,4 +51,10 @@ void check_settings(const BuildSettings& settings);
 BuildReport build_hlod(Mesh&& mesh, const std::filesystem::path& output, const BuildSettings& settings,
                        const std::string& source_name, const Progress& progress = {});
 
+// What builds of `output` that were killed left behind: their work folders (in `temp_dir`, or beside
+// the output when it is empty) and the writer's temporary files beside the output. A running build's
+// are kept. Removes them and returns their paths.
+std::vector<std::filesystem::path> remove_build_leftovers(const std::filesystem::path& output,
+                                                          const std::filesystem::path& temp_dir);
+
 }  // namespace strata

@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
 # Ctrl-C (SIGINT) during a build: exit status 130, a message, and no output file or temporary left.
+# A build killed outright (SIGKILL) leaves no output either; `strata build --clean` removes what it left.
 source "$(dirname "$0")/common.sh"
 # A 1000×1000 grid of quads (2 M triangles) as OFF: big enough to still be building when the signal comes.
 awk 'BEGIN {
@@ -25,4 +26,24 @@ checks=$((checks + 1))
 grep -q "interrupted" "$WORK/err.txt" || fail "no 'interrupted' message"
 checks=$((checks + 1))
 [ -z "$(ls "$WORK" | grep grid.hlod)" ] || fail "left $(ls "$WORK" | grep grid.hlod)"
+
+# SIGKILL once the build has its work folder: nothing can clean up, but no grid.hlod appears.
+"$STRATA" build "$WORK/grid.off" -o "$WORK/grid.hlod" -q >"$WORK/out.txt" 2>"$WORK/err.txt" &
+pid=$!
+for _ in $(seq 600); do [ -d "$WORK/grid.hlod.build-$pid" ] && break; sleep 0.05; done
+kill -KILL $pid
+wait $pid 2>/dev/null
+checks=$((checks + 1))
+[ -d "$WORK/grid.hlod.build-$pid" ] && [ -f "$WORK/grid.hlod.tmp-$pid.payloads" ] ||
+    fail "a killed build should leave its work folder and payload spool: $(ls "$WORK")"
+checks=$((checks + 1))
+[ ! -e "$WORK/grid.hlod" ] || fail "a killed build left an output file"
+# Another build's leftovers, still running (this shell), are kept.
+touch "$WORK/grid.hlod.tmp-$$"
+expect_success "clean after a kill" "$STRATA" build --clean "$WORK/grid.hlod"
+checks=$((checks + 1))
+[ "$(ls "$WORK" | grep grid.hlod)" = "grid.hlod.tmp-$$" ] || fail "--clean left or removed the wrong files: $(ls "$WORK")"
+checks=$((checks + 1))
+grep -q "removed $WORK/grid.hlod.build-$pid" "$WORK/out.txt" || fail "--clean does not say what it removed: $(cat "$WORK/out.txt")"
+expect_usage "clean with an input" "takes the output's path alone" "$STRATA" build "$WORK/grid.off" --clean "$WORK/grid.hlod"
 finish
