@@ -1,7 +1,7 @@
 #include "preprocess/leaf_cubes.h"
 
-#include <cstring>
 #include <numeric>
+#include <span>
 
 #include "preprocess/index_map.h"
 #include "preprocess/parallel.h"
@@ -10,17 +10,18 @@
 namespace strata::build {
 namespace {
 
-// One cube's record from its triangles (input vertex ids).
-CubeRecord make_leaf(const Mesh& mesh, CubeKey key, const uint32_t* triangles, size_t count) {
+// One cube's record from its triangles (ids into the mesh's triangles).
+CubeRecord make_leaf(const Mesh& mesh, CubeKey key, std::span<const uint32_t> triangles) {
     CubeRecord cube;
     cube.key = key;
-    cube.child_counts[0] = uint32_t(count);
+    cube.child_counts[0] = uint32_t(triangles.size());
     std::vector<uint32_t> vertices;
-    cube.triangles.resize(3 * count);
-    IndexMap local_of(count / 2 + 16);  // about half as many vertices as triangles
-    for (size_t i = 0; i < 3 * count; ++i) {
-        const uint32_t local = local_of.find_or_insert(triangles[i], uint32_t(vertices.size()));
-        if (local == vertices.size()) vertices.push_back(triangles[i]);
+    cube.triangles.resize(3 * triangles.size());
+    IndexMap local_of(triangles.size() / 2 + 16);  // about half as many vertices as triangles
+    for (size_t i = 0; i < 3 * triangles.size(); ++i) {
+        const uint32_t v = mesh.indices[3 * size_t(triangles[i / 3]) + i % 3];
+        const uint32_t local = local_of.find_or_insert(v, uint32_t(vertices.size()));
+        if (local == vertices.size()) vertices.push_back(v);
         cube.triangles[i] = local;
     }
     order_for_payload(cube.triangles, cube.child_counts, vertices);
@@ -54,12 +55,6 @@ std::vector<BorderEntry> leaf_cubes(Mesh& mesh, const Frame& f, unsigned threads
     std::vector<uint32_t> order(triangles);
     std::iota(order.begin(), order.end(), 0u);
     radix_sort_ids(linear, order, int(3 * L));
-    std::vector<uint32_t> sorted(3 * triangles);
-    parallel_for((triangles + kChunk - 1) / kChunk, threads, [&](size_t chunk, unsigned) {
-        for (size_t t = chunk * kChunk; t < std::min(triangles, (chunk + 1) * kChunk); ++t)
-            std::memcpy(&sorted[3 * t], &mesh.indices[3 * size_t(order[t])], 12);
-    });
-    std::vector<uint32_t>().swap(mesh.indices);
 
     struct Range {
         CubeKey key;
@@ -74,11 +69,10 @@ std::vector<BorderEntry> leaf_cubes(Mesh& mesh, const Frame& f, unsigned threads
         ++ranges.back().count;
     }
     std::vector<uint64_t>().swap(linear);
-    std::vector<uint32_t>().swap(order);
 
     std::vector<std::vector<BorderEntry>> border(ranges.size());
     parallel_for(ranges.size(), threads, [&](size_t c, unsigned) {
-        const CubeRecord cube = make_leaf(mesh, ranges[c].key, &sorted[3 * ranges[c].first], ranges[c].count);
+        const CubeRecord cube = make_leaf(mesh, ranges[c].key, std::span(order).subspan(ranges[c].first, ranges[c].count));
         list_border_points(cube, f, L, border[c]);
         store.put(cube);
     });
