@@ -4,6 +4,9 @@
 // point that blocks share is listed by a cube of each (a surface split by a border has open edges on
 // both sides), so a block locks the points another block lists, and takes their normals from the sum
 // of every listing's share: the same float sums in every block, in cube order, at any thread count.
+// The one exception is a pinch: two surfaces touching at a single vertex, one of them closed around it
+// inside its block. That block lists nothing there, so only the other locks the vertex, and the
+// surfaces may part at that point (never along an edge: an edge is open on both of its sides).
 #pragma once
 
 #include <array>
