@@ -5,8 +5,9 @@
 // both sides), so a block locks the points another block lists, and takes their normals from the sum
 // of every listing's share: the same float sums in every block, in cube order, at any thread count.
 // The one exception is a pinch: two surfaces touching at a single vertex, one of them closed around it
-// inside its block. That block lists nothing there, so only the other locks the vertex, and the
-// surfaces may part at that point (never along an edge: an edge is open on both of its sides).
+// inside its block. That block lists nothing there: it locks the vertex (the other block lists it), but
+// the other block, seeing no listing but its own, may move it, and the surfaces part at that point
+// (never along an edge: an edge is open on both of its sides).
 #pragma once
 
 #include <array>
