@@ -2,6 +2,7 @@
 
 #include <fcntl.h>
 #include <meshoptimizer.h>
+#include <zstd.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -122,13 +123,12 @@ __attribute__((target("sse4.2"))) uint32_t crc32c_hardware(uint32_t crc, const u
 
 // ---- streams -------------------------------------------------------------------------------
 
-// Position and normal travel together as one 12-byte record (the last two bytes zero).
-std::vector<uint8_t> position_normal_records(const VertexArrays& v) {
-    std::vector<uint8_t> out(size_t(v.size()) * 12, 0);
-    for (size_t i = 0; i < v.size(); ++i) {
-        std::memcpy(&out[12 * i], &v.positions[3 * i], 6);
-        std::memcpy(&out[12 * i + 6], &v.normals[2 * i], 4);
-    }
+// Positions as 8-byte records (x, y, z, then a zero u16): the vertex codec takes records of a multiple
+// of 4 bytes, and a constant column costs it almost nothing.
+std::vector<uint8_t> position_records(const std::vector<uint16_t>& positions) {
+    const size_t n = positions.size() / 3;
+    std::vector<uint8_t> out(n * 8, 0);
+    for (size_t i = 0; i < n; ++i) std::memcpy(&out[8 * i], &positions[3 * i], 6);
     return out;
 }
 
@@ -346,32 +346,128 @@ std::array<float, 3> decode_normal(int16_t u, int16_t v) {
 
 namespace {
 
-// Streams of a payload: position+normal records, colours, UVs, parent indices, triangles.
-constexpr int kStreams = 5;
+// A payload's streams (FORMAT.md §5): positions, normal residuals, colours, UVs, parents, triangles.
+enum Stream { kPositions, kNormals, kColors, kUvs, kParents, kIndices, kStreams };
+// How the streams follow the header: as they are, or as one zstd frame of all of them.
+enum Packing : uint32_t { kStored = 0, kZstd = 1 };
+// zstd level 9: most of what 19 saves, at a fraction of its time; decoding speed does not depend on it.
+constexpr int kZstdLevel = 9;
+// The streams may be at most this many times the zstd frame, so that a small payload cannot make a reader
+// allocate gigabytes; a writer stores the streams as they are when they would compress further.
+constexpr uint64_t kMaxZstdRatio = 64;
+
+struct ZstdContexts {
+    ZSTD_CCtx* compress = ZSTD_createCCtx();
+    ZSTD_DCtx* decompress = ZSTD_createDCtx();
+    ~ZstdContexts() { ZSTD_freeCCtx(compress), ZSTD_freeDCtx(decompress); }
+};
+thread_local ZstdContexts zstd;  // reused: creating a context costs more than decoding a small cube
+
+// The octahedral normal of vertex v that the triangles predict (FORMAT.md §7): the sum over its
+// triangles of (b − a) × (c − a) in lattice integers, in wrapping 64-bit arithmetic so that every
+// reader gets the same bits, mapped in f64. Where the builder computed a vertex's normal from the same
+// triangles (inside a cube, without seams), the prediction is the stored normal or next to it.
+std::vector<int16_t> predicted_normals(const std::vector<uint16_t>& positions, const std::vector<uint32_t>& indices) {
+    const size_t n = positions.size() / 3;
+    std::vector<std::array<uint64_t, 3>> sums(n, {0, 0, 0});
+    for (size_t t = 0; t < indices.size(); t += 3) {
+        // A corner past the vertices makes the decoder refuse the payload; the encoder just skips it.
+        if (indices[t] >= n || indices[t + 1] >= n || indices[t + 2] >= n) continue;
+        const uint16_t* p[3];
+        for (int k = 0; k < 3; ++k) p[k] = &positions[3 * size_t(indices[t + k])];
+        int64_t e1[3], e2[3];
+        for (int a = 0; a < 3; ++a) e1[a] = int64_t(p[1][a]) - p[0][a], e2[a] = int64_t(p[2][a]) - p[0][a];
+        const uint64_t normal[3] = {uint64_t(e1[1] * e2[2] - e1[2] * e2[1]), uint64_t(e1[2] * e2[0] - e1[0] * e2[2]),
+                                    uint64_t(e1[0] * e2[1] - e1[1] * e2[0])};
+        for (int k = 0; k < 3; ++k)
+            for (int a = 0; a < 3; ++a) sums[indices[t + k]][a] += normal[a];
+    }
+    std::vector<int16_t> out(2 * sums.size());
+    constexpr double steps = double((1 << (kNormalBits - 1)) - 1);
+    for (size_t v = 0; v < sums.size(); ++v) {
+        double x = double(int64_t(sums[v][0])), y = double(int64_t(sums[v][1])), z = double(int64_t(sums[v][2]));
+        const double l1 = std::fabs(x) + std::fabs(y) + std::fabs(z);
+        if (!(l1 > 0)) continue;  // no triangle: predicts (0, 0)
+        x /= l1, y /= l1, z /= l1;
+        if (z < 0) {
+            const double ox = (1 - std::fabs(y)) * (x >= 0 ? 1.0 : -1.0);
+            const double oy = (1 - std::fabs(x)) * (y >= 0 ? 1.0 : -1.0);
+            x = ox, y = oy;
+        }
+        out[2 * v] = int16_t(std::lround(std::clamp(x, -1.0, 1.0) * steps));
+        out[2 * v + 1] = int16_t(std::lround(std::clamp(y, -1.0, 1.0) * steps));
+    }
+    return out;
+}
+
+std::vector<uint8_t> encode_indices(const std::vector<uint32_t>& indices, size_t vertex_count) {
+    if (indices.empty()) return {};
+    std::vector<uint8_t> out(meshopt_encodeIndexBufferBound(indices.size(), vertex_count));
+    out.resize(meshopt_encodeIndexBuffer(out.data(), out.size(), indices.data(), indices.size()));
+    return out;
+}
+
+// The streams after the header: one zstd frame of them all, unless that would not be smaller or would
+// exceed the ratio a reader accepts.
+void append_packed(ByteWriter& w, const std::vector<uint8_t>& streams) {
+    std::vector<uint8_t> frame(ZSTD_compressBound(streams.size()));
+    const size_t size = ZSTD_compressCCtx(zstd.compress, frame.data(), frame.size(), streams.data(), streams.size(), kZstdLevel);
+    if (ZSTD_isError(size)) throw std::runtime_error(std::string("zstd: ") + ZSTD_getErrorName(size));
+    if (size < streams.size() && streams.size() <= kMaxZstdRatio * size) {
+        w.put(uint32_t(kZstd));
+        w.put_bytes(frame.data(), size);
+    } else {
+        w.put(uint32_t(kStored));
+        w.put_bytes(streams.data(), streams.size());
+    }
+}
+
+// The streams, unpacked; `total` (the sum of the stream sizes) is checked against the body before
+// anything is allocated for it.
+std::vector<uint8_t> unpack_streams(uint32_t packing, std::span<const uint8_t> body, uint64_t total, const std::string& what) {
+    if (packing == kStored) {
+        if (total > body.size()) throw std::runtime_error(what + " payload ends early");
+        if (total < body.size()) throw std::runtime_error(what + ": payload longer than its streams");
+        return {body.begin(), body.end()};
+    }
+    if (packing != kZstd) throw std::runtime_error(what + ": unknown stream packing " + std::to_string(packing));
+    if (total > kMaxZstdRatio * body.size()) throw std::runtime_error(what + ": counts larger than the payload could hold");
+    if (ZSTD_getFrameContentSize(body.data(), body.size()) != total)
+        throw std::runtime_error(what + ": zstd frame does not hold the streams' size");
+    std::vector<uint8_t> streams(total);
+    const size_t size = ZSTD_decompressDCtx(zstd.decompress, streams.data(), streams.size(), body.data(), body.size());
+    if (ZSTD_isError(size) || size != total) throw std::runtime_error(what + ": zstd frame does not decode");
+    return streams;
+}
 
 }  // namespace
 
-// Payload: counts, child triangle counts, five stream sizes, then the streams: the vertices
-// (position+normal, colours, UVs), each vertex's parent index in the parent cube, and the triangles,
-// in meshoptimizer's vertex and index codecs.
+// Payload (FORMAT.md §5): counts, child triangle counts, six stream sizes, the packing, then the
+// streams: positions, normals as residuals against the triangles' prediction, colours, UVs, each
+// vertex's parent index in the parent cube (meshoptimizer's vertex codec), and the triangles (its
+// index codec), usually as one zstd frame.
 std::vector<uint8_t> encode_cube(const CubeData& cube, uint32_t flags) {
     const size_t n = cube.vertex_count();
+    std::vector<int16_t> residuals = predicted_normals(cube.vertices.positions, cube.indices);
+    for (size_t i = 0; i < residuals.size(); ++i) residuals[i] = int16_t(cube.vertices.normals[i] - residuals[i]);
     std::vector<uint8_t> streams[kStreams];
-    streams[0] = encode_vertices(position_normal_records(cube.vertices), n, 12);
-    if (flags & kHasColors) streams[1] = encode_vertices(cube.vertices.colors, n, 4);
-    if (flags & kHasUvs) streams[2] = encode_vertices(as_bytes(cube.vertices.uvs), n, 8);
-    streams[3] = encode_vertices(as_bytes(cube.parent_vertex), n, 4);
-    if (!cube.indices.empty()) {
-        streams[4].resize(meshopt_encodeIndexBufferBound(cube.indices.size(), n));
-        streams[4].resize(meshopt_encodeIndexBuffer(streams[4].data(), streams[4].size(), cube.indices.data(),
-                                                    cube.indices.size()));
-    }
+    streams[kPositions] = encode_vertices(position_records(cube.vertices.positions), n, 8);
+    streams[kNormals] = encode_vertices(as_bytes(residuals), n, 4);
+    if (flags & kHasColors) streams[kColors] = encode_vertices(cube.vertices.colors, n, 4);
+    if (flags & kHasUvs) streams[kUvs] = encode_vertices(as_bytes(cube.vertices.uvs), n, 8);
+    streams[kParents] = encode_vertices(as_bytes(cube.parent_vertex), n, 4);
+    streams[kIndices] = encode_indices(cube.indices, n);
     ByteWriter w;
     w.put(uint32_t(n));
     w.put(cube.triangle_count());
     for (uint32_t c : cube.child_triangle_counts) w.put(c);
-    for (const auto& s : streams) w.put(uint32_t(s.size()));
-    for (const auto& s : streams) w.put_bytes(s.data(), s.size());
+    std::vector<uint8_t> all;
+    for (const auto& s : streams) {
+        w.put(uint32_t(s.size()));
+        all.insert(all.end(), s.begin(), s.end());
+    }
+    if (!all.empty()) append_packed(w, all);
+    else w.put(uint32_t(kStored));
     return std::move(w.bytes);
 }
 
@@ -386,35 +482,45 @@ CubeData decode_cube(std::span<const uint8_t> bytes, const HlodNode& node, uint3
     for (uint32_t& c : cube.child_triangle_counts) grouped += c = r.get<uint32_t>();
     if (grouped != triangles) throw std::runtime_error(what + ": child triangle counts do not add up");
     uint32_t sizes[kStreams];
-    for (uint32_t& s : sizes) s = r.get<uint32_t>();
+    uint64_t total = 0;
+    for (uint32_t& s : sizes) total += s = r.get<uint32_t>();
+    const uint32_t packing = r.get<uint32_t>();
     // Bound every count by the stream that holds it before allocating for it: meshoptimizer's vertex
-    // codec spends at least 2 bits per 16 records on each byte of a record (so a 12-byte record costs
-    // ≥ 3/16 byte), its index codec at least a byte per triangle.
-    uint64_t streamed = 0;
-    for (uint32_t size : sizes) streamed += size;
+    // codec spends at least 2 bits per 16 records on each byte of a record (so an 8-byte record costs
+    // ≥ 1/8 byte), its index codec at least a byte per triangle.
     auto fits = [](uint64_t count, uint32_t stream) { return count <= 8 * uint64_t(stream) + 16; };
-    if (streamed > bytes.size() || !fits(n, sizes[0]) || triangles > sizes[4])
+    if (!fits(n, sizes[kPositions]) || triangles > sizes[kIndices])
         throw std::runtime_error(what + ": counts larger than the payload could hold");
-    auto records = decode_vertices(r.get_bytes(sizes[0]), n, 12, what);
+    const std::vector<uint8_t> streams = unpack_streams(packing, bytes.subspan(r.position()), total, what);
+    ByteReader s(streams, what + " payload");
+
+    const auto positions = decode_vertices(s.get_bytes(sizes[kPositions]), n, 8, what);
     cube.vertices.positions.resize(3 * size_t(n));
-    cube.vertices.normals.resize(2 * size_t(n));
-    for (size_t i = 0; i < n; ++i) {
-        std::memcpy(&cube.vertices.positions[3 * i], &records[12 * i], 6);
-        std::memcpy(&cube.vertices.normals[2 * i], &records[12 * i + 6], 4);
-    }
-    auto colors = r.get_bytes(sizes[1]);
+    for (size_t i = 0; i < n; ++i) std::memcpy(&cube.vertices.positions[3 * i], &positions[8 * i], 6);
+    from_bytes(decode_vertices(s.get_bytes(sizes[kNormals]), n, 4, what), cube.vertices.normals);
+    const auto colors = s.get_bytes(sizes[kColors]);
     if (flags & kHasColors) cube.vertices.colors = decode_vertices(colors, n, 4, what);
-    auto uvs = r.get_bytes(sizes[2]);
+    const auto uvs = s.get_bytes(sizes[kUvs]);
     if (flags & kHasUvs) from_bytes(decode_vertices(uvs, n, 8, what), cube.vertices.uvs);
-    from_bytes(decode_vertices(r.get_bytes(sizes[3]), n, 4, what), cube.parent_vertex);
+    from_bytes(decode_vertices(s.get_bytes(sizes[kParents]), n, 4, what), cube.parent_vertex);
     cube.indices.resize(size_t(triangles) * 3);
-    auto index_stream = r.get_bytes(sizes[4]);
+    const auto index_stream = s.get_bytes(sizes[kIndices]);
     if (triangles && meshopt_decodeIndexBuffer(cube.indices.data(), cube.indices.size(), 4, index_stream.data(),
                                                index_stream.size()) != 0)
         throw std::runtime_error(what + ": index stream does not decode");
     for (uint32_t index : cube.indices)
         if (index >= n) throw std::runtime_error(what + ": index " + std::to_string(index) + " past its " +
                                                  std::to_string(n) + " vertices");
+
+    // Normals last: their prediction needs the positions and the triangles.
+    const std::vector<int16_t> predicted = predicted_normals(cube.vertices.positions, cube.indices);
+    constexpr int kNormalLimit = (1 << (kNormalBits - 1)) - 1;
+    for (size_t i = 0; i < predicted.size(); ++i) {
+        const int value = cube.vertices.normals[i] + predicted[i];
+        if (value < -kNormalLimit || value > kNormalLimit)
+            throw std::runtime_error(what + ": normal of vertex " + std::to_string(i / 2) + " out of range");
+        cube.vertices.normals[i] = int16_t(value);
+    }
     return cube;
 }
 

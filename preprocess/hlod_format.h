@@ -16,7 +16,8 @@ namespace strata {
 
 inline constexpr char kHlodMagic[8] = {'S', 'T', 'R', 'A', 'T', 'A', 'H', 'L'};
 inline constexpr uint32_t kHlodVersion = 2;
-// MODL's payload codec id: 1 is the five-stream cube payload, parents as indices (FORMAT.md §5). A later payload layout
+// MODL's payload codec id: 1 is the six-stream cube payload (positions, normals as residuals against
+// the triangles' prediction, colours, UVs, parents as indices, triangles), usually zstd-packed (FORMAT.md §5). A later payload layout
 // gets a new id, which older readers refuse by name instead of misreading.
 inline constexpr uint32_t kCubePayloadCodec = 1;
 

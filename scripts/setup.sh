@@ -6,7 +6,7 @@ cd "$(dirname "$0")/.."
 
 packages=(
   cmake ninja-build g++ pkg-config
-  libmeshoptimizer-dev libcli11-dev nlohmann-json3-dev
+  libmeshoptimizer-dev libzstd-dev libcli11-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev
   libepoxy-dev libegl-dev libegl-mesa0 libgl1-mesa-dri libglfw3-dev libglm-dev
   libopenexr-dev openexr libstb-dev xvfb

@@ -19,6 +19,9 @@
 #include <string>
 #include <vector>
 
+#include <meshoptimizer.h>
+#include <zstd.h>
+
 #include "preprocess/hlod_format.h"
 #include "tests/support/test_meshes.h"
 
@@ -122,9 +125,45 @@ void expect_same_cube(const CubeData& got, const CubeData& want, uint32_t flags)
     expect_same_triangles(got.indices, want.indices);
 }
 
-// Payload header offsets (FORMAT.md §5).
-constexpr size_t kVertexCountAt = 0, kTriangleCountAt = 4, kChildCountsAt = 8, kSizesAt = 40, kStreamsAt = 60;
-constexpr int kStreams = 5, kIndexStream = 4;
+// Payload header offsets and streams (FORMAT.md §5).
+constexpr size_t kVertexCountAt = 0, kTriangleCountAt = 4, kChildCountsAt = 8, kSizesAt = 40, kPackingAt = 64,
+                 kStreamsAt = 68;
+constexpr int kStreams = 6, kNormalStream = 1, kColorStream = 2, kUvStream = 3, kParentStream = 4, kIndexStream = 5;
+constexpr uint32_t kStored = 0, kZstd = 1;
+
+// The streams of a payload, unpacked as FORMAT.md §5 says (independently of decode_cube).
+std::vector<uint8_t> unpacked_streams(const std::vector<uint8_t>& payload) {
+    uint64_t total = 0;
+    for (int s = 0; s < kStreams; ++s) total += get<uint32_t>(payload, kSizesAt + 4 * s);
+    std::vector<uint8_t> body(payload.begin() + kStreamsAt, payload.end());
+    if (get<uint32_t>(payload, kPackingAt) == kStored) return body;
+    std::vector<uint8_t> streams(total);
+    EXPECT_EQ(ZSTD_decompress(streams.data(), streams.size(), body.data(), body.size()), total);
+    return streams;
+}
+
+// A payload with its streams stored as they are, not as a zstd frame: for editing a stream in place.
+std::vector<uint8_t> stored_payload(const std::vector<uint8_t>& payload) {
+    std::vector<uint8_t> out(payload.begin(), payload.begin() + kStreamsAt);
+    put<uint32_t>(out, kPackingAt, kStored);
+    const std::vector<uint8_t> streams = unpacked_streams(payload);
+    out.insert(out.end(), streams.begin(), streams.end());
+    return out;
+}
+
+// The same payload with its streams as the zstd frame `frame`.
+std::vector<uint8_t> with_frame(const std::vector<uint8_t>& payload, const std::vector<uint8_t>& frame) {
+    std::vector<uint8_t> out(payload.begin(), payload.begin() + kStreamsAt);
+    put<uint32_t>(out, kPackingAt, kZstd);
+    out.insert(out.end(), frame.begin(), frame.end());
+    return out;
+}
+
+std::vector<uint8_t> zstd_frame(const std::vector<uint8_t>& bytes) {
+    std::vector<uint8_t> frame(ZSTD_compressBound(bytes.size()));
+    frame.resize(ZSTD_compress(frame.data(), frame.size(), bytes.data(), bytes.size(), 3));
+    return frame;
+}
 
 // ---- CRC-32C ----------------------------------------------------------------------------------------
 
@@ -279,20 +318,76 @@ TEST(CubePayload, RoundTripWithEveryFlagCombination) {
         SCOPED_TRACE("flags " + std::to_string(flags));
         expect_same_cube(back, cube, flags);
 
-        // The layout of FORMAT.md §5: counts, child counts, sizes, then exactly the streams.
+        // The layout of FORMAT.md §5: counts, child counts, sizes, packing, then the streams.
         ASSERT_GE(payload.size(), kStreamsAt);
         EXPECT_EQ(get<uint32_t>(payload, kVertexCountAt), 40u);
         EXPECT_EQ(get<uint32_t>(payload, kTriangleCountAt), 57u);
         EXPECT_EQ(get<uint32_t>(payload, kChildCountsAt + 4 * 5), cube.child_triangle_counts[5]);
-        size_t total = kStreamsAt;
+        size_t total = 0;
         uint32_t sizes[kStreams];
         for (int s = 0; s < kStreams; ++s) total += sizes[s] = get<uint32_t>(payload, kSizesAt + 4 * s);
-        EXPECT_EQ(total, payload.size());
-        for (int s : {0, 3, kIndexStream}) EXPECT_GT(sizes[s], 0u) << "stream " << s;
-        EXPECT_EQ(sizes[1] > 0, bool(flags & kHasColors));
-        EXPECT_EQ(sizes[2] > 0, bool(flags & kHasUvs));
-        EXPECT_EQ(payload[kStreamsAt], 0xA0) << "vertex codec version 0";
+        const std::vector<uint8_t> streams = unpacked_streams(payload);
+        EXPECT_EQ(streams.size(), total);
+        for (int s : {0, kNormalStream, kParentStream, kIndexStream}) EXPECT_GT(sizes[s], 0u) << "stream " << s;
+        EXPECT_EQ(sizes[kColorStream] > 0, bool(flags & kHasColors));
+        EXPECT_EQ(sizes[kUvStream] > 0, bool(flags & kHasUvs));
+        EXPECT_EQ(streams[0], 0xA0) << "vertex codec version 0";
+        EXPECT_EQ(streams[total - sizes[kIndexStream]], 0xE0) << "index codec version 0";
+
+        // Either packing decodes to the same cube.
+        expect_same_cube(decode_cube(stored_payload(payload), node_for(cube), flags), cube, flags);
+        expect_same_cube(decode_cube(with_frame(payload, zstd_frame(streams)), node_for(cube), flags), cube, flags);
     }
+}
+
+// A smooth patch whose normals are the area-weighted ones of its own triangles (as the builder computes
+// them inside a cube): the triangles predict them, so the normal stream is far smaller than for the
+// same patch with unrelated normals, and a cube of many such vertices is packed with zstd.
+TEST(CubePayload, NormalsThatTheTrianglesPredictCostLittle) {
+    constexpr uint32_t side = 24;
+    CubeData smooth;
+    for (uint32_t y = 0; y < side; ++y)
+        for (uint32_t x = 0; x < side; ++x) {
+            const double h = 4000 * std::sin(0.2 * x) * std::cos(0.15 * y);
+            smooth.vertices.positions.insert(smooth.vertices.positions.end(),
+                                             {uint16_t(20000 + 1000 * x), uint16_t(20000 + 1000 * y), uint16_t(32768 + h)});
+            smooth.parent_vertex.push_back((y / 2) * (side / 2) + x / 2);
+        }
+    for (uint32_t y = 0; y + 1 < side; ++y)
+        for (uint32_t x = 0; x + 1 < side; ++x) {
+            const uint32_t a = y * side + x;
+            smooth.indices.insert(smooth.indices.end(), {a, a + 1, a + side + 1, a, a + side + 1, a + side});
+        }
+    smooth.child_triangle_counts[0] = smooth.triangle_count();
+    std::vector<std::array<float, 3>> sums(side * side, {0, 0, 0});
+    for (size_t t = 0; t < smooth.indices.size(); t += 3) {
+        float p[3][3];
+        for (int k = 0; k < 3; ++k)
+            for (int a = 0; a < 3; ++a) p[k][a] = float(smooth.vertices.positions[3 * smooth.indices[t + k] + a]);
+        const float e1[3] = {p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]};
+        const float e2[3] = {p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]};
+        const float n[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
+        for (int k = 0; k < 3; ++k)
+            for (int a = 0; a < 3; ++a) sums[smooth.indices[t + k]][a] += n[a];
+    }
+    for (const auto& s : sums) {
+        const auto n = encode_normal(s[0], s[1], s[2]);
+        smooth.vertices.normals.insert(smooth.vertices.normals.end(), n.begin(), n.end());
+    }
+    CubeData unrelated = smooth;
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<float> component(-1, 1);
+    for (size_t v = 0; v < sums.size(); ++v) {
+        const auto n = encode_normal(component(rng), component(rng), component(rng));
+        std::copy(n.begin(), n.end(), unrelated.vertices.normals.begin() + 2 * v);
+    }
+    const std::vector<uint8_t> predicted = encode_cube(smooth, 0), random = encode_cube(unrelated, 0);
+    expect_same_cube(decode_cube(predicted, node_for(smooth), 0), smooth, 0);
+    expect_same_cube(decode_cube(random, node_for(unrelated), 0), unrelated, 0);
+    const uint32_t predicted_bytes = get<uint32_t>(predicted, kSizesAt + 4 * kNormalStream);
+    const uint32_t random_bytes = get<uint32_t>(random, kSizesAt + 4 * kNormalStream);
+    EXPECT_LT(predicted_bytes * 4, random_bytes) << predicted_bytes << " vs " << random_bytes;
+    EXPECT_EQ(get<uint32_t>(predicted, kPackingAt), kZstd);
 }
 
 TEST(CubePayload, RoundTripWithoutTriangles) {
@@ -305,10 +400,11 @@ TEST(CubePayload, RoundTripWithoutTriangles) {
         expect_same_cube(back, extras, flags);
         EXPECT_EQ(back.triangle_count(), 0u);
 
-        // Nothing at all: just the header.
+        // Nothing at all: just the header, streams stored (all empty).
         CubeData empty;
         payload = encode_cube(empty, flags);
         EXPECT_EQ(payload.size(), kStreamsAt);
+        EXPECT_EQ(get<uint32_t>(payload, kPackingAt), kStored);
         back = decode_cube(payload, node_for(empty), flags);
         EXPECT_EQ(back.vertex_count(), 0u);
         EXPECT_TRUE(back.parent_vertex.empty());
@@ -345,8 +441,9 @@ TEST_F(BadPayload, Truncated) {
         std::vector<uint8_t> cut(payload.begin(), payload.begin() + keep);
         EXPECT_THROW(decode_cube(cut, node, flags), std::runtime_error) << "kept " << keep << " bytes";
     }
-    std::vector<uint8_t> cut(payload.begin(), payload.end() - 1);
-    expect_rejected(cut, node, "ends early");
+    expect_rejected(std::vector<uint8_t>(payload.begin(), payload.begin() + kPackingAt), node, "ends early");
+    const std::vector<uint8_t> stored = stored_payload(payload);
+    expect_rejected(std::vector<uint8_t>(stored.begin(), stored.end() - 1), node, "ends early");
 }
 
 TEST_F(BadPayload, CountsDisagreeWithTheNode) {
@@ -372,12 +469,79 @@ TEST_F(BadPayload, ChildCountsDoNotAddUp) {
 }
 
 TEST_F(BadPayload, StreamSizesThatDoNotMatchTheStreams) {
-    std::vector<uint8_t> edited = payload;
-    put<uint32_t>(edited, kSizesAt, get<uint32_t>(payload, kSizesAt) + 1);  // stream 0 one byte longer
+    // Stored: the sizes must add up to exactly the bytes after the header.
+    const std::vector<uint8_t> stored = stored_payload(payload);
+    ASSERT_NO_THROW(decode_cube(stored, node, flags));
+    std::vector<uint8_t> edited = stored;
+    put<uint32_t>(edited, kSizesAt, get<uint32_t>(stored, kSizesAt) + 1);  // stream 0 one byte longer
+    expect_rejected(edited, node, "ends early");
+    edited = stored;
+    put<uint32_t>(edited, kSizesAt + 4 * kIndexStream, get<uint32_t>(stored, kSizesAt + 4 * kIndexStream) - 1);
+    expect_rejected(edited, node, "payload longer than its streams");
+    edited = stored;  // sizes add up, but the boundary between two streams moved
+    put<uint32_t>(edited, kSizesAt, get<uint32_t>(stored, kSizesAt) + 2);
+    put<uint32_t>(edited, kSizesAt + 4 * kNormalStream, get<uint32_t>(stored, kSizesAt + 4 * kNormalStream) - 2);
     EXPECT_THROW(decode_cube(edited, node, flags), std::runtime_error);
-    edited = payload;
-    put<uint32_t>(edited, kSizesAt + 4 * kIndexStream, get<uint32_t>(payload, kSizesAt + 4 * kIndexStream) + 100);  // past the end
-    expect_rejected(edited, node, "");
+    // zstd: the frame must hold exactly the streams' size.
+    edited = with_frame(payload, zstd_frame(unpacked_streams(payload)));
+    put<uint32_t>(edited, kSizesAt + 4 * kIndexStream, get<uint32_t>(edited, kSizesAt + 4 * kIndexStream) + 100);
+    expect_rejected(edited, node, "zstd frame does not hold the streams' size");
+}
+
+TEST_F(BadPayload, UnknownPacking) {
+    std::vector<uint8_t> edited = payload;
+    put<uint32_t>(edited, kPackingAt, 2);
+    expect_rejected(edited, node, "unknown stream packing 2");
+}
+
+TEST_F(BadPayload, CorruptZstdFrame) {
+    std::vector<uint8_t> frame = zstd_frame(unpacked_streams(payload));
+    frame.resize(frame.size() - 3);  // the frame's end cut off (its header still declares the size)
+    expect_rejected(with_frame(payload, frame), node, "zstd frame does not decode");
+    frame = zstd_frame(unpacked_streams(payload));
+    frame[0] ^= 0xFF;  // no zstd magic
+    expect_rejected(with_frame(payload, frame), node, "zstd frame does not hold the streams' size");
+}
+
+TEST_F(BadPayload, StreamsFarLargerThanTheirFrame) {
+    // A zstd frame of 64 KiB of zeros is a few dozen bytes: a reader refuses what would take more
+    // than 64 times the payload, before allocating for it.
+    std::vector<uint8_t> edited = payload;
+    put<uint32_t>(edited, kSizesAt + 4 * kParentStream, 65536);
+    uint64_t total = 0;
+    for (int s = 0; s < kStreams; ++s) total += get<uint32_t>(edited, kSizesAt + 4 * s);
+    expect_rejected(with_frame(edited, zstd_frame(std::vector<uint8_t>(total, 0))), node,
+                    "counts larger than the payload could hold");
+}
+
+TEST_F(BadPayload, StreamThatDoesNotDecode) {
+    // Each vertex stream in turn, and the index stream, overwritten with bytes no codec version starts with.
+    for (int stream = 0; stream < kStreams; ++stream) {
+        std::vector<uint8_t> edited = stored_payload(payload);
+        size_t at = kStreamsAt;
+        for (int s = 0; s < stream; ++s) at += get<uint32_t>(edited, kSizesAt + 4 * s);
+        edited[at] = 0x00;
+        expect_rejected(edited, node, stream == kIndexStream ? "index stream does not decode" : "vertex stream does not decode");
+    }
+}
+
+TEST_F(BadPayload, NormalOutOfRange) {
+    // A normal residual that puts the stored value past ±2047 (FORMAT.md §7).
+    CubeData bad = cube;
+    bad.vertices.normals[2 * 3] = 2047;
+    std::vector<uint8_t> edited = stored_payload(encode_cube(bad, flags));
+    // The residual stream, re-encoded with vertex 3's first residual raised by 4000.
+    size_t at = kStreamsAt + get<uint32_t>(edited, kSizesAt);
+    const uint32_t size = get<uint32_t>(edited, kSizesAt + 4 * kNormalStream);
+    std::vector<int16_t> residuals(2 * cube.vertex_count());
+    ASSERT_EQ(meshopt_decodeVertexBuffer(residuals.data(), cube.vertex_count(), 4, &edited[at], size), 0);
+    residuals[2 * 3] = int16_t(residuals[2 * 3] + 4000);
+    std::vector<uint8_t> stream(meshopt_encodeVertexBufferBound(cube.vertex_count(), 4));
+    stream.resize(meshopt_encodeVertexBuffer(stream.data(), stream.size(), residuals.data(), cube.vertex_count(), 4));
+    edited.erase(edited.begin() + at, edited.begin() + at + size);
+    edited.insert(edited.begin() + at, stream.begin(), stream.end());
+    put<uint32_t>(edited, kSizesAt + 4 * kNormalStream, uint32_t(stream.size()));
+    expect_rejected(edited, node, "normal of vertex 3 out of range");
 }
 
 TEST_F(BadPayload, ParentPastTheParentCubeIsRefusedWhenResolved) {
