@@ -39,35 +39,66 @@ uint32_t weld_positions(const float* positions, uint32_t count, std::vector<uint
 
 namespace {
 
-// Points on an edge whose two directions are not used equally often: where the cube's surface stops
-// (it continues in a neighbour, or the model ends there).
-std::vector<uint8_t> open_points(const std::vector<uint32_t>& triangles, const std::vector<uint32_t>& point_of,
-                                 uint32_t points) {
-    // (min, max) with +1 for a → b where a < b and −1 for the reverse: a closed edge sums to zero.
-    std::vector<std::pair<uint64_t, int>> edges;
-    edges.reserve(triangles.size());
-    for (size_t t = 0; t < triangles.size(); t += 3)
-        for (int c = 0; c < 3; ++c) {
-            const uint32_t a = point_of[triangles[t + c]], b = point_of[triangles[t + (c + 1) % 3]];
-            if (a == b) continue;
-            edges.emplace_back(uint64_t(std::min(a, b)) << 32 | std::max(a, b), a < b ? 1 : -1);
+// Marks the points on an edge whose two directions are not used equally often: where the cube's
+// surface stops (it continues in a neighbour, or the model ends there). Only edges with an end in
+// `wanted` are looked at. Each point's outgoing edges are counted against the reverse direction in
+// the far end's (sorted) list: linear in the edges, even around a high-valence point.
+void mark_open_points(const std::vector<uint32_t>& triangles, const std::vector<uint32_t>& point_of,
+                      const std::vector<uint8_t>& wanted, std::vector<uint8_t>& open) {
+    const uint32_t points = uint32_t(wanted.size());
+    std::vector<uint32_t> offsets(size_t(points) + 1, 0);
+    auto for_each_edge = [&](auto&& fn) {
+        for (size_t t = 0; t < triangles.size(); t += 3)
+            for (int c = 0; c < 3; ++c) {
+                const uint32_t a = point_of[triangles[t + c]], b = point_of[triangles[t + (c + 1) % 3]];
+                if (a != b && (wanted[a] || wanted[b])) fn(a, b);
+            }
+    };
+    for_each_edge([&](uint32_t a, uint32_t) { ++offsets[a + 1]; });
+    for (uint32_t p = 0; p < points; ++p) offsets[p + 1] += offsets[p];
+    std::vector<uint32_t> fill(offsets.begin(), offsets.end() - 1), targets(offsets.back());
+    for_each_edge([&](uint32_t a, uint32_t b) { targets[fill[a]++] = b; });
+    for (uint32_t p = 0; p < points; ++p) std::sort(&targets[offsets[p]], &targets[offsets[p + 1]]);
+
+    open.assign(points, 0);
+    for (uint32_t a = 0; a < points; ++a)
+        for (uint32_t i = offsets[a], j; i < offsets[a + 1]; i = j) {
+            const uint32_t b = targets[i];
+            for (j = i; j < offsets[a + 1] && targets[j] == b; ++j) {
+            }
+            const auto back = std::equal_range(&targets[offsets[b]], &targets[offsets[b + 1]], a);
+            if (back.second - back.first != std::ptrdiff_t(j - i)) open[a] = open[b] = 1;
         }
-    std::sort(edges.begin(), edges.end());
-    std::vector<uint8_t> open(points, 0);
-    for (size_t i = 0, j; i < edges.size(); i = j) {
-        int balance = 0;
-        for (j = i; j < edges.size() && edges[j].first == edges[i].first; ++j) balance += edges[j].second;
-        if (balance != 0) open[edges[i].first >> 32] = open[uint32_t(edges[i].first)] = 1;
-    }
-    return open;
 }
 
 }  // namespace
 
 void list_border_points(const CubeRecord& cube, const Frame& frame, uint32_t level, std::vector<BorderEntry>& out) {
+    const CubeKey block = frame.block_of(cube.key);
+    const double size = frame.cube_size(level);
+    // σ0·s_l, plus rounding slack: the lattice step and float positions far from the origin.
+    const double reach = frame.sigma0 * size * 1.001 + size * 1e-4;
+    double low[3], high[3];
+    for (int a = 0; a < 3; ++a) {
+        low[a] = frame.block_low(block, a, level) + reach;
+        high[a] = low[a] - 2 * reach + frame.block * size;
+    }
+    auto near_border = [&](const float* x) {
+        bool near = false;
+        for (int a = 0; a < 3; ++a) near |= !(x[a] > low[a] && x[a] < high[a]);
+        return near;
+    };
+    uint32_t first_near = 0;
+    while (first_near < cube.vertex_count() && !near_border(&cube.positions[3 * size_t(first_near)])) ++first_near;
+    if (first_near == cube.vertex_count()) return;  // deep inside its block: no other block can use its points
+
     std::vector<uint32_t> point_of;
     const uint32_t points = weld_positions(cube.positions.data(), cube.vertex_count(), point_of);
-    const std::vector<uint8_t> open = open_points(cube.triangles, point_of, points);
+    std::vector<uint8_t> near(points, 0);
+    for (uint32_t v = first_near; v < cube.vertex_count(); ++v)
+        if (!near[point_of[v]]) near[point_of[v]] = near_border(&cube.positions[3 * size_t(v)]);
+    std::vector<uint8_t> open;
+    mark_open_points(cube.triangles, point_of, near, open);
 
     std::vector<std::array<float, 3>> sums(points, {0, 0, 0});
     for (size_t t = 0; t < cube.triangles.size(); t += 3) {
@@ -81,25 +112,12 @@ void list_border_points(const CubeRecord& cube, const Frame& frame, uint32_t lev
         }
     }
 
-    const CubeKey block = frame.block_of(cube.key);
-    const double size = frame.cube_size(level);
-    // σ0·s_l, plus rounding slack: the lattice step and float positions far from the origin.
-    const double reach = frame.sigma0 * size * 1.001 + size * 1e-4;
-    double low[3], high[3];
-    for (int a = 0; a < 3; ++a) {
-        low[a] = frame.block_low(block, a, level) + reach;
-        high[a] = low[a] - 2 * reach + frame.block * size;
-    }
     std::vector<uint8_t> listed(points, 0);
-    for (uint32_t v = 0; v < cube.vertex_count(); ++v) {
+    for (uint32_t v = first_near; v < cube.vertex_count(); ++v) {
         const uint32_t p = point_of[v];
-        if (!open[p] || listed[p]) continue;
-        const float* x = &cube.positions[3 * size_t(v)];
-        bool near = false;
-        for (int a = 0; a < 3; ++a) near |= !(x[a] > low[a] && x[a] < high[a]);
-        if (!near) continue;
+        if (!open[p] || !near[p] || listed[p]) continue;
         listed[p] = 1;
-        out.push_back(BorderEntry{position_bits(x), block, cube.key, sums[p]});
+        out.push_back(BorderEntry{position_bits(&cube.positions[3 * size_t(v)]), block, cube.key, sums[p]});
     }
 }
 

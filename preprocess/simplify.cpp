@@ -22,31 +22,49 @@ constexpr float kMinNormalCosine = 0.0f;
 
 enum class Kind : uint8_t { manifold, border, seam, locked };
 
-// The corners (3·triangle + corner) at each point, rebuilt every pass from the live triangles.
+inline uint32_t next_corner(uint32_t corner) { return corner % 3 == 2 ? corner - 2 : corner + 1; }
+inline uint32_t prev_corner(uint32_t corner) { return corner % 3 == 0 ? corner + 2 : corner - 1; }
+
+// One corner at a point, with the points of the two other corners of its triangle: the hot loops
+// (link checks, candidate search) walk a point's fan without touching the corner arrays.
+struct Link {
+    uint32_t corner;  // 3·triangle + corner
+    uint32_t next;    // point at next_corner(corner)
+    uint32_t prev;    // point at prev_corner(corner)
+};
+
+// The corner of `link`'s triangle that sits on `point`, or ~0u (the lowest such corner, should a
+// degenerate triangle hold it twice).
+inline uint32_t corner_on(const Link& link, uint32_t point) {
+    const uint32_t next = link.next == point ? next_corner(link.corner) : ~0u;
+    const uint32_t prev = link.prev == point ? prev_corner(link.corner) : ~0u;
+    return std::min(next, prev);
+}
+
+// The corners at each point, rebuilt every pass from the live triangles.
 struct Adjacency {
     std::vector<uint32_t> offsets;
-    std::vector<uint32_t> corners;
+    std::vector<Link> links;
     std::vector<uint32_t> fill;
 
     void build(const std::vector<uint32_t>& corner_points, uint32_t points) {
         offsets.assign(points + 1, 0);
         for (uint32_t p : corner_points) ++offsets[p + 1];
         std::partial_sum(offsets.begin(), offsets.end(), offsets.begin());
-        corners.resize(corner_points.size());
+        links.resize(corner_points.size());
         fill.assign(offsets.begin(), offsets.end() - 1);
-        for (size_t i = 0; i < corner_points.size(); ++i) corners[fill[corner_points[i]]++] = uint32_t(i);
+        for (uint32_t i = 0; i < corner_points.size(); ++i)
+            links[fill[corner_points[i]]++] = Link{i, corner_points[next_corner(i)], corner_points[prev_corner(i)]};
     }
-    const uint32_t* begin(uint32_t p) const { return corners.data() + offsets[p]; }
-    const uint32_t* end(uint32_t p) const { return corners.data() + offsets[p + 1]; }
+    const Link* begin(uint32_t p) const { return links.data() + offsets[p]; }
+    const Link* end(uint32_t p) const { return links.data() + offsets[p + 1]; }
 };
-
-inline uint32_t next_corner(uint32_t corner) { return corner % 3 == 2 ? corner - 2 : corner + 1; }
-inline uint32_t prev_corner(uint32_t corner) { return corner % 3 == 0 ? corner + 2 : corner - 1; }
 
 struct Candidate {
     float cost;
     uint32_t from;
     uint32_t to;
+    float geometric;  // RMS distance to u's planes at the target: the error the collapse adds
 };
 
 struct WedgePair {
@@ -68,19 +86,11 @@ private:
         const float* p = &mesh_.point_positions[3 * point];
         return {p[0], p[1], p[2]};
     }
-    // The corner of the triangle holding `corner` that sits on `point`, or ~0u.
-    uint32_t corner_at(uint32_t corner, uint32_t point) const {
-        uint32_t base = corner - corner % 3;
-        for (uint32_t c = base; c < base + 3; ++c)
-            if (points_[c] == point) return c;
-        return ~0u;
-    }
     // u's corners keyed by the point that precedes u in each, sorted: the twin of half-edge u→x is the
     // triangle whose corner at u is keyed x. Lookups take log time even around high-valence points.
     void fan_by_prev(uint32_t u, std::vector<std::pair<uint32_t, uint32_t>>& fan) const {
         fan.clear();
-        for (const uint32_t* c = adjacency_.begin(u); c != adjacency_.end(u); ++c)
-            fan.emplace_back(points_[prev_corner(*c)], *c);
+        for (const Link* l = adjacency_.begin(u); l != adjacency_.end(u); ++l) fan.emplace_back(l->prev, l->corner);
         std::sort(fan.begin(), fan.end());
     }
     static uint32_t corner_after(const std::vector<std::pair<uint32_t, uint32_t>>& fan, uint32_t point) {
@@ -89,7 +99,7 @@ private:
     }
     void sorted_nexts(uint32_t u, std::vector<uint32_t>& nexts) const {
         nexts.clear();
-        for (const uint32_t* c = adjacency_.begin(u); c != adjacency_.end(u); ++c) nexts.push_back(points_[next_corner(*c)]);
+        for (const Link* l = adjacency_.begin(u); l != adjacency_.end(u); ++l) nexts.push_back(l->next);
         std::sort(nexts.begin(), nexts.end());
     }
 
@@ -102,7 +112,7 @@ private:
     bool within_travel(uint32_t u, uint32_t w) const;
     bool keeps_link(uint32_t u, uint32_t w);
     bool flips(uint32_t u, uint32_t w) const;
-    uint32_t collapse(uint32_t u, uint32_t w);
+    uint32_t collapse(uint32_t u, uint32_t w, float geometric);
     uint32_t run_pass();
     void compact_triangles();
 
@@ -151,17 +161,17 @@ void BlockSimplifier::init_quadrics() {
     for (uint32_t a = 0; a < mesh_.point_count(); ++a) {
         if (kind_[a] == Kind::manifold) continue;
         fan_by_prev(a, fan_);
-        for (const uint32_t* c = adjacency_.begin(a); c != adjacency_.end(a); ++c) {
-            uint32_t b = points_[next_corner(*c)];
+        for (const Link* l = adjacency_.begin(a); l != adjacency_.end(a); ++l) {
+            uint32_t b = l->next;
             if (kind_[b] == Kind::manifold) continue;
             uint32_t twin = corner_after(fan_, b);  // a's corner in the triangle holding b→a
             float weight = kBoundaryWeight;
             if (twin != ~0u) {
-                bool seam = wedges_[*c] != wedges_[twin] || wedges_[next_corner(*c)] != wedges_[prev_corner(twin)];
+                bool seam = wedges_[l->corner] != wedges_[twin] || wedges_[next_corner(l->corner)] != wedges_[prev_corner(twin)];
                 if (!seam) continue;
                 weight = kSeamWeight;
             }
-            Vec3 pa = position(a), pb = position(b), pc = position(points_[prev_corner(*c)]);
+            Vec3 pa = position(a), pb = position(b), pc = position(l->prev);
             Vec3 edge = pb - pa;
             Vec3 n = cross(edge, cross(edge, pc - pa));
             float len = length(n);
@@ -213,28 +223,28 @@ void BlockSimplifier::classify() {
     kind_.assign(points, Kind::manifold);
     single_wedge_.assign(points, 1);
     for (uint32_t u = 0; u < points; ++u) {
-        const uint32_t* first = adjacency_.begin(u);
+        const Link* first = adjacency_.begin(u);
         if (first == adjacency_.end(u)) continue;
-        for (const uint32_t* c = first; c != adjacency_.end(u); ++c)
-            if (wedges_[*c] != wedges_[*first]) single_wedge_[u] = 0;
+        for (const Link* l = first; l != adjacency_.end(u); ++l)
+            if (wedges_[l->corner] != wedges_[first->corner]) single_wedge_[u] = 0;
         fan_by_prev(u, fan_);
         sorted_nexts(u, nexts_);
         bool complex = false;
         for (size_t i = 1; i < fan_.size(); ++i) complex |= fan_[i].first == fan_[i - 1].first || nexts_[i] == nexts_[i - 1];
         int out_open = 0, in_open = 0;
-        for (const uint32_t* c = first; c != adjacency_.end(u); ++c) {
-            out_open += corner_after(fan_, points_[next_corner(*c)]) == ~0u;
-            in_open += !std::binary_search(nexts_.begin(), nexts_.end(), points_[prev_corner(*c)]);
+        for (const Link* l = first; l != adjacency_.end(u); ++l) {
+            out_open += corner_after(fan_, l->next) == ~0u;
+            in_open += !std::binary_search(nexts_.begin(), nexts_.end(), l->prev);
         }
         if (!complex && out_open == 0) {
             // Walk the fan: each triangle leads to the one across its edge (u, next).
             size_t steps = 0;
-            uint32_t c = *first;
+            uint32_t c = first->corner;
             do {
                 c = corner_after(fan_, points_[next_corner(c)]);
                 ++steps;
-            } while (c != ~0u && c != *first && steps <= fan_.size());
-            complex = c != *first || steps != fan_.size();
+            } while (c != ~0u && c != first->corner && steps <= fan_.size());
+            complex = c != first->corner || steps != fan_.size();
         }
         if (mesh_.point_locked[u] || complex || out_open > 1 || out_open != in_open) kind_[u] = Kind::locked;
         else if (out_open == 1) kind_[u] = Kind::border;
@@ -245,10 +255,10 @@ void BlockSimplifier::classify() {
 // Pairs each wedge of u with the wedge of w across a shared triangle edge; false if one has none or two.
 bool BlockSimplifier::find_partners(uint32_t u, uint32_t w, std::vector<WedgePair>& pairs) const {
     pairs.clear();
-    for (const uint32_t* c = adjacency_.begin(u); c != adjacency_.end(u); ++c) {
-        uint32_t cw = corner_at(*c, w);
+    for (const Link* l = adjacency_.begin(u); l != adjacency_.end(u); ++l) {
+        uint32_t cw = corner_on(*l, w);
         if (cw == ~0u) continue;
-        WedgePair pair{wedges_[*c], wedges_[cw]};
+        WedgePair pair{wedges_[l->corner], wedges_[cw]};
         bool known = false;
         for (const WedgePair& p : pairs) {
             if (p.from != pair.from) continue;
@@ -261,8 +271,8 @@ bool BlockSimplifier::find_partners(uint32_t u, uint32_t w, std::vector<WedgePai
     if (pairs.empty()) return false;
     if (single_wedge_[u]) return true;
     // Every wedge of u must have found its partner.
-    for (const uint32_t* c = adjacency_.begin(u); c != adjacency_.end(u); ++c)
-        if (std::none_of(pairs.begin(), pairs.end(), [&](const WedgePair& p) { return p.from == wedges_[*c]; }))
+    for (const Link* l = adjacency_.begin(u); l != adjacency_.end(u); ++l)
+        if (std::none_of(pairs.begin(), pairs.end(), [&](const WedgePair& p) { return p.from == wedges_[l->corner]; }))
             return false;
     return true;
 }
@@ -284,7 +294,8 @@ bool BlockSimplifier::best_candidate(uint32_t u, Candidate& best) {
     bool found = false;
     auto consider = [&](uint32_t w, uint32_t from_wedge, uint32_t to_wedge) {
         if (!within_travel(u, w)) return;
-        float cost = q.evaluate(position(w));
+        const float squared = q.evaluate(position(w));
+        float cost = squared;
         if (attribute_count_) {
             if (single_wedge_[u] && single_wedge_[w]) {
                 cost += attribute_error(from_wedge, to_wedge);
@@ -294,25 +305,23 @@ bool BlockSimplifier::best_candidate(uint32_t u, Candidate& best) {
             }
         }
         cost *= inverse_weight;
-        if (!found || cost < best.cost || (cost == best.cost && w < best.to)) best = {cost, u, w};
+        if (!found || cost < best.cost || (cost == best.cost && w < best.to))
+            best = {cost, u, w, std::sqrt(squared / std::max(q.weight, 1e-30f))};
         found = true;
     };
     if (kind == Kind::border) {
         // Along the boundary only: to the ends of u's two open edges.
         fan_by_prev(u, fan_);
         sorted_nexts(u, nexts_);
-        for (const uint32_t* c = adjacency_.begin(u); c != adjacency_.end(u); ++c) {
-            uint32_t next = next_corner(*c), prev = prev_corner(*c);
-            if (corner_after(fan_, points_[next]) == ~0u) consider(points_[next], wedges_[*c], wedges_[next]);
-            if (!std::binary_search(nexts_.begin(), nexts_.end(), points_[prev]))
-                consider(points_[prev], wedges_[*c], wedges_[prev]);
+        for (const Link* l = adjacency_.begin(u); l != adjacency_.end(u); ++l) {
+            if (corner_after(fan_, l->next) == ~0u) consider(l->next, wedges_[l->corner], wedges_[next_corner(l->corner)]);
+            if (!std::binary_search(nexts_.begin(), nexts_.end(), l->prev))
+                consider(l->prev, wedges_[l->corner], wedges_[prev_corner(l->corner)]);
         }
         return found;
     }
-    for (const uint32_t* c = adjacency_.begin(u); c != adjacency_.end(u); ++c) {
-        uint32_t next = next_corner(*c);
-        consider(points_[next], wedges_[*c], wedges_[next]);
-    }
+    for (const Link* l = adjacency_.begin(u); l != adjacency_.end(u); ++l)
+        consider(l->next, wedges_[l->corner], wedges_[next_corner(l->corner)]);
     return found;
 }
 
@@ -324,14 +333,14 @@ bool BlockSimplifier::best_candidate(uint32_t u, Candidate& best) {
 // with the rule, every block's local check is exact and blocks never build fins between them.
 bool BlockSimplifier::keeps_link(uint32_t u, uint32_t w) {
     const uint32_t mark = ++stamp_, counted = ++stamp_;
-    for (const uint32_t* c = adjacency_.begin(w); c != adjacency_.end(w); ++c) {
-        seen_[point_remap_[points_[next_corner(*c)]]] = mark;
-        seen_[point_remap_[points_[prev_corner(*c)]]] = mark;
+    for (const Link* l = adjacency_.begin(w); l != adjacency_.end(w); ++l) {
+        seen_[point_remap_[l->next]] = mark;
+        seen_[point_remap_[l->prev]] = mark;
     }
     uint32_t apex[2] = {~0u, ~0u};
     int apexes = 0, shared = 0;
-    for (const uint32_t* c = adjacency_.begin(u); c != adjacency_.end(u); ++c) {
-        uint32_t next = point_remap_[points_[next_corner(*c)]], prev = point_remap_[points_[prev_corner(*c)]];
+    for (const Link* l = adjacency_.begin(u); l != adjacency_.end(u); ++l) {
+        uint32_t next = point_remap_[l->next], prev = point_remap_[l->prev];
         if (next == w || prev == w) {
             if (apexes < 2) apex[apexes] = next == w ? prev : next;
             ++apexes;
@@ -349,8 +358,8 @@ bool BlockSimplifier::keeps_link(uint32_t u, uint32_t w) {
     if (shared != apexes) return false;
     if (apexes != 2) return true;
     auto spans_apexes = [&](uint32_t x) {
-        for (const uint32_t* c = adjacency_.begin(x); c != adjacency_.end(x); ++c) {
-            uint32_t next = point_remap_[points_[next_corner(*c)]], prev = point_remap_[points_[prev_corner(*c)]];
+        for (const Link* l = adjacency_.begin(x); l != adjacency_.end(x); ++l) {
+            uint32_t next = point_remap_[l->next], prev = point_remap_[l->prev];
             if ((next == apex[0] && prev == apex[1]) || (next == apex[1] && prev == apex[0])) return true;
         }
         return false;
@@ -361,10 +370,10 @@ bool BlockSimplifier::keeps_link(uint32_t u, uint32_t w) {
 // Would moving u onto w turn any of u's remaining triangles over (or flatten it to nothing)?
 bool BlockSimplifier::flips(uint32_t u, uint32_t w) const {
     const Vec3 from = position(u), to = position(w);
-    for (const uint32_t* c = adjacency_.begin(u); c != adjacency_.end(u); ++c) {
-        if (corner_at(*c, w) != ~0u) continue;  // collapses away
-        Vec3 b = position(point_remap_[points_[next_corner(*c)]]);
-        Vec3 d = position(point_remap_[points_[prev_corner(*c)]]);
+    for (const Link* l = adjacency_.begin(u); l != adjacency_.end(u); ++l) {
+        if (l->next == w || l->prev == w) continue;  // collapses away
+        Vec3 b = position(point_remap_[l->next]);
+        Vec3 d = position(point_remap_[l->prev]);
         Vec3 before = cross(b - from, d - from);
         Vec3 after = cross(b - to, d - to);
         float cosine = dot(before, after);
@@ -375,14 +384,13 @@ bool BlockSimplifier::flips(uint32_t u, uint32_t w) const {
 }
 
 // Moves u onto w; returns how many triangles it removes.
-uint32_t BlockSimplifier::collapse(uint32_t u, uint32_t w) {
+uint32_t BlockSimplifier::collapse(uint32_t u, uint32_t w, float geometric) {
     const uint32_t stride = attribute_count_ + 2;
     for (const WedgePair& p : pairs_) {
         wedge_remap_[p.from] = p.to;
         if (attribute_count_)
             for (uint32_t k = 0; k < stride; ++k) moments_[size_t(p.to) * stride + k] += moments_[size_t(p.from) * stride + k];
     }
-    float geometric = std::sqrt(quadrics_[u].evaluate(position(w)) / std::max(quadrics_[u].weight, 1e-30f));
     quadrics_[w].add(quadrics_[u]);
     for (int k = 0; k < 3; ++k) {
         box_[6 * w + k] = std::min(box_[6 * w + k], box_[6 * u + k]);
@@ -392,10 +400,11 @@ uint32_t BlockSimplifier::collapse(uint32_t u, uint32_t w) {
     point_remap_[u] = w;
     collapsed_.push_back(u);
     dirty_[w] = 1;
-    for (const uint32_t* c = adjacency_.begin(u); c != adjacency_.end(u); ++c)
-        dirty_[points_[next_corner(*c)]] = dirty_[points_[prev_corner(*c)]] = 1;
     uint32_t removed = 0;
-    for (const uint32_t* c = adjacency_.begin(u); c != adjacency_.end(u); ++c) removed += corner_at(*c, w) != ~0u;
+    for (const Link* l = adjacency_.begin(u); l != adjacency_.end(u); ++l) {
+        dirty_[l->next] = dirty_[l->prev] = 1;
+        removed += l->next == w || l->prev == w;
+    }
     return removed;
 }
 
@@ -431,23 +440,22 @@ uint32_t BlockSimplifier::run_pass() {
     const uint32_t live = uint32_t(wedges_.size() / 3);
     const uint32_t goal = live > limits_.target_triangles ? live - limits_.target_triangles : 0;
     size_t bound_index = goal / 2;
-    auto cost_bound = [&] { return bound_index < order_.size() ? 1.5f * candidates_[order_[bound_index]].cost : 1e30f; };
+    auto bound_at = [&](size_t i) { return i < order_.size() ? 1.5f * candidates_[order_[i]].cost : 1e30f; };
+    float cost_bound = bound_at(bound_index);
 
     pass_locked_.assign(points, 0);
     uint32_t removed = 0;
     for (uint32_t index : order_) {
         const Candidate& c = candidates_[index];
         if (removed >= goal) break;
-        if (c.cost > cost_bound() && removed > goal / 10) break;
+        if (c.cost > cost_bound && removed > goal / 10) break;
         if (pass_locked_[c.from] || pass_locked_[c.to]) continue;
-        float geometric = std::sqrt(quadrics_[c.from].evaluate(position(c.to)) /
-                                    std::max(quadrics_[c.from].weight, 1e-30f));
-        if (geometric > limits_.max_error || !keeps_link(c.from, c.to) || flips(c.from, c.to) ||
+        if (c.geometric > limits_.max_error || !keeps_link(c.from, c.to) || flips(c.from, c.to) ||
             !find_partners(c.from, c.to, pairs_)) {
-            ++bound_index;
+            cost_bound = bound_at(++bound_index);
             continue;
         }
-        removed += collapse(c.from, c.to);
+        removed += collapse(c.from, c.to, c.geometric);
         pass_locked_[c.from] = pass_locked_[c.to] = 1;
     }
     if (removed) compact_triangles();
