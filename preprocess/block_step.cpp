@@ -23,6 +23,7 @@ constexpr float kNormalWeight = 0.1f;
 // vertex in several cubes become one wedge. A *point* is a position, shared by the seam copies on it.
 struct BlockWeld {
     std::vector<uint32_t> first;           // per cube: its first vertex in the block's numbering
+    std::vector<uint32_t> vertex_cube;     // per block vertex: its cube
     std::vector<uint32_t> vertex_wedge;    // per block vertex (cube c's vertex v is first[c] + v)
     std::vector<uint32_t> wedge_vertex;    // per wedge: the block vertex it was first seen as
     std::vector<uint32_t> wedge_point;
@@ -42,16 +43,15 @@ struct VertexRef {
 
 class BlockVertices {
 public:
-    BlockVertices(std::span<const CubeRecord* const> cubes, const std::vector<uint32_t>& first)
-        : cubes_(cubes), first_(first) {}
+    BlockVertices(std::span<const CubeRecord* const> cubes, const BlockWeld& w) : cubes_(cubes), w_(w) {}
     VertexRef operator[](uint32_t g) const {
-        const size_t c = size_t(std::upper_bound(first_.begin(), first_.end(), g) - first_.begin()) - 1;
-        return {cubes_[c], g - first_[c]};
+        const uint32_t c = w_.vertex_cube[g];
+        return {cubes_[c], g - w_.first[c]};
     }
 
 private:
     std::span<const CubeRecord* const> cubes_;
-    const std::vector<uint32_t>& first_;
+    const BlockWeld& w_;
 };
 
 const float* position_of(VertexRef r) { return &r.cube->positions[3 * size_t(r.v)]; }
@@ -82,7 +82,10 @@ BlockWeld weld_block(std::span<const CubeRecord* const> cubes, const BorderTable
     BlockWeld w;
     uint32_t total = 0;
     for (const CubeRecord* c : cubes) w.first.push_back(total), total += c->vertex_count();
-    const BlockVertices vertex(cubes, w.first);
+    w.vertex_cube.resize(total);
+    for (uint32_t c = 0; c < cubes.size(); ++c)
+        std::fill_n(w.vertex_cube.begin() + w.first[c], cubes[c]->vertex_count(), c);
+    const BlockVertices vertex(cubes, w);
 
     w.vertex_wedge.resize(total);
     {
@@ -116,19 +119,8 @@ BlockWeld weld_block(std::span<const CubeRecord* const> cubes, const BorderTable
     }
 
     std::vector<std::array<float, 3>> sums(w.point_count(), {0, 0, 0});
-    for (size_t c = 0; c < cubes.size(); ++c) {
-        const CubeRecord& cube = *cubes[c];
-        for (size_t t = 0; t < cube.triangles.size(); t += 3) {
-            const float* p[3];
-            for (int k = 0; k < 3; ++k) p[k] = &cube.positions[3 * size_t(cube.triangles[t + k])];
-            const Vec3 a{p[0][0], p[0][1], p[0][2]}, b{p[1][0], p[1][1], p[1][2]}, d{p[2][0], p[2][1], p[2][2]};
-            const Vec3 n = cross(b - a, d - a);  // length = twice the area: the area weighting
-            for (int k = 0; k < 3; ++k) {
-                std::array<float, 3>& s = sums[w.wedge_point[w.vertex_wedge[w.first[c] + cube.triangles[t + k]]]];
-                s[0] += n.x, s[1] += n.y, s[2] += n.z;
-            }
-        }
-    }
+    for (size_t c = 0; c < cubes.size(); ++c)
+        add_area_normals(*cubes[c], [&](uint32_t v) { return w.wedge_point[w.vertex_wedge[w.first[c] + v]]; }, sums);
     w.point_locked.assign(w.point_count(), 0);
     for (uint32_t p = 0; p < w.point_count(); ++p) {
         const BorderTable::Point* shared = border.find(position_bits(position_of(vertex[w.wedge_vertex[w.point_wedge[p]]])));
@@ -193,7 +185,7 @@ BlockMesh block_mesh(std::span<const CubeRecord* const> cubes, const BlockWeld& 
     const double size = f.cube_size(level);
     double center[3];
     for (int a = 0; a < 3; ++a) center[a] = f.block_low(block, a, level) + f.block / 2 * size;
-    const BlockVertices vertex(cubes, w.first);
+    const BlockVertices vertex(cubes, w);
     const CubeRecord& any = *cubes[0];
 
     BlockMesh m;
@@ -223,7 +215,7 @@ BlockMesh block_mesh(std::span<const CubeRecord* const> cubes, const BlockWeld& 
 // triangles, its vertices in payload order then the extras, and each child vertex's parent index.
 CubeRecord make_parent(std::span<const CubeRecord* const> cubes, std::span<const uint32_t> children, const BlockWeld& w,
                        const SimplifyResult& result, double size, std::vector<uint32_t>& parent_vertex) {
-    const BlockVertices vertex(cubes, w.first);
+    const BlockVertices vertex(cubes, w);
     CubeRecord parent;
     parent.key = parent_key(cubes[children[0]]->key);
     std::vector<uint32_t> wedges;  // the parent's vertices, as block wedges

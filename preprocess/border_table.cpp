@@ -101,16 +101,7 @@ void list_border_points(const CubeRecord& cube, const Frame& frame, uint32_t lev
     mark_open_points(cube.triangles, point_of, near, open);
 
     std::vector<std::array<float, 3>> sums(points, {0, 0, 0});
-    for (size_t t = 0; t < cube.triangles.size(); t += 3) {
-        const float* p[3];
-        for (int c = 0; c < 3; ++c) p[c] = &cube.positions[3 * size_t(cube.triangles[t + c])];
-        const Vec3 a{p[0][0], p[0][1], p[0][2]}, b{p[1][0], p[1][1], p[1][2]}, d{p[2][0], p[2][1], p[2][2]};
-        const Vec3 n = cross(b - a, d - a);  // length = twice the area: the area weighting
-        for (int c = 0; c < 3; ++c) {
-            std::array<float, 3>& s = sums[point_of[cube.triangles[t + c]]];
-            s[0] += n.x, s[1] += n.y, s[2] += n.z;
-        }
-    }
+    add_area_normals(cube, [&](uint32_t v) { return point_of[v]; }, sums);
 
     std::vector<uint8_t> listed(points, 0);
     for (uint32_t v = first_near; v < cube.vertex_count(); ++v) {

@@ -10,6 +10,8 @@
 #include <cstdint>
 #include <vector>
 
+#include "preprocess/quadric.h"
+
 namespace strata::build {
 
 using CubeKey = uint64_t;  // k, j, i in 21 bits each: sorting keys orders cubes k-major
@@ -70,6 +72,22 @@ struct CubeRecord {
     uint32_t vertex_count() const { return uint32_t(positions.size() / 3); }
     uint32_t triangle_count() const { return uint32_t(triangles.size() / 3); }
 };
+
+// Adds each of the cube's triangles' area-weighted normal (the cross product of two edges, whose length
+// is twice the area) to the sums of its corners' points: point(v) is vertex v's row in `sums`.
+template <class PointOf>
+void add_area_normals(const CubeRecord& cube, PointOf&& point, std::vector<std::array<float, 3>>& sums) {
+    for (size_t t = 0; t < cube.triangles.size(); t += 3) {
+        const float* p[3];
+        for (int c = 0; c < 3; ++c) p[c] = &cube.positions[3 * size_t(cube.triangles[t + c])];
+        const Vec3 a{p[0][0], p[0][1], p[0][2]}, b{p[1][0], p[1][1], p[1][2]}, d{p[2][0], p[2][1], p[2][2]};
+        const Vec3 n = cross(b - a, d - a);
+        for (int c = 0; c < 3; ++c) {
+            std::array<float, 3>& s = sums[point(cube.triangles[t + c])];
+            s[0] += n.x, s[1] += n.y, s[2] += n.z;
+        }
+    }
+}
 
 // Puts a cube's triangles in the order its payload stores them: vertex-cache order within each child
 // group (keeping the groups whole), then its vertices in first-use order. `indices` index `vertices`
