@@ -27,7 +27,7 @@ void append(std::vector<uint8_t>& out, const std::vector<T>& values) {
 template <class T>
 void take(const uint8_t*& at, std::vector<T>& values, size_t count) {
     values.resize(count);
-    std::memcpy(values.data(), at, count * sizeof(T));
+    if (count) std::memcpy(values.data(), at, count * sizeof(T));  // an empty vector's data() may be null
     at += count * sizeof(T);
 }
 
