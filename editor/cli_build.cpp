@@ -137,7 +137,7 @@ Command add_build(CLI::App& app) {
     sub->add_option("--threads", o->settings.threads, "Worker threads (0: every core)")->capture_default_str();
     sub->add_option("--memory", o->memory,
                     "Memory the build may use, in bytes or with a binary suffix K, M, G, T (2G, 512M, 1.5G); "
-                    "default a quarter of physical memory. The builder is in-core: a build estimated "
+                    "default a quarter of physical memory. Reading holds the whole mesh in memory: a build estimated "
                     "to need more is refused before reading");
     sub->add_option("--temp", o->settings.temp_dir,
                     "Folder for the build's temporary files (each level's cubes between two stages); default "
