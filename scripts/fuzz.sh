@@ -2,8 +2,10 @@
 # Builds the fuzz targets (tests/fuzz/) with clang++ and libFuzzer + ASan + UBSan into build-fuzz/, then
 # runs each for SECONDS (default 60), one after another, on one core each.
 #   scripts/fuzz.sh [SECONDS] [TARGET...]      fuzz (all targets unless named)
-#   scripts/fuzz.sh --runs N [TARGET...]       fuzz N inputs per target from a fixed seed: the same
-#                                              inputs on every machine, so a failure reproduces (CI)
+#   scripts/fuzz.sh --runs N [TARGET...]       fuzz N inputs per target from a fixed seed and a fixed
+#                                              count, not a time: nearly the same inputs on every run
+#                                              (CI); coverage that depends on addresses may steer a few
+#                                              mutations differently
 #   scripts/fuzz.sh --merge [TARGET...]        minimize tests/fuzz/corpus/<target>/ with what was found
 #                                              (the fewest inputs that reach every edge)
 # Prints per target: executions, exec/s, CPU seconds, new inputs, failures. Exits non-zero if any target

@@ -2,7 +2,7 @@
 # Set-up, configure, build and run the whole test suite with ctest.
 # STRATA_SANITIZE=1 scripts/test.sh runs it under AddressSanitizer + UndefinedBehaviorSanitizer.
 # STRATA_FUZZ_SECONDS=N scripts/test.sh then fuzzes every reader for N seconds each (scripts/fuzz.sh);
-# STRATA_FUZZ_RUNS=N fuzzes N inputs each from a fixed seed instead, the same inputs on every run.
+# STRATA_FUZZ_RUNS=N fuzzes N inputs each from a fixed seed instead (about the same inputs every run).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh
