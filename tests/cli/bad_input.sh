@@ -71,13 +71,7 @@ expect_usage "no arguments" "input" "$STRATA" build
 
 # A disk that fills up: files this process writes may not pass 1 MiB (ulimit -f; SIGXFSZ ignored, so a
 # write past it fails with EFBIG as on a full disk). Level L's cubes of a 180 000-triangle grid need more.
-awk 'BEGIN {
-    n = 300; print "OFF"; print (n + 1) * (n + 1), 2 * n * n, 0
-    for (y = 0; y <= n; y++) for (x = 0; x <= n; x++) printf "%d %d %.4f\n", x, y, sin(x / 37) * cos(y / 23)
-    for (y = 0; y < n; y++) for (x = 0; x < n; x++) {
-        a = y * (n + 1) + x; printf "3 %d %d %d\n3 %d %d %d\n", a, a + 1, a + n + 2, a, a + n + 2, a + n + 1
-    }
-}' >"$WORK/grid.off"
+write_grid 300 "$WORK/grid.off"
 mkdir "$WORK/full"
 expect_failure "temporary disk full" "$WORK/full/grid.hlod.build-[0-9]*: cannot write the build's temporary file level-" \
     bash -c 'trap "" XFSZ; ulimit -f 1024; exec "$@"' - "$STRATA" build "$WORK/grid.off" -o "$WORK/full/grid.hlod" -q

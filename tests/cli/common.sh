@@ -59,6 +59,18 @@ write_octahedron() {
     printf 'OFF\n6 8 0\n1 0 0\n-1 0 0\n0 1 0\n0 -1 0\n0 0 1\n0 0 -1\n3 0 2 4\n3 2 1 4\n3 1 3 4\n3 3 0 4\n3 2 0 5\n3 1 2 5\n3 3 1 5\n3 0 3 5\n' >"$1"
 }
 
+# write_grid N FILE: an N×N grid of quads (2·N² triangles) over a gentle wave, as OFF: a mesh of any size
+# made in a second, for tests that need a build to take a while or to write a lot.
+write_grid() {
+    awk -v n="$1" 'BEGIN {
+        print "OFF"; print (n + 1) * (n + 1), 2 * n * n, 0
+        for (y = 0; y <= n; y++) for (x = 0; x <= n; x++) printf "%d %d %.4f\n", x, y, sin(x / 37) * cos(y / 23)
+        for (y = 0; y < n; y++) for (x = 0; x < n; x++) {
+            a = y * (n + 1) + x; printf "3 %d %d %d\n3 %d %d %d\n", a, a + 1, a + n + 2, a, a + n + 2, a + n + 1
+        }
+    }' >"$2"
+}
+
 finish() {
     echo "$((checks - failures)) passed, $failures failed"
     [ $failures -eq 0 ]

@@ -2,14 +2,8 @@
 # Ctrl-C (SIGINT) during a build: exit status 130, a message, and no output file or temporary left.
 # A build killed outright (SIGKILL) leaves no output either; `strata build --clean` removes what it left.
 source "$(dirname "$0")/common.sh"
-# A 1000×1000 grid of quads (2 M triangles) as OFF: big enough to still be building when the signal comes.
-awk 'BEGIN {
-    n = 1000; print "OFF"; print (n + 1) * (n + 1), 2 * n * n, 0
-    for (y = 0; y <= n; y++) for (x = 0; x <= n; x++) printf "%d %d %.4f\n", x, y, sin(x / 37) * cos(y / 23)
-    for (y = 0; y < n; y++) for (x = 0; x < n; x++) {
-        a = y * (n + 1) + x; printf "3 %d %d %d\n3 %d %d %d\n", a, a + 1, a + n + 2, a, a + n + 2, a + n + 1
-    }
-}' >"$WORK/grid.off"
+# 2 M triangles: big enough to still be building when the signal comes.
+write_grid 1000 "$WORK/grid.off"
 checks=$((checks + 1))
 # One SIGINT to the process, as Ctrl-C sends it (timeout(1) would signal its whole group a second time).
 "$STRATA" build "$WORK/grid.off" -o "$WORK/grid.hlod" >"$WORK/out.txt" 2>"$WORK/err.txt" &
