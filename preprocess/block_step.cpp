@@ -87,36 +87,13 @@ BlockWeld weld_block(std::span<const CubeRecord* const> cubes, const BorderTable
         std::fill_n(w.vertex_cube.begin() + w.first[c], cubes[c]->vertex_count(), c);
     const BlockVertices vertex(cubes, w);
 
-    w.vertex_wedge.resize(total);
-    {
-        IndexMap wedges(total);
-        std::vector<uint32_t> wedge_of_first(total);
-        for (uint32_t g = 0; g < total; ++g) {
-            const VertexRef r = vertex[g];
-            const uint32_t found = wedges.find_or_insert(hash_wedge(r), g, [&](uint32_t other) { return same_wedge(vertex[other], r); });
-            if (found == g) {
-                wedge_of_first[g] = w.wedge_count();
-                w.wedge_vertex.push_back(g);
-            }
-            w.vertex_wedge[g] = wedge_of_first[found];
-        }
-    }
-    w.wedge_point.resize(w.wedge_count());
-    {
-        IndexMap points(w.wedge_count());
-        std::vector<uint32_t> point_of_first(w.wedge_count());
-        for (uint32_t e = 0; e < w.wedge_count(); ++e) {
-            const PositionBits bits = position_bits(position_of(vertex[w.wedge_vertex[e]]));
-            const uint32_t found = points.find_or_insert(hash_position(bits), e, [&](uint32_t other) {
-                return position_bits(position_of(vertex[w.wedge_vertex[other]])) == bits;
-            });
-            if (found == e) {
-                point_of_first[e] = w.point_count();
-                w.point_wedge.push_back(e);
-            }
-            w.wedge_point[e] = point_of_first[found];
-        }
-    }
+    w.wedge_vertex = number_distinct(
+        total, [&](uint32_t g) { return hash_wedge(vertex[g]); },
+        [&](uint32_t a, uint32_t b) { return same_wedge(vertex[a], vertex[b]); }, w.vertex_wedge);
+    auto wedge_bits = [&](uint32_t e) { return position_bits(position_of(vertex[w.wedge_vertex[e]])); };
+    w.point_wedge = number_distinct(
+        w.wedge_count(), [&](uint32_t e) { return hash_position(wedge_bits(e)); },
+        [&](uint32_t a, uint32_t b) { return wedge_bits(a) == wedge_bits(b); }, w.wedge_point);
 
     std::vector<std::array<float, 3>> sums(w.point_count(), {0, 0, 0});
     for (size_t c = 0; c < cubes.size(); ++c)
@@ -203,8 +180,8 @@ BlockMesh block_mesh(std::span<const CubeRecord* const> cubes, const BlockWeld& 
         for (int k = 0; k < 4 && !r.cube->colors.empty(); ++k)
             m.wedge_attributes.push_back(r.cube->colors[4 * size_t(r.v) + k] * (kColorWeight / 255.0f));
         for (int k = 0; k < 2 && !r.cube->uvs.empty(); ++k) m.wedge_attributes.push_back(r.cube->uvs[2 * size_t(r.v) + k] * kUvWeight);
-        for (int k = 0; k < 3 && !r.cube->normals.empty(); ++k)
-            m.wedge_attributes.push_back(decode_normal(w.wedge_normal[e][0], w.wedge_normal[e][1])[k] * kNormalWeight);
+        if (!r.cube->normals.empty())
+            for (float x : decode_normal(w.wedge_normal[e][0], w.wedge_normal[e][1])) m.wedge_attributes.push_back(x * kNormalWeight);
     }
     for (size_t c = 0; c < cubes.size(); ++c)
         for (uint32_t i : cubes[c]->triangles) m.triangles.push_back(w.vertex_wedge[w.first[c] + i]);

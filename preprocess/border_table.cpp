@@ -22,19 +22,11 @@ uint64_t hash_position(const PositionBits& bits) {
 }
 
 uint32_t weld_positions(const float* positions, uint32_t count, std::vector<uint32_t>& point_of) {
-    point_of.resize(count);
-    IndexMap first(count);
-    std::vector<uint32_t> point_of_first(count);
-    uint32_t points = 0;
-    for (uint32_t v = 0; v < count; ++v) {
-        const PositionBits bits = position_bits(&positions[3 * size_t(v)]);
-        const uint32_t found = first.find_or_insert(hash_position(bits), v, [&](uint32_t other) {
-            return position_bits(&positions[3 * size_t(other)]) == bits;
-        });
-        if (found == v) point_of_first[v] = points++;
-        point_of[v] = point_of_first[found];
-    }
-    return points;
+    auto bits = [&](uint32_t v) { return position_bits(&positions[3 * size_t(v)]); };
+    return uint32_t(number_distinct(
+                        count, [&](uint32_t v) { return hash_position(bits(v)); },
+                        [&](uint32_t a, uint32_t b) { return bits(a) == bits(b); }, point_of)
+                        .size());
 }
 
 namespace {

@@ -92,4 +92,22 @@ private:
     size_t size_ = 0;
 };
 
+// Numbers `count` items by equality: class_of[i] is the rank, among the first items of their kind, of
+// the first item equal to i. Returns those first items in order. hash(i) must agree for equal items.
+template <class Hash, class Same>
+std::vector<uint32_t> number_distinct(uint32_t count, Hash&& hash, Same&& same, std::vector<uint32_t>& class_of) {
+    class_of.resize(count);
+    IndexMap first(count);
+    std::vector<uint32_t> firsts, class_of_first(count);
+    for (uint32_t i = 0; i < count; ++i) {
+        const uint32_t found = first.find_or_insert(hash(i), i, [&](uint32_t other) { return same(other, i); });
+        if (found == i) {
+            class_of_first[i] = uint32_t(firsts.size());
+            firsts.push_back(i);
+        }
+        class_of[i] = class_of_first[found];
+    }
+    return firsts;
+}
+
 }  // namespace strata
