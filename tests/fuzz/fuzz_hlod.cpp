@@ -15,25 +15,11 @@
 #include "preprocess/hlod_format.h"
 #include "preprocess/hlod_verify.h"
 #include "tests/fuzz/fuzz_support.h"
+#include "tests/support/hlod_bytes.h"
 
 namespace {
 
-// FORMAT.md §3–4.
-constexpr size_t kFixedHeaderBytes = 32, kSectionCountAt = 12, kFileSizeAt = 16, kHeaderCrcAt = 28;
-constexpr size_t kEntryBytes = 32, kEntryOffsetAt = 8, kEntrySizeAt = 16, kEntryCrcAt = 24;
-constexpr size_t kNodeBytes = 48, kNodeOffsetAt = 0, kNodeSizeAt = 8, kNodeChecksumAt = 44;
-
-template <class T>
-T load(const std::vector<uint8_t>& bytes, size_t at) {
-    T value;
-    std::memcpy(&value, bytes.data() + at, sizeof(T));
-    return value;
-}
-
-template <class T>
-void store(std::vector<uint8_t>& bytes, size_t at, T value) {
-    std::memcpy(bytes.data() + at, &value, sizeof(T));
-}
+using namespace strata::test;
 
 bool inside(const std::vector<uint8_t>& file, uint64_t offset, uint64_t size) {
     return offset <= file.size() && size <= file.size() - offset;
@@ -42,28 +28,28 @@ bool inside(const std::vector<uint8_t>& file, uint64_t offset, uint64_t size) {
 // Fixes the payload checksums of the node entries in [offset, offset + size).
 void repair_node_entries(std::vector<uint8_t>& file, uint64_t offset, uint64_t size) {
     for (uint64_t at = offset; at + kNodeBytes <= offset + size; at += kNodeBytes) {
-        const uint64_t payload = load<uint64_t>(file, at + kNodeOffsetAt), bytes = load<uint64_t>(file, at + kNodeSizeAt);
-        if (inside(file, payload, bytes)) store(file, at + kNodeChecksumAt, strata::crc32c(file.data() + payload, bytes));
+        const uint64_t payload = get<uint64_t>(file, at + kNodeOffsetAt), bytes = get<uint64_t>(file, at + kNodeSizeAt);
+        if (inside(file, payload, bytes)) put(file, at + kNodeChecksumAt, strata::crc32c(file.data() + payload, bytes));
     }
 }
 
 void repair_checksums(std::vector<uint8_t>& file) {
     if (file.size() < kFixedHeaderBytes) return;
-    const uint64_t count = load<uint32_t>(file, kSectionCountAt);
+    const uint64_t count = get<uint32_t>(file, kSectionCountAt);
     if (count > (file.size() - kFixedHeaderBytes) / kEntryBytes) return;
-    store<uint64_t>(file, kFileSizeAt, file.size());
+    put<uint64_t>(file, kFileSizeAt, file.size());
     // NODE first: the payload CRCs it holds are part of its own CRC.
     for (int pass = 0; pass < 2; ++pass)
         for (uint64_t e = 0; e < count; ++e) {
             const size_t entry = kFixedHeaderBytes + kEntryBytes * e;
-            const uint64_t offset = load<uint64_t>(file, entry + kEntryOffsetAt), size = load<uint64_t>(file, entry + kEntrySizeAt);
+            const uint64_t offset = get<uint64_t>(file, entry + kEntryOffsetAt), size = get<uint64_t>(file, entry + kEntrySizeAt);
             if (!inside(file, offset, size)) continue;
             if (pass == 0 && std::memcmp(&file[entry], "NODE", 4) == 0) repair_node_entries(file, offset, size);
-            if (pass == 1) store(file, entry + kEntryCrcAt, strata::crc32c(file.data() + offset, size));
+            if (pass == 1) put(file, entry + kEntryCrcAt, strata::crc32c(file.data() + offset, size));
         }
     std::vector<uint8_t> covered(file.begin(), file.begin() + kHeaderCrcAt);
     covered.insert(covered.end(), file.begin() + kFixedHeaderBytes, file.begin() + long(kFixedHeaderBytes + kEntryBytes * count));
-    store(file, kHeaderCrcAt, strata::crc32c(covered.data(), covered.size()));
+    put(file, kHeaderCrcAt, strata::crc32c(covered.data(), covered.size()));
 }
 
 }  // namespace

@@ -23,6 +23,7 @@
 #include <zstd.h>
 
 #include "preprocess/hlod_format.h"
+#include "tests/support/hlod_bytes.h"
 #include "tests/support/test_meshes.h"
 
 namespace strata {
@@ -42,17 +43,7 @@ void write_bytes(const std::filesystem::path& p, const std::vector<uint8_t>& byt
     out.write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
 }
 
-template <class T>
-T get(const std::vector<uint8_t>& bytes, size_t at) {
-    T value;
-    std::memcpy(&value, bytes.data() + at, sizeof(T));
-    return value;
-}
-
-template <class T>
-void put(std::vector<uint8_t>& bytes, size_t at, T value) {
-    std::memcpy(bytes.data() + at, &value, sizeof(T));
-}
+using namespace test;  // get, put and the container's offsets (tests/support/hlod_bytes.h)
 
 std::vector<std::string> directory_entries(const std::filesystem::path& dir) {
     std::vector<std::string> names;
@@ -635,12 +626,8 @@ void expect_same_nodes(const std::vector<HlodNode>& got, const std::vector<HlodN
     }
 }
 
-// FORMAT.md §3: header and section table offsets.
-constexpr size_t kSectionCountAt = 12, kFileSizeAt = 16, kHeaderCrcAt = 28, kTableAt = 32, kEntryBytes = 32;
-// FORMAT.md §4: MODL and NODE field offsets.
+// FORMAT.md §4.1: MODL field offsets.
 constexpr size_t kCodecAt = 0, kMaxLevelAt = 40, kSigma0At = 48, kNodeCountAt = 80, kSourceAt = 88;
-constexpr size_t kNodeBytes = 48, kNodeOffsetAt = 0, kNodeSizeAt = 8, kNodeLevelAt = 16, kNodeVerticesAt = 36,
-                 kNodeChecksumAt = 44;
 
 // The byte offset of the section table entry tagged `tag` (0 if there is none).
 size_t entry_of(const std::vector<uint8_t>& bytes, const char* tag) {
@@ -648,8 +635,8 @@ size_t entry_of(const std::vector<uint8_t>& bytes, const char* tag) {
         if (std::memcmp(&bytes[kTableAt + kEntryBytes * e], tag, 4) == 0) return kTableAt + kEntryBytes * e;
     return 0;
 }
-uint64_t section_offset(const std::vector<uint8_t>& bytes, const char* tag) { return get<uint64_t>(bytes, entry_of(bytes, tag) + 8); }
-uint64_t section_size(const std::vector<uint8_t>& bytes, const char* tag) { return get<uint64_t>(bytes, entry_of(bytes, tag) + 16); }
+uint64_t section_offset(const std::vector<uint8_t>& bytes, const char* tag) { return get<uint64_t>(bytes, entry_of(bytes, tag) + kEntryOffsetAt); }
+uint64_t section_size(const std::vector<uint8_t>& bytes, const char* tag) { return get<uint64_t>(bytes, entry_of(bytes, tag) + kEntrySizeAt); }
 
 TEST(HlodFileRoundTrip, HeaderNodesAndCubesComeBack) {
     test::TempDir dir;
