@@ -6,9 +6,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <map>
 #include <random>
+#include <stdexcept>
 #include <string>
 #include <unistd.h>
 #include <utility>
@@ -101,11 +103,12 @@ inline Mesh seamed_grid(int n, int seam) {
 
 class TempDir {
 public:
+    // A new, empty folder every time (mkdtemp): a name made from the pid could meet the leftovers of
+    // an earlier test process that had the same pid and was killed before it cleaned up.
     TempDir() {
-        static int counter = 0;
-        path_ = std::filesystem::temp_directory_path() /
-                ("strata-test-" + std::to_string(::getpid()) + "-" + std::to_string(counter++));
-        std::filesystem::create_directories(path_);
+        std::string name = (std::filesystem::temp_directory_path() / "strata-test-XXXXXX").string();
+        if (!::mkdtemp(name.data())) throw std::runtime_error("cannot create a temporary folder for the test");
+        path_ = name;
     }
     ~TempDir() {
         std::error_code ec;
