@@ -54,12 +54,6 @@ int run_build(const BuildOptions& o) {
             return kUsage;
         }
     }
-    try {
-        check_settings(settings);
-    } catch (const InputError& e) {
-        std::fprintf(stderr, "strata build: %s\n", e.what());
-        return kUsage;
-    }
     uint64_t memory_limit = default_memory_limit();
     std::string limit_name = "the default --memory, a quarter of physical memory";
     if (!o.memory.empty()) {
@@ -71,41 +65,58 @@ int run_build(const BuildOptions& o) {
             return kUsage;
         }
     }
+    settings.memory = memory_limit;
+    try {
+        check_settings(settings);
+    } catch (const InputError& e) {
+        std::fprintf(stderr, "strata build: %s\n", e.what());
+        return kUsage;
+    }
     const std::vector<std::filesystem::path> files = expand_inputs(o.inputs);
-    const MemoryEstimate estimate = estimate_build_memory(files);
-    if (o.verbose)
-        std::printf("  memory: about %s for %llu%s triangles in %zu file%s (limit %s)\n",
+    const MemoryEstimate estimate = estimate_build(files, memory_limit);
+    const std::filesystem::path temp_folder =
+        o.settings.temp_dir.empty() ? std::filesystem::path(o.output).parent_path() : o.settings.temp_dir;
+    if (o.verbose) {
+        std::printf("  memory: about %s for %llu%s triangles in %zu file%s, %llu of them read whole into memory (limit %s)\n",
                     describe_bytes(estimate.bytes).c_str(), (unsigned long long)estimate.triangles,
                     estimate.guessed ? " (estimated)" : "", files.size(), files.size() == 1 ? "" : "s",
-                    describe_bytes(memory_limit).c_str());
+                    (unsigned long long)estimate.in_memory_triangles, describe_bytes(memory_limit).c_str());
+        std::printf("  temporary disk: about %s in %s\n", describe_bytes(estimate.temp_bytes).c_str(),
+                    temp_folder.empty() ? "." : temp_folder.c_str());
+    }
     check_memory(estimate, memory_limit, limit_name);
+    check_temp_disk(estimate, temp_folder);
     const std::atomic<bool>* cancel = install_interrupt_flag();
     ProgressBar bar(!o.quiet);
     Progress progress = bar.progress(cancel);
     auto start = std::chrono::steady_clock::now();
     try {
         std::vector<std::string> warnings;
-        Mesh mesh = read_tiles(files, progress, warnings);
+        const auto sources = open_sources(files, memory_limit / 4, progress, warnings);
+        const ModelAttributes model = common_attributes(sources, warnings);
         bar.finish();  // clears the bar's line for the warnings; the next report draws it again
         for (const std::string& warning : warnings) std::fprintf(stderr, "strata build: warning: %s\n", warning.c_str());
-        const double read_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-        const size_t triangles = mesh.triangle_count();
-        BuildReport report = build_hlod(std::move(mesh), o.output, settings, source_name(o.inputs, files.size()), progress);
+        const double open_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        BuildReport report = build_hlod(sources, model, o.output, settings, source_name(o.inputs, files.size()), progress);
+        const uint64_t triangles = report.input_triangles;
         bar.finish();
         double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         for (const std::string& note : report.notes) std::fprintf(stderr, "strata build: note: %s\n", note.c_str());
         if (!o.quiet)
-            std::printf("%s: %zu triangles, %u levels, σ0 %.3g, ε_q %.3g, %.1f MB, %.2f s (%.2f M triangles/s)\n",
-                        o.output.c_str(), triangles, report.max_level + 1, report.sigma0, report.error_q,
+            std::printf("%s: %llu triangles, %u levels, σ0 %.3g, ε_q %.3g, %.1f MB, %.2f s (%.2f M triangles/s)\n",
+                        o.output.c_str(), (unsigned long long)triangles, report.max_level + 1, report.sigma0, report.error_q,
                         report.output_bytes / 1e6, seconds, triangles / seconds / 1e6);
         if (o.verbose) {
             for (const LevelStats& l : report.levels)
                 std::printf("  level %2u: %7llu cubes %11llu vertices %11llu triangles %10.2f MB\n", l.level,
                             (unsigned long long)l.cubes, (unsigned long long)l.vertices,
                             (unsigned long long)l.triangles, l.bytes / 1e6);
-            std::printf("  seconds: read %.2f, partition %.2f, simplify %.2f, write %.2f\n", read_seconds,
-                        report.partition_seconds, report.simplify_seconds, report.write_seconds);
+            std::printf("  seconds: open %.2f, read %.2f, partition %.2f, simplify %.2f, write %.2f\n", open_seconds,
+                        report.read_seconds, report.partition_seconds, report.simplify_seconds, report.write_seconds);
             std::printf("  temporary disk: %s at most\n", describe_bytes(report.temp_bytes).c_str());
+            std::printf("  memory: %s at most (largest input %s, triangle spill %s, border listings %s)\n",
+                        describe_bytes(peak_resident_bytes()).c_str(), describe_bytes(report.source_memory_bytes).c_str(),
+                        describe_bytes(report.spill_memory_bytes).c_str(), describe_bytes(report.border_bytes).c_str());
         }
         return kOk;
     } catch (const Cancelled&) {
@@ -136,12 +147,14 @@ Command add_build(CLI::App& app) {
     sub->add_option("--error", o->settings.error, "Stop simplifying a level at this error, relative to the cube size (ε_q)");
     sub->add_option("--threads", o->settings.threads, "Worker threads (0: every core)")->capture_default_str();
     sub->add_option("--memory", o->memory,
-                    "Memory the build may use, in bytes or with a binary suffix K, M, G, T (2G, 512M, 1.5G); "
-                    "default a quarter of physical memory. Reading holds the whole mesh in memory: a build estimated "
-                    "to need more is refused before reading");
+                    "Memory for the build's buffers and any input read whole, in bytes or with a binary suffix K, M, "
+                    "G, T (2G, 512M, 1.5G); at least 16M, default a quarter of physical memory. Peak memory stays "
+                    "under it plus a fixed overhead (about 150 MiB). Binary PLY streams from disk; other formats "
+                    "are read whole, and a build estimated not to fit is refused before reading. Never changes the output");
     sub->add_option("--temp", o->settings.temp_dir,
-                    "Folder for the build's temporary files (each level's cubes between two stages); default "
-                    "beside the output. Removed when the build ends");
+                    "Folder for the build's temporary files (the input's triangles sorted by block, then each "
+                    "level's cubes and shared border points; about 60 bytes per input triangle at the peak); "
+                    "default beside the output. Removed when the build ends");
     sub->add_flag("-q,--quiet", o->quiet, "No progress bar and no summary");
     sub->add_flag("-v,--verbose", o->verbose, "Also print the memory estimate, each level's counts and each stage's time");
     return {sub, [o] { return run_build(*o); }};

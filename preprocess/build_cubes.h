@@ -44,16 +44,20 @@ struct Frame {
     }
 };
 
-// The level-`level` cell holding a triangle's barycenter, clamped to the grid (000 §3.2.3).
-inline std::array<int64_t, 3> cell_of(const Frame& f, const float* a, const float* b, const float* c, uint32_t level) {
+// (a + b + c) / 3 in double: the point whose cell holds a triangle (000 §3.2.3; triangles are never cut).
+inline std::array<double, 3> barycenter(const float* a, const float* b, const float* c) {
+    return {(double(a[0]) + double(b[0]) + double(c[0])) / 3.0, (double(a[1]) + double(b[1]) + double(c[1])) / 3.0,
+            (double(a[2]) + double(b[2]) + double(c[2])) / 3.0};
+}
+
+// The level-`level` cell holding a point, clamped to the grid.
+inline CubeKey cell_of(const Frame& f, const std::array<double, 3>& point, uint32_t level) {
     const double scale = double(uint64_t(1) << level) / f.root_size;
-    const int64_t last = int64_t(1) << level;
-    std::array<int64_t, 3> cell;
-    for (int x = 0; x < 3; ++x) {
-        const double bary = (double(a[x]) + double(b[x]) + double(c[x])) / 3.0;
-        cell[x] = std::clamp<int64_t>(int64_t(std::floor((bary - f.origin[x]) * scale)), 0, last - 1);
-    }
-    return cell;
+    const int64_t last = (int64_t(1) << level) - 1;
+    uint64_t cell[3];
+    for (int x = 0; x < 3; ++x)
+        cell[x] = uint64_t(std::clamp<int64_t>(int64_t(std::floor((point[size_t(x)] - f.origin[x]) * scale)), 0, last));
+    return make_key(cell[0], cell[1], cell[2]);
 }
 
 // One cube of level l between two stages. Vertices [0, used_vertices) are those its triangles use,

@@ -20,7 +20,12 @@ namespace {
 // cut into 4 tiles: 42.6 bytes per triangle above about 15 MB (the builder's own figure on a 19.3 M
 // triangle scan: 41). A little margin on both; colours, normals and UVs cost more than this counts.
 constexpr uint64_t kPeakBytesPerTriangle = 44;
-constexpr uint64_t kFixedBytes = uint64_t(32) << 20;
+// A streamed triangle's share of the buffers, before the limit caps them: the vertex cache (about half
+// a 12-byte vertex a triangle, with room) and the triangle spill (three 12-byte corners).
+constexpr uint64_t kStreamBytesPerTriangle = 48;
+// Temporary disk a triangle needs at the peak: its spilled corners (36 bytes with positions alone)
+// while level L's cubes (about 22 bytes a triangle) are made from them. Attributes cost more.
+constexpr uint64_t kTempBytesPerTriangle = 60;
 
 bool is_list(const std::string& argument) { return argument.size() > 1 && argument[0] == '@'; }
 
@@ -65,23 +70,43 @@ std::string source_name(const std::vector<std::string>& arguments, size_t file_c
     return std::to_string(file_count) + " files";
 }
 
-MemoryEstimate estimate_build_memory(const std::vector<std::filesystem::path>& files) {
+MemoryEstimate estimate_build(const std::vector<std::filesystem::path>& files, uint64_t limit) {
     MemoryEstimate estimate;
+    uint64_t streamed = 0;
+    std::vector<std::string> ignored;  // the build itself reports what the headers hold
     for (const std::filesystem::path& file : files) {
         const TriangleEstimate counted = estimate_triangles(file);
         estimate.triangles += counted.triangles;
         estimate.guessed |= !counted.from_header;
+        bool streams = false;
+        try {
+            streams = detail::open_ply_stream(file, file.string(), nullptr, 0, ignored) != nullptr;
+        } catch (const InputError&) {
+            // read whole, which reports what is wrong with it
+        }
+        (streams ? streamed : estimate.in_memory_triangles) += counted.triangles;
     }
-    estimate.bytes = kFixedBytes + kPeakBytesPerTriangle * estimate.triangles;
+    estimate.bytes = kPeakBytesPerTriangle * estimate.in_memory_triangles +
+                     std::min(limit / 2, kStreamBytesPerTriangle * (streamed + estimate.in_memory_triangles));
+    estimate.temp_bytes = kTempBytesPerTriangle * estimate.triangles;
     return estimate;
 }
 
 void check_memory(const MemoryEstimate& estimate, uint64_t limit, const std::string& limit_name) {
     if (estimate.bytes <= limit) return;
     throw InputError("needs about " + describe_bytes(estimate.bytes) + " in memory for " +
-                     std::to_string(estimate.triangles) + (estimate.guessed ? " (estimated)" : "") +
-                     " triangles, more than " + limit_name + " (" + describe_bytes(limit) +
-                     "); the out-of-core builder is not yet available");
+                     std::to_string(estimate.in_memory_triangles) + (estimate.guessed ? " (estimated)" : "") +
+                     " triangles read whole into memory, more than " + limit_name + " (" + describe_bytes(limit) +
+                     "); binary PLY streams from disk in bounded memory: convert the input to it");
+}
+
+void check_temp_disk(const MemoryEstimate& estimate, const std::filesystem::path& folder) {
+    std::error_code ec;
+    const std::filesystem::space_info space = std::filesystem::space(folder.empty() ? "." : folder, ec);
+    if (ec || space.available >= estimate.temp_bytes) return;  // a folder that does not exist fails when made
+    throw InputError((folder.empty() ? std::string(".") : folder.string()) + ": the build needs about " +
+                     describe_bytes(estimate.temp_bytes) + " of temporary disk here, and only " +
+                     describe_bytes(space.available) + " is free; free some or choose another folder with --temp");
 }
 
 }  // namespace strata

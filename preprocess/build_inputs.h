@@ -1,6 +1,6 @@
 // What a build takes in, before anything is read: the input arguments (mesh files and @lists of them)
-// as the files of one model, the name the model records as its source, and the memory preflight that
-// refuses a build the in-core builder cannot fit under its ceiling.
+// as the files of one model, the name the model records as its source, and the preflight that refuses
+// at once a build that cannot fit under its memory ceiling or in its temporary folder.
 #pragma once
 
 #include <cstdint>
@@ -21,17 +21,24 @@ std::vector<std::filesystem::path> expand_inputs(const std::vector<std::string>&
 std::string source_name(const std::vector<std::string>& arguments, size_t file_count);
 
 struct MemoryEstimate {
-    uint64_t triangles = 0;  // all files together
-    uint64_t bytes = 0;      // the build's expected peak resident memory
-    bool guessed = false;    // some file's triangles were guessed from its size (no count in its header)
+    uint64_t triangles = 0;            // all files together
+    uint64_t in_memory_triangles = 0;  // of the files read whole into memory (all but binary PLY)
+    uint64_t bytes = 0;                // the build's expected peak memory, above its fixed overhead (≤ 150 MiB)
+    uint64_t temp_bytes = 0;           // its expected peak temporary disk
+    bool guessed = false;              // some file's triangles were guessed from its size (no count in its header)
 };
 
-// The in-core build's peak memory for these files, from their headers' counts (or sizes), read before
-// any file is: every file is opened, so a missing one is an InputError naming it at once.
-MemoryEstimate estimate_build_memory(const std::vector<std::filesystem::path>& files);
+// The build's peak memory and temporary disk for these files under the memory limit `limit` (what
+// BuildSettings::memory gives the buffers), from their headers' counts (or sizes), read before any
+// file is: every file is opened, so a missing one is an InputError naming it at once. A binary PLY
+// streams from disk in memory the limit bounds; other formats are read whole into memory.
+MemoryEstimate estimate_build(const std::vector<std::filesystem::path>& files, uint64_t limit);
 
 // Throws InputError when the estimate exceeds `limit`: "needs about 3.1 GiB in memory, more than
 // <limit_name>; ...". `limit_name` says where the limit came from ("--memory 2G").
 void check_memory(const MemoryEstimate& estimate, uint64_t limit, const std::string& limit_name);
+
+// Throws InputError naming `folder` when it has less free space than the estimate's temporary disk.
+void check_temp_disk(const MemoryEstimate& estimate, const std::filesystem::path& folder);
 
 }  // namespace strata

@@ -1,5 +1,6 @@
 #include "preprocess/byte_size.h"
 
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <cmath>
@@ -61,6 +62,12 @@ uint64_t default_memory_limit() {
     const long pages = ::sysconf(_SC_PHYS_PAGES), page_size = ::sysconf(_SC_PAGE_SIZE);
     if (pages <= 0 || page_size <= 0) return uint64_t(4) << 30;  // unknown: assume a small machine's quarter
     return uint64_t(pages) * uint64_t(page_size) / 4;
+}
+
+uint64_t peak_resident_bytes() {
+    struct rusage usage {};
+    ::getrusage(RUSAGE_SELF, &usage);
+    return uint64_t(usage.ru_maxrss) * 1024;  // Linux counts kilobytes
 }
 
 }  // namespace strata

@@ -20,4 +20,7 @@ std::string describe_bytes(uint64_t bytes);
 // The memory a build may use when not told: a quarter of the machine's physical memory.
 uint64_t default_memory_limit();
 
+// The most memory this process has held resident so far (its peak RSS).
+uint64_t peak_resident_bytes();
+
 }  // namespace strata

@@ -1,10 +1,6 @@
 #include "preprocess/cube_store.h"
 
-#include <fcntl.h>
-#include <unistd.h>
-
 #include <algorithm>
-#include <cerrno>
 #include <cstring>
 #include <stdexcept>
 
@@ -12,11 +8,6 @@ namespace strata::build {
 namespace {
 
 enum RecordFlags : uint8_t { kColors = 1, kUvs = 2, kNormals = 4 };
-
-[[noreturn]] void fail(const std::filesystem::path& path, const std::string& what, int error) {
-    throw std::runtime_error(path.parent_path().string() + ": " + what + " the build's temporary file " +
-                             path.filename().string() + " (" + std::strerror(error) + ")");
-}
 
 template <class T>
 void append(std::vector<uint8_t>& out, const std::vector<T>& values) {
@@ -66,26 +57,13 @@ CubeRecord deserialize(const std::vector<uint8_t>& bytes) {
 
 }  // namespace
 
-CubeStore::CubeStore(std::filesystem::path path)
-    : path_(std::move(path)), file_(::open(path_.c_str(), O_RDWR | O_CREAT | O_TRUNC | O_CLOEXEC, 0600)) {
-    if (file_.get() < 0) fail(path_, "cannot create", errno);
-}
-
-CubeStore::~CubeStore() {
-    std::error_code ignored;
-    std::filesystem::remove(path_, ignored);
-}
+CubeStore::CubeStore(std::filesystem::path path, DiskUsage& usage) : file_(std::move(path), usage) {}
 
 void CubeStore::put(const CubeRecord& cube) {
     const std::vector<uint8_t> bytes = serialize(cube);
     const uint64_t offset = end_.fetch_add(bytes.size());
     triangles_ += cube.triangle_count();
-    for (size_t done = 0; done < bytes.size();) {
-        const ssize_t n = ::pwrite(file_.get(), bytes.data() + done, bytes.size() - done, off_t(offset + done));
-        if (n < 0 && errno == EINTR) continue;
-        if (n <= 0) fail(path_, "cannot write", n < 0 ? errno : ENOSPC);
-        done += size_t(n);
-    }
+    file_.write(bytes.data(), bytes.size(), offset);
     std::lock_guard lock(mutex_);
     index_.push_back(Entry{cube.key, offset, uint32_t(bytes.size())});
     sorted_ = false;
@@ -105,12 +83,7 @@ CubeRecord CubeStore::get(CubeKey key) const {
     const auto it = std::lower_bound(index_.begin(), index_.end(), key, [](const Entry& e, CubeKey k) { return e.key < k; });
     if (!sorted_ || it == index_.end() || it->key != key) throw std::logic_error("CubeStore::get: no such cube");
     std::vector<uint8_t> bytes(it->size);
-    for (size_t done = 0; done < bytes.size();) {
-        const ssize_t n = ::pread(file_.get(), bytes.data() + done, bytes.size() - done, off_t(it->offset + done));
-        if (n < 0 && errno == EINTR) continue;
-        if (n <= 0) fail(path_, "cannot read back", n < 0 ? errno : EIO);
-        done += size_t(n);
-    }
+    file_.read(bytes.data(), bytes.size(), it->offset);
     return deserialize(bytes);
 }
 

@@ -9,15 +9,14 @@
 #include <vector>
 
 #include "preprocess/build_cubes.h"
-#include "preprocess/hlod_format.h"
+#include "preprocess/scratch_file.h"
 
 namespace strata::build {
 
 class CubeStore {
 public:
     // Creates (or empties) `path`; the file is removed when the store is destroyed.
-    explicit CubeStore(std::filesystem::path path);
-    ~CubeStore();
+    CubeStore(std::filesystem::path path, DiskUsage& usage);
     CubeStore(const CubeStore&) = delete;
     CubeStore& operator=(const CubeStore&) = delete;
 
@@ -38,8 +37,7 @@ private:
         uint64_t offset;
         uint32_t size;
     };
-    std::filesystem::path path_;
-    FileHandle file_;
+    ScratchFile file_;
     std::atomic<uint64_t> end_{0}, triangles_{0};
     std::mutex mutex_;
     std::vector<Entry> index_;

@@ -1,11 +1,15 @@
 #include "preprocess/hlod_builder.h"
 
 #include "preprocess/block_step.h"
+#include "preprocess/border_runs.h"
 #include "preprocess/border_table.h"
 #include "preprocess/build_cubes.h"
 #include "preprocess/cube_store.h"
 #include "preprocess/hlod_format.h"
+#include "preprocess/input_scan.h"
 #include "preprocess/leaf_cubes.h"
+#include "preprocess/byte_size.h"
+#include "preprocess/triangle_spill.h"
 #include "preprocess/parallel.h"
 
 #include <signal.h>
@@ -29,7 +33,8 @@ using build::Frame;
 
 // The 16-bit lattice holds a cell plus an overhang below half a cell on each side.
 constexpr float kMaxSigma0 = 0.45f;
-constexpr int kMaxLevels = 15;  // keeps the lattice integer q = 2^15·cell + … within 31 bits
+constexpr int kMaxLevels = 15;
+constexpr uint64_t kLeastMemory = uint64_t(16) << 20;  // keeps the lattice integer q = 2^15·cell + … within 31 bits
 
 // Adds the wall time of its scope to a counter.
 class StageTimer {
@@ -44,37 +49,23 @@ private:
 
 // ---- setting up level L -------------------------------------------------------------------
 
-Frame make_frame(const Mesh& mesh, const std::string& source) {
-    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-    for (size_t v = 0; v < mesh.vertex_count(); ++v)
-        for (int a = 0; a < 3; ++a) {
-            double x = mesh.positions[3 * v + a];
-            if (!std::isfinite(x))
-                throw InputError(source + ": vertex " + std::to_string(v) + " has a non-finite coordinate");
-            lo[a] = std::min(lo[a], x), hi[a] = std::max(hi[a], x);
-        }
-    // The frame lives in the mesh's float space (partition, lattice and simplifier all measure float
-    // positions against it); the true origin, mesh.origin + f.origin, is what the header records.
+Frame make_frame(const build::InputScan& scan, const std::string& source) {
+    // The frame lives in the input's float space (partition, lattice and simplifier all measure float
+    // positions against it); the true origin, the sources' origin + f.origin, is what the header records.
     Frame f{};
-    for (int a = 0; a < 3; ++a) f.origin[a] = lo[a];
-    f.root_size = std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]});
+    for (int a = 0; a < 3; ++a) f.origin[a] = scan.low[size_t(a)];
+    f.root_size = std::max({scan.high[0] - scan.low[0], scan.high[1] - scan.low[1], scan.high[2] - scan.low[2]});
     if (!(f.root_size > 0)) throw InputError(source + ": every vertex lies at one point");
     return f;
 }
 
-// Smallest L at which the typical triangle's cell (the load-weighted mean Σn²/Σn over a sample)
-// holds at most `leaf` triangles.
-uint32_t choose_levels(const Mesh& mesh, const Frame& f, int leaf) {
-    const size_t triangles = mesh.triangle_count();
-    const size_t stride = std::max<size_t>(1, triangles / 65536);
+// Smallest L at which the typical triangle's cell (the load-weighted mean Σn²/Σn over the scan's
+// sample) holds at most `leaf` triangles.
+uint32_t choose_levels(const build::InputScan& scan, const Frame& f, int leaf) {
     std::vector<CubeKey> keys;
     for (uint32_t level = 0; level < kMaxLevels; ++level) {
         keys.clear();
-        for (size_t t = 0; t < triangles; t += stride) {
-            const uint32_t* tri = &mesh.indices[3 * t];
-            auto c = build::cell_of(f, &mesh.positions[3 * tri[0]], &mesh.positions[3 * tri[1]], &mesh.positions[3 * tri[2]], level);
-            keys.push_back(build::make_key(c[0], c[1], c[2]));
-        }
+        for (const auto& point : scan.sample) keys.push_back(build::cell_of(f, point, level));
         std::sort(keys.begin(), keys.end());
         double weighted = 0;
         for (size_t i = 0, j; i < keys.size(); i = j) {
@@ -82,22 +73,10 @@ uint32_t choose_levels(const Mesh& mesh, const Frame& f, int leaf) {
             }
             weighted += double(j - i) * double(j - i);
         }
-        double typical = weighted / double(keys.size()) * double(stride);
+        double typical = weighted / double(keys.size()) * double(scan.stride);
         if (typical <= leaf) return level;
     }
     return kMaxLevels;
-}
-
-// Longest edge in the max norm, the quantity constraint 1 bounds by σ0·s_L.
-double longest_edge(const Mesh& mesh) {
-    float longest = 0;
-    for (size_t t = 0; t < mesh.indices.size(); t += 3)
-        for (int c = 0; c < 3; ++c) {
-            const float* a = &mesh.positions[3 * mesh.indices[t + c]];
-            const float* b = &mesh.positions[3 * mesh.indices[t + (c + 1) % 3]];
-            longest = std::max({longest, std::fabs(a[0] - b[0]), std::fabs(a[1] - b[1]), std::fabs(a[2] - b[2])});
-        }
-    return longest;
 }
 
 // ---- simplifying level by level ---------------------------------------------------------
@@ -135,15 +114,13 @@ private:
     float relative_error_ = 0;
 };
 
-// Simplifies level l block by block into level l−1 (`next`), writing level l's cubes; returns the
-// points level l−1's cubes list. Only the blocks in flight are in memory.
-std::vector<build::BorderEntry> simplify_level(build::CubeStore& level, const std::vector<build::BorderEntry>& listed,
-                                               uint32_t l, const Frame& f, const BuildSettings& s, uint32_t flags,
-                                               LevelWriter& out, build::CubeStore& next, const Progress& progress) {
-    const build::BorderTable border(listed);
+// Simplifies level l block by block into level l−1 (`next`), writing level l's cubes; the points
+// level l's cubes list are in `listed`, those level l−1's list go to `next_listed`. Only the blocks in
+// flight are in memory.
+void simplify_level(build::CubeStore& level, const build::RunSpill& listed, uint32_t l, const Frame& f,
+                    const BuildSettings& s, uint32_t flags, LevelWriter& out, build::CubeStore& next,
+                    build::RunSpill& next_listed, const Progress& progress) {
     const std::vector<std::vector<CubeKey>> blocks = group_blocks(level.keys(), f);
-    std::mutex mutex;
-    std::vector<build::BorderEntry> next_listed;
     std::atomic<uint64_t> done{0};
     const double total = double(level.triangles());
     const std::string stage = "simplify level " + std::to_string(l);
@@ -154,18 +131,18 @@ std::vector<build::BorderEntry> simplify_level(build::CubeStore& level, const st
         uint64_t triangles = 0;
         for (CubeKey key : blocks[b]) records.push_back(level.get(key)), triangles += records.back().triangle_count();
         for (const CubeRecord& r : records) cubes.push_back(&r);
-        const build::BlockOutput result = build::simplify_block_cubes(cubes, l, border, f, s, flags);
+        const build::BorderTable border = build::block_border_table(listed, f.block_of(blocks[b].front()), f, l);
+        build::BlockOutput result = build::simplify_block_cubes(cubes, l, border, f, s, flags);
         for (const build::EncodedCube& e : result.encoded) out.add(e);
         for (const CubeRecord& parent : result.parents) next.put(parent);
-        {
-            std::lock_guard lock(mutex);
-            next_listed.insert(next_listed.end(), result.border.begin(), result.border.end());
-        }
+        std::stable_sort(result.border.begin(), result.border.end(),
+                         [](const build::BorderEntry& a, const build::BorderEntry& b) { return a.block < b.block; });
+        build::append_listings(result.border, next_listed);
         const uint64_t finished = done += triangles;
         if (worker == 0) progress(stage, double(finished), total, "tri");
     });
+    next_listed.finish();
     progress(stage, total, total, "tri");
-    return next_listed;
 }
 
 std::filesystem::path folder_or_here(const std::filesystem::path& folder) {
@@ -234,23 +211,42 @@ void check_settings(const BuildSettings& s) {
     if (!(s.error == -1 || s.error > 0)) fail("--error must be positive");
     if (s.threads < 0) fail("--threads must be 0 (all cores) or more");
     if (s.leaf_triangles < 16) fail("leaf size must be at least 16 triangles");
+    if (s.memory != 0 && s.memory < kLeastMemory) fail("--memory must be at least 16M: the build's buffers need that much");
 }
 
 BuildReport build_hlod(Mesh&& mesh, const std::filesystem::path& output, const BuildSettings& settings,
                        const std::string& source_name, const Progress& progress) {
-    check_settings(settings);
-    if (mesh.triangle_count() == 0) throw InputError(source_name + ": the mesh has no triangles");
     if (mesh.vertex_count() >= 0xFFFFFFFFu) throw InputError(source_name + ": more than 2^32 vertices");
+    const ModelAttributes model{{mesh.has_normals(), mesh.has_colors(), mesh.has_uvs()}, mesh.texture};
+    std::vector<std::unique_ptr<TriangleSource>> sources;
+    sources.push_back(mesh_source(std::move(mesh), source_name));
+    return build_hlod(sources, model, output, settings, source_name, progress);
+}
+
+BuildReport build_hlod(const std::vector<std::unique_ptr<TriangleSource>>& sources, const ModelAttributes& model,
+                       const std::filesystem::path& output, const BuildSettings& settings,
+                       const std::string& source_name, const Progress& progress) {
+    check_settings(settings);
     BuildReport report;
-    Frame f = make_frame(mesh, source_name);
+    build::InputScan scan;
+    {
+        StageTimer timer(report.read_seconds);
+        scan = build::scan_inputs(sources, progress);
+    }
+    if (scan.triangles == 0 && scan.degenerate > 0 && scan.corner_low == scan.corner_high)
+        throw InputError(source_name + ": every vertex lies at one point");
+    if (scan.triangles == 0)
+        throw InputError(source_name + (scan.degenerate > 0 ? ": every triangle has two corners at one point"
+                                                            : ": the mesh has no triangles"));
+    Frame f = make_frame(scan, source_name);
     f.block = uint32_t(settings.block);
 
     // σ0 and L together (DESIGN.md §2): pick L, then the σ0 the data needs; never break constraint 1.
     const bool automatic = settings.levels < 0;
-    uint32_t L = automatic ? choose_levels(mesh, f, settings.leaf_triangles) : uint32_t(settings.levels);
+    uint32_t L = automatic ? choose_levels(scan, f, settings.leaf_triangles) : uint32_t(settings.levels);
     // At L = 0 every vertex lies in the root cell and nothing morphs: no edge bound applies there,
     // so capping L always ends in a model.
-    const double edge = longest_edge(mesh);
+    const double edge = scan.longest_edge;
     auto needed_sigma0 = [&](uint32_t levels) { return levels == 0 ? 0.0 : edge / f.cube_size(levels); };
     while (needed_sigma0(L) > kMaxSigma0) {
         if (!automatic || L == 0)
@@ -267,43 +263,63 @@ BuildReport build_hlod(Mesh&& mesh, const std::filesystem::path& output, const B
         report.notes.push_back("σ0 raised to " + std::to_string(f.sigma0) + " by the input's longest edge");
 
     HlodHeader header;
-    header.flags = (mesh.has_colors() ? kHasColors : 0u) | (mesh.has_uvs() ? kHasUvs : 0u);
-    for (int a = 0; a < 3; ++a) header.origin[a] = mesh.origin[size_t(a)] + f.origin[a];  // in double: survey coordinates
+    header.flags = (model.kept.colors ? kHasColors : 0u) | (model.kept.uvs ? kHasUvs : 0u);
+    const std::array<double, 3> origin = sources.front()->origin();
+    for (int a = 0; a < 3; ++a) header.origin[a] = origin[size_t(a)] + f.origin[a];  // in double: survey coordinates
     header.root_size = f.root_size;
     header.max_level = L;
     header.block_size = f.block;
     header.sigma0 = f.sigma0;
     header.ratio = settings.ratio;
     header.error_limit = settings.error;
-    header.input_vertices = mesh.vertex_count();
-    header.input_triangles = mesh.triangle_count();
+    header.input_triangles = scan.triangles;
     header.source = source_name;
-    header.texture = mesh.texture;
+    header.texture = model.texture;
 
     HlodWriter writer(output);
     const WorkFolder work(output, settings.temp_dir);
     const unsigned threads = resolve_thread_count(settings.threads);
-    progress("partition", 0, 1, "");
+    const uint64_t memory = settings.memory ? settings.memory : default_memory_limit();
+    build::DiskUsage disk;
     auto level_file = [&](uint32_t l) { return work / ("level-" + std::to_string(l) + ".cubes"); };
-    auto level = std::make_unique<build::CubeStore>(level_file(L));
-    std::vector<build::BorderEntry> listed;
+    auto listings = [&](uint32_t l) {
+        return std::make_unique<build::RunSpill>(work / ("level-" + std::to_string(l) + ".border"), disk, memory / 4);
+    };
+    auto level = std::make_unique<build::CubeStore>(level_file(L), disk);
+    auto listed = listings(L);
     {
         StageTimer timer(report.partition_seconds);
-        listed = build::leaf_cubes(mesh, f, threads, *level);
+        build::RunSpill spill(work / "triangles.spill", disk, memory / 4);
+        const build::CornerLayout layout{model.kept};
+        uint64_t done = 0;
+        for (const auto& source : sources)
+            source->for_each(
+                [&](const TriangleBatch& batch) {
+                    build::spill_triangles(batch, f, layout, spill);
+                    done += batch.triangle_count();
+                    progress("partition", double(done), double(std::max(done, scan.triangles)), "tri");
+                },
+                progress);
+        spill.finish();
+        build::leaf_cubes(spill, layout, f, threads, *level, *listed, progress);
+        listed->finish();
+        report.spill_memory_bytes = spill.memory_bytes();
     }
+    for (const auto& source : sources) report.source_memory_bytes = std::max(report.source_memory_bytes, source->memory_bytes());
     progress.check();
 
     float error_q = 0;
-    uint64_t temp_bytes = level->bytes();
     for (uint32_t l = L; l > 0; --l) {
         report.levels.push_back(LevelStats{l});
         StageTimer timer(report.simplify_seconds);
         LevelWriter out(writer, report.levels.back(), f);
-        auto next = std::make_unique<build::CubeStore>(level_file(l - 1));
-        listed = simplify_level(*level, listed, l, f, settings, header.flags, out, *next, progress);
-        temp_bytes = std::max(temp_bytes, level->bytes() + next->bytes());
+        auto next = std::make_unique<build::CubeStore>(level_file(l - 1), disk);
+        auto next_listed = listings(l - 1);
+        simplify_level(*level, *listed, l, f, settings, header.flags, out, *next, *next_listed, progress);
+        report.border_bytes = std::max(report.border_bytes, next_listed->memory_bytes());
         error_q = std::max(error_q, out.relative_error());
         level = std::move(next);
+        listed = std::move(next_listed);
     }
     progress.check();
     report.levels.push_back(LevelStats{0});
@@ -311,16 +327,19 @@ BuildReport build_hlod(Mesh&& mesh, const std::filesystem::path& output, const B
         StageTimer timer(report.write_seconds);
         LevelWriter out(writer, report.levels.back(), f);
         const build::CubeRecord root = level->get(level->keys().at(0));
-        out.add(build::encode_root(root, build::BorderTable(listed), f, header.flags));
+        out.add(build::encode_root(root, build::whole_border_table(*listed), f, header.flags));
         error_q = std::max(error_q, out.relative_error());
     }
+    const uint64_t temp_bytes = disk.peak();
     report.temp_bytes = temp_bytes;
 
     header.error_q = error_q;
+    header.input_vertices = report.levels.front().vertices;
     {
         StageTimer timer(report.write_seconds);
         writer.finish(header);
     }
+    report.input_triangles = scan.triangles;
     report.max_level = L;
     report.sigma0 = f.sigma0;
     report.error_q = error_q;

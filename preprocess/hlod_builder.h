@@ -4,6 +4,7 @@
 
 #include "preprocess/mesh.h"
 #include "preprocess/progress.h"
+#include "preprocess/triangle_source.h"
 
 #include <filesystem>
 #include <string>
@@ -20,6 +21,10 @@ struct BuildSettings {
     int threads = 0;          // 0: every core
     int leaf_triangles = 4096;
     std::filesystem::path temp_dir;  // the build's temporary files; empty: beside the output
+    // Bytes the build may hold for its buffers (a quarter for the vertex cache of streamed inputs, a
+    // quarter for the triangle spill's buffers); 0: a quarter of physical memory. Never changes a byte
+    // of the output.
+    uint64_t memory = 0;
 };
 
 struct LevelStats {
@@ -33,21 +38,33 @@ struct BuildReport {
     float error_q = 0;
     std::vector<LevelStats> levels;  // finest first
     std::vector<std::string> notes;  // choices the builder made that the user should know of
+    uint64_t input_triangles = 0;  // proper ones (degenerate triangles are dropped)
     uint64_t output_bytes = 0;
+    uint64_t spill_memory_bytes = 0;   // the most the triangle spill buffered
+    uint64_t source_memory_bytes = 0;  // the most one input held (its mesh, or its vertex cache)
+    uint64_t border_bytes = 0;         // the most one level's border listings took
     uint64_t temp_bytes = 0;  // peak bytes of the temporary cube files (not counting the payload spool)
-    // Wall seconds per stage, for benchmarks: partition (level L's cubes), simplify (each level's
+    // Wall seconds per stage, for benchmarks: read (the first pass over the input: extent, counts),
+    // partition (the second pass, and level L's cubes), simplify (each level's
     // blocks, normals and encoding), write (the root and the file's assembly).
-    double partition_seconds = 0, simplify_seconds = 0, write_seconds = 0;
+    double read_seconds = 0, partition_seconds = 0, simplify_seconds = 0, write_seconds = 0;
 };
 
 // Throws InputError naming the first setting out of range (checked before any input is read, so a
 // command line can tell wrong arguments from bad input).
 void check_settings(const BuildSettings& settings);
 
-// Consumes the mesh (its arrays become level L), which must be welded as read_mesh returns it: a
-// position repeats only on vertices whose attributes differ. Throws InputError for input it cannot build
+// Builds from the sources (open_sources()), reading each twice; `model` says which attributes the
+// model keeps (common_attributes()). The triangles are welded as weld() would: corners equal in
+// position and every kept attribute are one vertex, and triangles with two corners at one position
+// are dropped. Throws InputError for input it cannot build
 // (empty, flat to a point, settings out of range), Cancelled when progress.cancel is raised, and
 // std::runtime_error for output failures; in every case no output file is left behind.
+BuildReport build_hlod(const std::vector<std::unique_ptr<TriangleSource>>& sources, const ModelAttributes& model,
+                       const std::filesystem::path& output, const BuildSettings& settings,
+                       const std::string& source_name, const Progress& progress = {});
+
+// The same from a mesh in memory (its indices in range), which it consumes.
 BuildReport build_hlod(Mesh&& mesh, const std::filesystem::path& output, const BuildSettings& settings,
                        const std::string& source_name, const Progress& progress = {});
 

@@ -1,85 +1,93 @@
 #include "preprocess/leaf_cubes.h"
 
-#include <numeric>
+#include <algorithm>
+#include <atomic>
+#include <cstring>
 #include <span>
 
 #include "preprocess/index_map.h"
 #include "preprocess/parallel.h"
-#include "preprocess/radix_sort.h"
 
 namespace strata::build {
 namespace {
 
-// One cube's record from its triangles (ids into the mesh's triangles).
-CubeRecord make_leaf(const Mesh& mesh, CubeKey key, std::span<const uint32_t> triangles) {
+uint64_t hash_bytes(const uint8_t* p, size_t size) {
+    uint64_t h = 0x9E3779B97F4A7C15ull;
+    for (size_t i = 0; i + 4 <= size; i += 4) {
+        uint32_t word;
+        std::memcpy(&word, p + i, 4);
+        h = (h ^ word) * 0xff51afd7ed558ccdull;
+        h ^= h >> 32;
+    }
+    return h;
+}
+
+// One cube's record from its triangles (ids into the block's spilled triangles, in input order).
+CubeRecord make_leaf(const uint8_t* records, const CornerLayout& layout, CubeKey key, std::span<const uint32_t> triangles) {
+    const size_t corner_bytes = layout.bytes();
+    auto corner = [&](uint32_t i) { return records + (3 * size_t(triangles[i / 3]) + i % 3) * corner_bytes; };
     CubeRecord cube;
     cube.key = key;
     cube.child_counts[0] = uint32_t(triangles.size());
-    std::vector<uint32_t> vertices;
-    cube.triangles.resize(3 * triangles.size());
-    IndexMap local_of(triangles.size() / 2 + 16);  // about half as many vertices as triangles
-    for (size_t i = 0; i < 3 * triangles.size(); ++i) {
-        const uint32_t v = mesh.indices[3 * size_t(triangles[i / 3]) + i % 3];
-        const uint32_t local = local_of.find_or_insert(v, uint32_t(vertices.size()));
-        if (local == vertices.size()) vertices.push_back(v);
-        cube.triangles[i] = local;
-    }
+    std::vector<uint32_t> vertices = number_distinct(
+        uint32_t(3 * triangles.size()), [&](uint32_t i) { return hash_bytes(corner(i), corner_bytes); },
+        [&](uint32_t a, uint32_t b) { return std::memcmp(corner(a), corner(b), corner_bytes) == 0; }, cube.triangles);
     order_for_payload(cube.triangles, cube.child_counts, vertices);
-    auto copy = [&](const auto& from, auto& to, size_t per_vertex) {
-        if (from.empty()) return;
-        to.reserve(per_vertex * vertices.size());
-        for (uint32_t v : vertices) to.insert(to.end(), &from[per_vertex * v], &from[per_vertex * v] + per_vertex);
-    };
-    copy(mesh.positions, cube.positions, 3);
-    copy(mesh.colors, cube.colors, 4);
-    copy(mesh.uvs, cube.uvs, 2);
-    copy(mesh.normals, cube.normals, 3);
+    const size_t n = vertices.size();
+    cube.positions.resize(3 * n);
+    if (layout.kept.normals) cube.normals.resize(3 * n);
+    if (layout.kept.colors) cube.colors.resize(4 * n);
+    if (layout.kept.uvs) cube.uvs.resize(2 * n);
+    for (size_t v = 0; v < n; ++v) {
+        const uint8_t* c = corner(vertices[v]);
+        std::memcpy(&cube.positions[3 * v], c, 12);
+        if (layout.kept.normals) std::memcpy(&cube.normals[3 * v], c + layout.normal_offset(), 12);
+        if (layout.kept.colors) std::memcpy(&cube.colors[4 * v], c + layout.color_offset(), 4);
+        if (layout.kept.uvs) std::memcpy(&cube.uvs[2 * v], c + layout.uv_offset(), 8);
+    }
     return cube;
+}
+
+// One block's cubes, into the store; their border entries, into `listed`.
+void block_leaves(RunSpill& spill, const CornerLayout& layout, CubeKey block, const Frame& f, CubeStore& store,
+                  RunSpill& listed) {
+    const std::vector<uint8_t> records = spill.read(block);
+    spill.release(block);
+    const size_t triangle_bytes = 3 * layout.bytes();
+    const size_t triangles = records.size() / triangle_bytes;
+    std::vector<std::pair<CubeKey, uint32_t>> order(triangles);
+    for (size_t t = 0; t < triangles; ++t) {
+        const float* p = reinterpret_cast<const float*>(&records[t * triangle_bytes]);
+        const size_t step = layout.bytes() / 4;
+        order[t] = {cell_of(f, barycenter(p, p + step, p + 2 * step), f.max_level), uint32_t(t)};
+    }
+    std::sort(order.begin(), order.end());  // by cube, then input order
+    std::vector<uint32_t> ids(triangles);
+    for (size_t t = 0; t < triangles; ++t) ids[t] = order[t].second;
+    std::vector<BorderEntry> border;
+    for (size_t first = 0, last; first < triangles; first = last) {
+        for (last = first; last < triangles && order[last].first == order[first].first; ++last) {
+        }
+        const CubeRecord cube = make_leaf(records.data(), layout, order[first].first,
+                                          std::span(ids).subspan(first, last - first));
+        list_border_points(cube, f, f.max_level, border);
+        store.put(cube);
+    }
+    listed.append(block, border.data(), border.size() * sizeof(BorderEntry));
 }
 
 }  // namespace
 
-std::vector<BorderEntry> leaf_cubes(Mesh& mesh, const Frame& f, unsigned threads, CubeStore& store) {
-    const uint32_t L = f.max_level;
-    const size_t triangles = mesh.triangle_count();
-    // Sort by the dense linear index k·4^L + j·2^L + i (same order as CubeKey, fewer bits to sort).
-    std::vector<uint64_t> linear(triangles);
-    constexpr size_t kChunk = 1 << 16;
-    parallel_for((triangles + kChunk - 1) / kChunk, threads, [&](size_t chunk, unsigned) {
-        for (size_t t = chunk * kChunk; t < std::min(triangles, (chunk + 1) * kChunk); ++t) {
-            const uint32_t* tri = &mesh.indices[3 * t];
-            auto c = cell_of(f, &mesh.positions[3 * tri[0]], &mesh.positions[3 * tri[1]], &mesh.positions[3 * tri[2]], L);
-            linear[t] = uint64_t(c[2]) << (2 * L) | uint64_t(c[1]) << L | uint64_t(c[0]);
-        }
+void leaf_cubes(RunSpill& spill, const CornerLayout& layout, const Frame& f, unsigned threads, CubeStore& store,
+                RunSpill& listed, const Progress& progress) {
+    const std::vector<CubeKey>& blocks = spill.keys();
+    std::atomic<uint64_t> done{0};
+    parallel_for(blocks.size(), threads, [&](size_t b, unsigned worker) {
+        progress.check();
+        block_leaves(spill, layout, blocks[b], f, store, listed);
+        const uint64_t finished = ++done;
+        if (worker == 0) progress("level cubes", double(finished), double(blocks.size()), "blocks");
     });
-    std::vector<uint32_t> order(triangles);
-    std::iota(order.begin(), order.end(), 0u);
-    radix_sort_ids(linear, order, int(3 * L));
-
-    struct Range {
-        CubeKey key;
-        size_t first, count;
-    };
-    const uint64_t mask = (uint64_t(1) << L) - 1;
-    std::vector<Range> ranges;
-    for (size_t t = 0; t < triangles; ++t) {
-        const uint64_t cell = linear[order[t]];
-        if (t == 0 || cell != linear[order[t - 1]])
-            ranges.push_back(Range{make_key(cell & mask, (cell >> L) & mask, cell >> (2 * L)), t, 0});
-        ++ranges.back().count;
-    }
-    std::vector<uint64_t>().swap(linear);
-
-    std::vector<std::vector<BorderEntry>> border(ranges.size());
-    parallel_for(ranges.size(), threads, [&](size_t c, unsigned) {
-        const CubeRecord cube = make_leaf(mesh, ranges[c].key, std::span(order).subspan(ranges[c].first, ranges[c].count));
-        list_border_points(cube, f, L, border[c]);
-        store.put(cube);
-    });
-    mesh = Mesh{};
-    std::vector<BorderEntry> all;
-    for (auto& entries : border) all.insert(all.end(), entries.begin(), entries.end());
-    return all;
 }
 
 }  // namespace strata::build

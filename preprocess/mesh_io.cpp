@@ -580,29 +580,30 @@ void write_ascii_body(TempFile& file, const Mesh& mesh) {
     file.write(buffer);
 }
 
-// read_mesh(), its positions against `origin` when that is given.
-Mesh read_one(const std::filesystem::path& path, const Progress& progress, std::vector<std::string>& warnings,
-              const std::array<double, 3>* origin) {
+}  // namespace
+
+namespace detail {
+
+Mesh read_mesh_as_listed(const std::filesystem::path& path, const Progress& progress, std::vector<std::string>& warnings,
+                         const std::array<double, 3>* origin) {
     const std::string name = path.string();
-    Mesh mesh;
-    double size = 0;
-    {
-        // The file's bytes are freed before weld, so they and weld's tables are never resident at once.
-        FileBytes file(path, name, progress);
-        std::string_view bytes(file.data(), file.size());
-        if (bytes.starts_with(kByteOrderMark)) bytes.remove_prefix(kByteOrderMark.size());
-        const detail::ReadInput input{path, name, bytes.data(), bytes.size(), progress, &warnings, origin};
-        Format format = sniff_content(bytes.data(), bytes.size());
-        if (format == Format::unknown) format = format_from_extension(path);
-        size = double(bytes.size());
-        progress("read", 0, size, "B");
-        progress.check();
-        mesh = read_format(format, input);
-    }
-    weld(mesh);
-    progress("read", size, size, "B");
+    // The file's bytes are freed on return, so they and weld's tables are never resident at once.
+    FileBytes file(path, name, progress);
+    std::string_view bytes(file.data(), file.size());
+    if (bytes.starts_with(kByteOrderMark)) bytes.remove_prefix(kByteOrderMark.size());
+    const detail::ReadInput input{path, name, bytes.data(), bytes.size(), progress, &warnings, origin};
+    Format format = sniff_content(bytes.data(), bytes.size());
+    if (format == Format::unknown) format = format_from_extension(path);
+    progress("read", 0, double(bytes.size()), "B");
+    progress.check();
+    Mesh mesh = read_format(format, input);
+    progress("read", double(bytes.size()), double(bytes.size()), "B");
     return mesh;
 }
+
+}  // namespace detail
+
+namespace {
 
 // ---- tiles ----------------------------------------------------------------------------------------
 
@@ -618,39 +619,38 @@ std::string file_list(const std::vector<std::string>& names) {
     return out;
 }
 
-struct KeptAttributes {
-    bool normals = true, colors = true, uvs = true;
-};
+std::string texture_name(const std::string& texture) { return texture.empty() ? "no texture" : "texture '" + texture + "'"; }
 
-// Keeps the attributes every tile has, and warns for each one that only some have.
-KeptAttributes common_attributes(const std::vector<std::filesystem::path>& paths, const std::vector<Mesh>& tiles,
-                                 std::vector<std::string>& warnings) {
-    KeptAttributes kept;
-    auto check = [&](bool (Mesh::*has)() const, const char* noun, const char* dropped, bool& keep) {
+}  // namespace
+
+namespace detail {
+
+ModelAttributes common_attributes(const std::vector<TileAttributes>& tiles, std::vector<std::string>& warnings) {
+    for (size_t i = 1; i < tiles.size(); ++i)
+        if (tiles[i].texture != tiles[0].texture)
+            throw InputError(tiles[i].name + ": names " + texture_name(tiles[i].texture) + ", but " + tiles[0].name +
+                             " names " + texture_name(tiles[0].texture) + ": the tiles of one model share one texture");
+    ModelAttributes model;
+    auto check = [&](bool AttributeSet::*has, const char* noun, const char* dropped) {
         std::vector<std::string> lacking;
-        for (size_t i = 0; i < tiles.size(); ++i)
-            if (!(tiles[i].*has)()) lacking.push_back(paths[i].string());
-        keep = lacking.empty();
-        if (keep || lacking.size() == tiles.size()) return;
+        for (const TileAttributes& tile : tiles)
+            if (!(tile.has.*has)) lacking.push_back(tile.name);
+        model.kept.*has = lacking.empty();
+        if (lacking.empty() || lacking.size() == tiles.size()) return;
         warnings.push_back(file_list(lacking) + ": no " + noun + ", which the other " +
                            std::to_string(tiles.size() - lacking.size()) + " of the " + std::to_string(tiles.size()) +
                            " files have: the model is built without " + dropped);
     };
-    check(&Mesh::has_normals, "normals", "normals", kept.normals);
-    check(&Mesh::has_colors, "colours", "colours", kept.colors);
-    check(&Mesh::has_uvs, "UVs", "UVs and texture", kept.uvs);
-    return kept;
+    check(&AttributeSet::normals, "normals", "normals");
+    check(&AttributeSet::colors, "colours", "colours");
+    check(&AttributeSet::uvs, "UVs", "UVs and texture");
+    if (model.kept.uvs && !tiles.empty()) model.texture = tiles.front().texture;
+    return model;
 }
 
-std::string texture_name(const std::string& texture) { return texture.empty() ? "no texture" : "texture '" + texture + "'"; }
+}  // namespace detail
 
-void check_one_texture(const std::vector<std::filesystem::path>& paths, const std::vector<Mesh>& tiles) {
-    for (size_t i = 1; i < tiles.size(); ++i)
-        if (tiles[i].texture != tiles[0].texture)
-            throw InputError(paths[i].string() + ": names " + texture_name(tiles[i].texture) + ", but " +
-                             paths[0].string() + " names " + texture_name(tiles[0].texture) +
-                             ": the tiles of one model share one texture");
-}
+namespace {
 
 template <class T>
 void append(std::vector<T>& to, std::vector<T>& from, bool keep) {
@@ -661,8 +661,10 @@ void append(std::vector<T>& to, std::vector<T>& from, bool keep) {
 // The tiles end to end, each freed once copied: the storage is reserved untouched, so memory holds
 // about one copy of the model throughout rather than two.
 Mesh join(const std::vector<std::filesystem::path>& paths, std::vector<Mesh>& tiles, std::vector<std::string>& warnings) {
-    check_one_texture(paths, tiles);
-    const KeptAttributes kept = common_attributes(paths, tiles, warnings);
+    std::vector<detail::TileAttributes> attributes;
+    for (size_t i = 0; i < tiles.size(); ++i)
+        attributes.push_back({paths[i].string(), {tiles[i].has_normals(), tiles[i].has_colors(), tiles[i].has_uvs()}, tiles[i].texture});
+    const AttributeSet kept = detail::common_attributes(attributes, warnings).kept;
     uint64_t vertices = 0, indices = 0;
     for (const Mesh& tile : tiles) vertices += tile.vertex_count(), indices += tile.indices.size();
     if (vertices >= kNone)
@@ -716,7 +718,9 @@ std::optional<uint64_t> header_triangles(Format format, const detail::ReadInput&
 }  // namespace
 
 Mesh read_mesh(const std::filesystem::path& path, const Progress& progress, std::vector<std::string>& warnings) {
-    return read_one(path, progress, warnings, nullptr);
+    Mesh mesh = detail::read_mesh_as_listed(path, progress, warnings, nullptr);
+    weld(mesh);
+    return mesh;
 }
 
 Mesh read_tiles(const std::vector<std::filesystem::path>& paths, const Progress& progress,
@@ -739,7 +743,8 @@ Mesh read_tiles(const std::vector<std::filesystem::path>& paths, const Progress&
                                          progress(stage, before + done, total, unit);
                                      },
                                      progress.cancel};
-        tiles.push_back(read_one(paths[i], tile_progress, warnings, i == 0 ? nullptr : &tiles.front().origin));
+        tiles.push_back(detail::read_mesh_as_listed(paths[i], tile_progress, warnings, i == 0 ? nullptr : &tiles.front().origin));
+        weld(tiles.back());
         before += sizes[i];
     }
     return join(paths, tiles, warnings);

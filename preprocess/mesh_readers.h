@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
+#include <memory>
 #include <string>
 #include <string_view>
 #include <system_error>
@@ -17,6 +18,7 @@
 
 #include "preprocess/mesh.h"
 #include "preprocess/progress.h"
+#include "preprocess/triangle_source.h"
 
 namespace strata::detail {
 
@@ -57,6 +59,35 @@ Mesh read_ply(const ReadInput& input);
 Mesh read_obj(const ReadInput& input);
 Mesh read_off(const ReadInput& input);
 Mesh read_stl(const ReadInput& input);
+
+// A file read as it lists its vertices and triangles, not welded, its positions against `origin` when
+// that is given (read_mesh() is this plus weld()).
+Mesh read_mesh_as_listed(const std::filesystem::path& path, const Progress& progress, std::vector<std::string>& warnings,
+                         const std::array<double, 3>* origin);
+
+// A binary PLY as a stream of triangles (triangle_source.h), its vertices looked up through a cache of
+// about `cache_bytes` that lives while for_each() runs; null when the file is not a binary PLY whose
+// vertex records have a fixed size and whose vertex and face elements can be found without reading
+// the elements before them (the caller then reads it into memory). Throws InputError naming the file
+// for a malformed header or a file shorter than its vertices.
+std::unique_ptr<TriangleSource> open_ply_stream(const std::filesystem::path& path, const std::string& name,
+                                                const std::array<double, 3>* origin, uint64_t cache_bytes,
+                                                std::vector<std::string>& warnings);
+
+// What one tile of a model has, for common_attributes().
+struct TileAttributes {
+    std::string name;
+    AttributeSet has;
+    std::string texture;
+};
+// The attributes every tile has, warning for each that only some have; throws InputError naming two
+// tiles that name different textures.
+ModelAttributes common_attributes(const std::vector<TileAttributes>& tiles, std::vector<std::string>& warnings);
+
+// Appends `n` floats with −0 made +0, so that equal values have equal bytes.
+inline void append_canonical(std::vector<float>& out, const float* values, size_t n) {
+    for (size_t i = 0; i < n; ++i) out.push_back(values[i] + 0.0f);  // −0 + 0 is +0
+}
 
 // The face count a PLY or OFF header gives, for estimating a build's memory before the file is read;
 // `input` may hold only the file's first bytes. Throws InputError when the header is not all there

@@ -1,10 +1,16 @@
 // PLY reader: ascii, binary_little_endian and binary_big_endian. Scans are mostly binary PLY with the
 // plain layout (float x y z [+ fixed-size extras], faces as uchar 3 + int indices), so that layout
 // gets column loops over chunks of the mapped file and a 13-bytes-per-face loop; anything else goes
-// through a slower per-property walk that handles lists and unknown elements.
+// through a slower per-property walk that handles lists and unknown elements. A binary PLY can also be
+// streamed (open_ply_stream): the builder reads scans larger than memory that way.
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <array>
 #include <bit>
+#include <cerrno>
 #include <cstring>
 #include <string>
 #include <vector>
@@ -831,6 +837,390 @@ void check_positions(const ReadInput& input, const Mesh& mesh) {
     if (bad < mesh.vertex_count()) input.fail("vertex " + std::to_string(bad) + " has a NaN or infinite coordinate");
 }
 
+
+// ---- streaming ------------------------------------------------------------------------------------
+// A binary PLY far larger than memory: faces are read in order with pread, and each corner's vertex is
+// looked up in a cache of decoded pages of the vertex element, read from the file as faces need them.
+// Scans list faces with strong locality in their vertex indices, so few pages are read twice.
+
+// The input file, read with pread; remembers its size and modification time so that a file that
+// another program rewrites during the build is reported, not built from two versions.
+class InputFile {
+public:
+    InputFile(const std::filesystem::path& path, std::string name) : name_(std::move(name)) {
+        fd_ = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+        if (fd_ < 0) throw InputError(name_ + ": cannot open (" + std::strerror(errno) + ")");
+        stamp_ = stamp();
+    }
+    ~InputFile() { ::close(fd_); }
+    InputFile(const InputFile&) = delete;
+    InputFile& operator=(const InputFile&) = delete;
+
+    uint64_t size() const { return stamp_.size; }
+    // Reads up to `n` bytes at `offset`; returns how many the file has there.
+    size_t read(uint64_t offset, size_t n, char* to) const {
+        size_t done = 0;
+        while (done < n) {
+            const ssize_t got = ::pread(fd_, to + done, n - done, off_t(offset + done));
+            if (got < 0 && errno == EINTR) continue;
+            if (got < 0) throw InputError(name_ + ": read error (" + std::strerror(errno) + ")");
+            if (got == 0) break;
+            done += size_t(got);
+        }
+        return done;
+    }
+    void check_unchanged() const {
+        if (stamp() != stamp_)
+            throw InputError(name_ + ": the file changed while it was being read; build again once it is complete");
+    }
+
+private:
+    struct Stamp {
+        uint64_t size;
+        int64_t seconds, nanoseconds;
+        bool operator==(const Stamp&) const = default;
+    };
+    Stamp stamp() const {
+        struct stat st {};
+        if (::fstat(fd_, &st) != 0) throw InputError(name_ + ": cannot stat (" + std::strerror(errno) + ")");
+        if (!S_ISREG(st.st_mode)) throw InputError(name_ + ": not a regular file");
+        return {uint64_t(st.st_size), int64_t(st.st_mtim.tv_sec), int64_t(st.st_mtim.tv_nsec)};
+    }
+    std::string name_;
+    int fd_ = -1;
+    Stamp stamp_{};
+};
+
+// Where a fixed-size element's columns go in a decoded page.
+struct VertexColumns {
+    std::vector<size_t> offsets;  // of each property within a record
+    size_t stride = 0;
+    bool swap = false;
+};
+
+// Decoded vertices [first, first + count) of the vertex element, positions against the origin.
+struct VertexPage {
+    std::vector<float> positions, normals, uvs;
+    std::vector<uint8_t> colors;
+};
+
+class PlyStream final : public TriangleSource {
+public:
+    static constexpr uint32_t kPageVertices = 4096;
+
+    PlyStream(std::unique_ptr<InputFile> file, const std::filesystem::path& path, std::string name, PlyHeader header,
+              uint64_t vertex_offset, uint64_t face_offset, uint64_t cache_bytes, const std::array<double, 3>* origin)
+        : file_(std::move(file)),
+          path_(path),
+          name_(std::move(name)),
+          header_(std::move(header)),
+          vertex_(*find(header_, "vertex")),
+          face_(*find(header_, "face")),
+          vertex_offset_(vertex_offset),
+          face_offset_(face_offset),
+          cache_bytes_(cache_bytes) {
+        const ReadInput input = description();
+        layout_ = vertex_layout(input, vertex_);
+        list_ = face_list(input, face_);
+        columns_.stride = vertex_.fixed_size();
+        columns_.swap = (header_.format == PlyFormat::binary_big_endian) != (std::endian::native == std::endian::big);
+        for (size_t at = 0; const PlyProperty& p : vertex_.properties) columns_.offsets.push_back(at), at += type_size(p.type);
+        if (vertex_.count > (file_->size() - vertex_offset_) / std::max<size_t>(columns_.stride, 1))
+            input.fail("expected " + std::to_string(vertex_.count) + " vertices, file ends after " +
+                       std::to_string((file_->size() - vertex_offset_) / std::max<size_t>(columns_.stride, 1)));
+        pick_origin(origin);
+    }
+
+    const std::string& name() const override { return name_; }
+    AttributeSet attributes() const override { return {layout_.normals, layout_.colors, layout_.uvs}; }
+    const std::string& texture() const override { return header_.texture; }
+    std::array<double, 3> origin() const override { return origin_; }
+    uint64_t vertex_count() const override { return vertex_.count; }
+    uint64_t triangle_count() const override { return face_.count; }
+    uint64_t memory_bytes() const override { return memory_; }
+
+    void for_each(const std::function<void(const TriangleBatch&)>& visit, const Progress& progress) override;
+
+private:
+    static const PlyElement* find(const PlyHeader& header, std::string_view name) {
+        for (const PlyElement& element : header.elements)
+            if (element.name == name) return &element;
+        return nullptr;
+    }
+    ReadInput description() const { return ReadInput{path_, name_, nullptr, 0, no_progress_, nullptr, nullptr}; }
+
+    void pick_origin(const std::array<double, 3>* origin) {
+        if (origin) return void(origin_ = *origin);
+        if (vertex_.count == 0) return;
+        std::vector<char> record(columns_.stride);
+        file_->read(vertex_offset_, record.size(), record.data());
+        for (int a = 0; a < 3; ++a) {
+            const size_t prop = size_t(layout_.property[kX + a]);
+            origin_[size_t(a)] = origin_near(load_number(record.data() + columns_.offsets[prop], vertex_.properties[prop].type, columns_.swap));
+        }
+    }
+
+    class Cache;
+    class Faces;
+
+    std::unique_ptr<InputFile> file_;
+    std::filesystem::path path_;
+    std::string name_;
+    PlyHeader header_;
+    const PlyElement& vertex_;
+    const PlyElement& face_;
+    uint64_t vertex_offset_, face_offset_, cache_bytes_;
+    VertexLayout layout_;
+    size_t list_ = 0;
+    VertexColumns columns_;
+    std::array<double, 3> origin_{};
+    uint64_t memory_ = 0;
+    Progress no_progress_;
+};
+
+// Pages of decoded vertices, replaced by the clock (second-chance) rule.
+class PlyStream::Cache {
+public:
+    Cache(const PlyStream& ply, uint64_t bytes) : ply_(ply) {
+        const uint64_t pages = (ply.vertex_.count + kPageVertices - 1) / kPageVertices;
+        page_slot_.assign(size_t(pages), -1);
+        const AttributeSet a = ply.attributes();
+        const uint64_t page_bytes = uint64_t(kPageVertices) * (12 + (a.normals ? 12 : 0) + (a.colors ? 4 : 0) + (a.uvs ? 8 : 0));
+        slots_.resize(size_t(std::clamp<uint64_t>(bytes / page_bytes, 4, std::max<uint64_t>(pages, 4))));
+        raw_.resize(size_t(kPageVertices) * ply.columns_.stride);
+    }
+    uint64_t memory_bytes() const {
+        uint64_t bytes = page_slot_.size() * sizeof(int32_t) + raw_.size();
+        for (const Slot& s : slots_)
+            bytes += 4 * (s.vertices.positions.capacity() + s.vertices.normals.capacity() + s.vertices.uvs.capacity()) + s.vertices.colors.capacity();
+        return bytes;
+    }
+
+    // Appends vertex v's values to the batch.
+    void append(uint32_t v, TriangleBatch& batch) {
+        const VertexPage& page = page_of(v / kPageVertices);
+        const size_t i = v % kPageVertices;
+        batch.positions.insert(batch.positions.end(), &page.positions[3 * i], &page.positions[3 * i] + 3);
+        if (!page.normals.empty()) batch.normals.insert(batch.normals.end(), &page.normals[3 * i], &page.normals[3 * i] + 3);
+        if (!page.colors.empty()) batch.colors.insert(batch.colors.end(), &page.colors[4 * i], &page.colors[4 * i] + 4);
+        if (!page.uvs.empty()) batch.uvs.insert(batch.uvs.end(), &page.uvs[2 * i], &page.uvs[2 * i] + 2);
+    }
+
+private:
+    struct Slot {
+        int64_t page = -1;
+        bool referenced = false;
+        VertexPage vertices;
+    };
+    const VertexPage& page_of(uint32_t page) {
+        const int32_t at = page_slot_[page];
+        if (at >= 0) {
+            slots_[size_t(at)].referenced = true;
+            return slots_[size_t(at)].vertices;
+        }
+        while (slots_[hand_].referenced) slots_[hand_].referenced = false, hand_ = (hand_ + 1) % slots_.size();
+        Slot& slot = slots_[hand_];
+        if (slot.page >= 0) page_slot_[size_t(slot.page)] = -1;
+        slot.page = page;
+        slot.referenced = true;
+        page_slot_[page] = int32_t(hand_);
+        hand_ = (hand_ + 1) % slots_.size();
+        decode(page, slot.vertices);
+        return slot.vertices;
+    }
+    void decode(uint32_t page, VertexPage& out);
+
+    const PlyStream& ply_;
+    std::vector<int32_t> page_slot_;
+    std::vector<Slot> slots_;
+    std::vector<char> raw_;
+    size_t hand_ = 0;
+};
+
+void PlyStream::Cache::decode(uint32_t page, VertexPage& out) {
+    const uint64_t first = uint64_t(page) * kPageVertices;
+    const size_t n = size_t(std::min<uint64_t>(kPageVertices, ply_.vertex_.count - first));
+    const VertexColumns& c = ply_.columns_;
+    const uint64_t offset = ply_.vertex_offset_ + first * c.stride;
+    if (ply_.file_->read(offset, n * c.stride, raw_.data()) != n * c.stride)
+        ply_.description().fail("the file is shorter than when it was opened: vertex " + std::to_string(first) + " is gone");
+    const VertexLayout& layout = ply_.layout_;
+    out.positions.resize(3 * n);
+    if (layout.normals) out.normals.resize(3 * n);
+    if (layout.colors) out.colors.assign(4 * n, 255);  // opaque unless the file has alpha
+    if (layout.uvs) out.uvs.resize(2 * n);
+    for (int s = 0; s < kSlotCount; ++s) {
+        const int prop = layout.property[s];
+        if (prop < 0) continue;
+        const PlyType type = ply_.vertex_.properties[size_t(prop)].type;
+        const char* column = raw_.data() + c.offsets[size_t(prop)];
+        if (s <= kZ) position_column_for(type, c.swap)(column, c.stride, n, &out.positions[size_t(s)], ply_.origin_[size_t(s)]);
+        else if (s <= kNz) float_column_for(type, c.swap)(column, c.stride, n, &out.normals[size_t(s - kNx)], 3);
+        else if (s <= kAlpha) color_column_for(type, c.swap)(column, c.stride, n, &out.colors[size_t(s - kRed)]);
+        else float_column_for(type, c.swap)(column, c.stride, n, &out.uvs[size_t(s - kU)], 2);
+    }
+    const size_t bad = first_non_finite(out.positions.data(), n);
+    if (bad < n) ply_.description().fail("vertex " + std::to_string(first + bad) + " has a NaN or infinite coordinate");
+    for (std::vector<float>* values : {&out.positions, &out.normals, &out.uvs})
+        for (float& x : *values) x += 0.0f;  // −0 as +0, as weld() has it
+}
+
+// The face element, read in order through a window of the file; polygons are fanned around their
+// first corner as the in-memory reader fans them.
+class PlyStream::Faces {
+public:
+    static constexpr size_t kWindow = size_t(4) << 20;
+
+    explicit Faces(const PlyStream& ply) : ply_(ply), offset_(ply.face_offset_) { window_.resize(kWindow); }
+
+    // Appends the corners of up to `triangles` more triangles; false when every face has been read.
+    bool next(std::vector<uint32_t>& corners, size_t triangles) {
+        corners.clear();
+        while (face_ < ply_.face_.count && corners.size() < 3 * triangles) {
+            if (!record(corners)) refill();
+        }
+        return !corners.empty();
+    }
+
+private:
+    // One face from the window; false (nothing consumed) when the window ends inside it.
+    bool record(std::vector<uint32_t>& corners) {
+        const bool swap = ply_.columns_.swap;
+        const char* p = window_.data() + begin_;
+        const char* end = window_.data() + end_;
+        const size_t before = corners.size();
+        for (size_t i = 0; i < ply_.face_.properties.size(); ++i) {
+            const PlyProperty& prop = ply_.face_.properties[i];
+            if (!prop.is_list) {
+                if (size_t(end - p) < type_size(prop.type)) return undo(corners, before);
+                p += type_size(prop.type);
+                continue;
+            }
+            if (size_t(end - p) < type_size(prop.count_type)) return undo(corners, before);
+            const double n = load_number(p, prop.count_type, swap);
+            p += type_size(prop.count_type);
+            if (n < 0) fail(ply_.face_.name + " " + std::to_string(face_) + ": list '" + prop.name + "' has negative length");
+            if (i == ply_.list_ && n < 3)
+                fail("face " + std::to_string(face_) + " has " + std::to_string(int64_t(n)) + " corners, at least 3 needed");
+            const size_t item = type_size(prop.type);
+            const uint64_t file_left = ply_.file_->size() - (offset_ + uint64_t(p - window_.data()));
+            if (n * double(item) > double(file_left)) truncated();
+            if (double(end - p) < n * double(item)) return undo(corners, before);
+            if (i == ply_.list_) fan(p, size_t(n), item, corners);
+            p += size_t(n) * item;
+        }
+        begin_ = size_t(p - window_.data());
+        ++face_;
+        return true;
+    }
+    void fan(const char* p, size_t n, size_t item, std::vector<uint32_t>& corners) const {
+        const PlyType type = ply_.face_.properties[ply_.list_].type;
+        auto corner = [&](size_t k) {
+            const double index = load_number(p + k * item, type, ply_.columns_.swap);
+            if (!(index >= 0 && index < double(ply_.vertex_.count)))
+                fail("face " + std::to_string(face_) + " indexes vertex " + std::to_string(int64_t(index)) + " of " +
+                     std::to_string(ply_.vertex_.count));
+            return uint32_t(index);
+        };
+        const uint32_t first = corner(0);
+        uint32_t previous = corner(1);
+        for (size_t k = 2; k < n; ++k) {
+            const uint32_t next = corner(k);
+            corners.insert(corners.end(), {first, previous, next});
+            previous = next;
+        }
+    }
+    static bool undo(std::vector<uint32_t>& corners, size_t before) {
+        corners.resize(before);
+        return false;
+    }
+    // Moves the unread tail to the front and reads more after it; a face longer than the whole window
+    // (a polygon of a million corners) makes the window grow.
+    void refill() {
+        const size_t tail = end_ - begin_;
+        if (begin_ == 0 && end_ == window_.size()) window_.resize(2 * window_.size());
+        std::memmove(window_.data(), window_.data() + begin_, tail);
+        offset_ += begin_;
+        begin_ = 0, end_ = tail;
+        const size_t got = ply_.file_->read(offset_ + tail, window_.size() - tail, window_.data() + tail);
+        if (got == 0) truncated();
+        end_ += got;
+    }
+    [[noreturn]] void truncated() const {
+        fail("expected " + std::to_string(ply_.face_.count) + " faces, file ends after " + std::to_string(face_));
+    }
+    [[noreturn]] void fail(const std::string& what) const { ply_.description().fail(what); }
+
+    const PlyStream& ply_;
+    std::vector<char> window_;
+    uint64_t offset_;  // file offset of window_[0]
+    size_t begin_ = 0, end_ = 0;  // the window's unread bytes
+    uint64_t face_ = 0;
+};
+
+void PlyStream::for_each(const std::function<void(const TriangleBatch&)>& visit, const Progress& progress) {
+    constexpr size_t kBatch = 1 << 15;
+    file_->check_unchanged();
+    Cache cache(*this, cache_bytes_);
+    Faces faces(*this);
+    TriangleBatch batch;
+    std::vector<uint32_t> corners;
+    while (faces.next(corners, kBatch)) {
+        progress.check();
+        batch.clear();
+        for (uint32_t v : corners) cache.append(v, batch);
+        memory_ = std::max(memory_, cache.memory_bytes() + Faces::kWindow);
+        visit(batch);
+    }
+    file_->check_unchanged();
+}
+
+// The byte offset of each element's records, as far as they can be known without reading the data:
+// an element with lists has a size only its records tell.
+std::vector<uint64_t> fixed_offsets(const PlyHeader& header) {
+    std::vector<uint64_t> offsets;
+    uint64_t at = header.body_offset;
+    for (const PlyElement& element : header.elements) {
+        offsets.push_back(at);
+        at = element.has_lists() || at == UINT64_MAX ? UINT64_MAX : at + element.count * element.fixed_size();
+    }
+    return offsets;
+}
+
+}  // namespace
+
+std::unique_ptr<TriangleSource> open_ply_stream(const std::filesystem::path& path, const std::string& name,
+                                                const std::array<double, 3>* origin, uint64_t cache_bytes,
+                                                std::vector<std::string>& warnings) {
+    auto file = std::make_unique<InputFile>(path, name);
+    constexpr size_t kHeaderBytes = size_t(1) << 20;  // headers are a few hundred bytes; comments rarely reach this
+    std::string head(size_t(std::min<uint64_t>(kHeaderBytes, file->size())), '\0');
+    head.resize(file->read(0, head.size(), head.data()));
+    if (!head.starts_with("ply") || head.find("end_header") == std::string::npos) return nullptr;
+    const Progress no_progress;
+    std::vector<std::string> header_warnings;  // passed on only if the file streams: else the reader warns
+    const ReadInput input{path, name, head.data(), head.size(), no_progress, &header_warnings, origin};
+    PlyHeader header = HeaderParser(input).parse();
+    if (header.format == PlyFormat::ascii) return nullptr;
+    const std::vector<uint64_t> offsets = fixed_offsets(header);
+    uint64_t vertex_offset = UINT64_MAX, face_offset = UINT64_MAX;
+    for (size_t i = 0; i < header.elements.size(); ++i) {
+        const PlyElement& element = header.elements[i];
+        if (element.name == "vertex" && !element.has_lists() && vertex_offset == UINT64_MAX) vertex_offset = offsets[i];
+        else if (element.name == "vertex") return nullptr;  // several, or with lists: the in-memory reader says
+        if (element.name == "face" && face_offset == UINT64_MAX) face_offset = offsets[i];
+        else if (element.name == "face") return nullptr;
+    }
+    if (vertex_offset == UINT64_MAX || face_offset == UINT64_MAX) return nullptr;
+    const PlyElement* vertex = nullptr;
+    for (const PlyElement& element : header.elements)
+        if (element.name == "vertex") vertex = &element;
+    if (vertex->count >= UINT32_MAX) input.fail("too many vertices (" + std::to_string(vertex->count) + ")");
+    warnings.insert(warnings.end(), header_warnings.begin(), header_warnings.end());
+    return std::make_unique<PlyStream>(std::move(file), path, name, std::move(header), vertex_offset, face_offset, cache_bytes, origin);
+}
+
+namespace {
 }  // namespace
 
 uint64_t ply_face_count(const ReadInput& input) {

@@ -148,17 +148,22 @@ int build(lua_State* L) {
     std::string error;
     bool cancelled = false;
     const auto start = std::chrono::steady_clock::now();
-    size_t triangles = 0;
+    uint64_t triangles = 0;
     MemoryEstimate estimate;
     std::thread worker([&] {
         try {
             const std::vector<std::filesystem::path> files = expand_inputs(job.inputs);
-            estimate = estimate_build_memory(files);
+            BuildSettings settings = job.settings;
+            settings.memory = job.memory_limit;
+            check_settings(settings);
+            estimate = estimate_build(files, job.memory_limit);
             check_memory(estimate, job.memory_limit, job.limit_name);
-            Mesh mesh = read_tiles(files, progress, warnings);
-            triangles = mesh.triangle_count();
-            report = build_hlod(std::move(mesh), job.output, job.settings, source_name(job.inputs, files.size()),
-                                progress);
+            check_temp_disk(estimate, job.settings.temp_dir.empty() ? std::filesystem::path(job.output).parent_path()
+                                                                    : job.settings.temp_dir);
+            const auto sources = open_sources(files, job.memory_limit / 4, progress, warnings);
+            const ModelAttributes model = common_attributes(sources, warnings);
+            report = build_hlod(sources, model, job.output, settings, source_name(job.inputs, files.size()), progress);
+            triangles = report.input_triangles;
         } catch (const Cancelled&) {
             cancelled = true;
         } catch (const std::exception& e) {

@@ -61,9 +61,11 @@ expect_failure "empty list" "empty_list.txt: the list names no input files" "$ST
 expect_failure "missing list" "no_list.txt: cannot read the list of inputs" "$STRATA" build @"$WORK/no_list.txt" -o "$out"; no_output "missing list"
 expect_failure "bad tile" "past.off: line" "$STRATA" build "$WORK/octahedron.off" "$WORK/past.off" -o "$out"; no_output "bad tile"
 
-# The in-core builder refuses at once what it estimates will not fit under --memory.
-expect_failure "memory ceiling" "needs about .* in memory for 8 triangles, more than --memory 1M (1.0 MiB); the out-of-core builder is not yet available" \
-    "$STRATA" build "$WORK/octahedron.off" -o "$out" --memory 1M; no_output "memory ceiling"
+# A file read whole into memory (all but binary PLY) is refused at once when it will not fit under --memory.
+write_grid 450 "$WORK/big_grid.off"
+expect_failure "memory ceiling" "needs about .* in memory for 405000 triangles read whole into memory, more than --memory 16M (16.0 MiB); binary PLY streams from disk" \
+    "$STRATA" build "$WORK/big_grid.off" -o "$out" --memory 16M; no_output "memory ceiling"
+write_grid 300 "$WORK/grid.off"
 expect_usage "bad memory size" "'lots' is not a size in bytes" "$STRATA" build "$WORK/octahedron.off" -o "$out" --memory lots; no_output "bad memory size"
 expect_usage "bad option value" "levels" "$STRATA" build "$WORK/octahedron.off" -o "$out" --levels many
 expect_usage "bad block size" "block" "$STRATA" build "$WORK/octahedron.off" -o "$out" --block 6
@@ -71,9 +73,8 @@ expect_usage "no arguments" "input" "$STRATA" build
 
 # A disk that fills up: files this process writes may not pass 1 MiB (ulimit -f; SIGXFSZ ignored, so a
 # write past it fails with EFBIG as on a full disk). Level L's cubes of a 180 000-triangle grid need more.
-write_grid 300 "$WORK/grid.off"
 mkdir "$WORK/full"
-expect_failure "temporary disk full" "$WORK/full/grid.hlod.build-[0-9]*: cannot write the build's temporary file level-" \
+expect_failure "temporary disk full" "$WORK/full/grid.hlod.build-[0-9]*: cannot write the build's temporary file " \
     bash -c 'trap "" XFSZ; ulimit -f 1024; exec "$@"' - "$STRATA" build "$WORK/grid.off" -o "$WORK/full/grid.hlod" -q
 checks=$((checks + 1))
 [ -z "$(ls "$WORK/full")" ] || fail "a build stopped by a full disk left $(ls "$WORK/full")"

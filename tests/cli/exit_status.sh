@@ -28,7 +28,7 @@ expect_usage "build: --ratio abc" "ratio" "$STRATA" build "$WORK/octa.off" -o "$
 expect_usage "build: --memory 2X" "--memory: '2X' is not a size in bytes" "$STRATA" build "$WORK/octa.off" -o "$out" --memory 2X
 expect_usage "build: --memory 0" "'0' is not a size in bytes" "$STRATA" build "$WORK/octa.off" -o "$out" --memory 0
 expect_usage "build: --memory before a missing input" "memory" "$STRATA" build "$WORK/missing.off" -o "$out" --memory -1G
-expect_failure "build: over --memory" "more than --memory 1k" "$STRATA" build "$WORK/octa.off" -o "$out" --memory 1k
+expect_usage "build: --memory below what the buffers need" "memory must be at least 16M" "$STRATA" build "$WORK/octa.off" -o "$out" --memory 1k
 expect_success "build: under --memory" "$STRATA" build "$WORK/octa.off" -o "$WORK/fits.hlod" -q --memory 1.5G
 expect_usage "build: settings before a missing input" "block" "$STRATA" build "$WORK/missing.off" -o "$out" --block 6
 expect_failure "build: missing input" "missing.off: cannot open" "$STRATA" build "$WORK/missing.off" -o "$out"

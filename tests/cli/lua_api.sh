@@ -84,7 +84,7 @@ expect_success "verify Lua tiles" "$STRATA" verify "$WORK/octa.hlod"
 checks=$((checks + 1)); grep -q "every level closed" "$WORK/out.txt" || fail "the Lua tiles did not weld into a closed model"
 expect_status_1 "bad memory size" "option 'memory': '2 GB' is not a size in bytes" \
     "strata.build{input = \"$WORK/top.off\", output = \"$WORK/m.hlod\", memory = \"2 GB\"}"
-expect_status_1 "memory ceiling" "more than memory = \"1k\"" \
+expect_status_1 "memory ceiling" "memory must be at least 16M" \
     "strata.build{input = \"$WORK/top.off\", output = \"$WORK/m.hlod\", memory = \"1k\"}"
 checks=$((checks + 1)); [ ! -e "$WORK/m.hlod" ] || fail "a refused build left its output"
 expect_status_1 "input list of numbers" "option 'input': item 2 must be a string" \

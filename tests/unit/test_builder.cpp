@@ -70,7 +70,8 @@ TEST(Builder, LevelsPassThroughTheTemporaryFolderWhichIsRemovedAfter) {
     BuildSettings s;
     s.levels = 3;
     s.temp_dir = dir / "scratch";
-    // While level 2 is simplified, the folder holds level 2's cubes and the level-1 cubes being made.
+    // While level 2 is simplified, the folder holds level 2's cubes and the points they list, and the
+    // level-1 cubes and listings being made.
     std::vector<std::string> seen;
     Progress progress;
     progress.report = [&](std::string_view stage, double, double, std::string_view) {
@@ -81,10 +82,10 @@ TEST(Builder, LevelsPassThroughTheTemporaryFolderWhichIsRemovedAfter) {
         }
     };
     const BuildReport report = build_hlod(test::icosphere(5), dir / "out.hlod", s, "sphere", progress);
-    ASSERT_EQ(seen.size(), 3u);
+    ASSERT_EQ(seen.size(), 5u);
     EXPECT_EQ(seen[0], "out.hlod.build-" + std::to_string(::getpid()));
-    EXPECT_EQ(seen[1], "level-1.cubes");
-    EXPECT_EQ(seen[2], "level-2.cubes");
+    EXPECT_EQ(std::vector(seen.begin() + 1, seen.end()),
+              (std::vector<std::string>{"level-1.border", "level-1.cubes", "level-2.border", "level-2.cubes"}));
     EXPECT_TRUE(names_in(dir / "scratch").empty());
     EXPECT_EQ(names_in(dir.path()), (std::vector<std::string>{"out.hlod", "scratch"}));
     // The largest two consecutive levels' cubes, raw: more than the model's compressed bytes.

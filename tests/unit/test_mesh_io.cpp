@@ -1139,15 +1139,30 @@ TEST(ByteSize, ParsesBinarySuffixesInEitherCase) {
     EXPECT_GT(default_memory_limit(), 0u);
 }
 
+TEST(ByteSize, TemporaryDiskPreflightNamesTheFolder) {
+    const std::filesystem::path folder = std::filesystem::temp_directory_path();
+    MemoryEstimate estimate{.triangles = 1000, .temp_bytes = 60'000};
+    EXPECT_NO_THROW(check_temp_disk(estimate, folder));
+    estimate.temp_bytes = uint64_t(1) << 62;  // more than any disk has free
+    try {
+        check_temp_disk(estimate, folder);
+        ADD_FAILURE() << "4 EiB of temporary disk fit";
+    } catch (const InputError& e) {
+        EXPECT_THAT(e.what(), StartsWith(folder.string() + ": the build needs about 4.0 EiB of temporary disk here, and only "));
+        EXPECT_THAT(e.what(), HasSubstr("choose another folder with --temp"));
+    }
+}
+
 TEST(ByteSize, MemoryPreflightRefusesWhatDoesNotFit) {
-    const MemoryEstimate estimate{.triangles = 75'000'000, .bytes = uint64_t(3) << 30, .guessed = false};
+    const MemoryEstimate estimate{.triangles = 75'000'000, .in_memory_triangles = 75'000'000, .bytes = uint64_t(3) << 30};
     EXPECT_NO_THROW(check_memory(estimate, uint64_t(4) << 30, "--memory 4G"));
     try {
         check_memory(estimate, uint64_t(2) << 30, "--memory 2G");
         ADD_FAILURE() << "3 GiB fit under 2";
     } catch (const InputError& e) {
-        EXPECT_THAT(e.what(), HasSubstr("needs about 3.0 GiB in memory for 75000000 triangles, more than --memory 2G"));
-        EXPECT_THAT(e.what(), HasSubstr("out-of-core builder is not yet available"));
+        EXPECT_THAT(e.what(), HasSubstr("needs about 3.0 GiB in memory for 75000000 triangles read whole into memory, "
+                                        "more than --memory 2G"));
+        EXPECT_THAT(e.what(), HasSubstr("binary PLY streams from disk"));
     }
 }
 

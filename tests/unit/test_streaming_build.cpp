@@ -1,0 +1,187 @@
+// The out-of-core build (issue 14): a binary PLY streams from disk through a small vertex cache and
+// the triangle spill, and the output does not depend on how the input was read or on the memory limit.
+#include "preprocess/build_inputs.h"
+#include "preprocess/hlod_builder.h"
+#include "preprocess/hlod_verify.h"
+#include "preprocess/mesh_io.h"
+#include "tests/support/test_meshes.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstring>
+#include <fstream>
+#include <iterator>
+
+namespace strata {
+namespace {
+
+using ::testing::HasSubstr;
+using ::testing::StartsWith;
+
+std::vector<char> file_bytes(const std::filesystem::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    return {std::istreambuf_iterator<char>(in), {}};
+}
+
+// Every 16th face of a bumpy sphere, in a scrambled order, so that consecutive faces use vertices far
+// apart in the file and a small vertex cache keeps replacing its pages (the vertices no face uses
+// stay in the file); with colours, so that the corners' attributes travel through the spill too.
+Mesh scrambled_sphere() {
+    Mesh m = test::icosphere(6);  // 81 920 triangles, 40 962 vertices: ten cache pages
+    for (size_t v = 0; v < m.vertex_count(); ++v)
+        m.colors.insert(m.colors.end(), {uint8_t(v), uint8_t(v >> 8), uint8_t(3 * v), 255});
+    const size_t triangles = m.triangle_count();
+    std::vector<uint32_t> scrambled;
+    for (size_t t = 0; t < triangles; t += 16) {
+        const size_t from = (t * 7919) % triangles;  // 7919 is prime to 81 920: a permutation
+        scrambled.insert(scrambled.end(), &m.indices[3 * from], &m.indices[3 * from] + 3);
+    }
+    m.indices = scrambled;
+    return m;
+}
+
+BuildReport build_files(const std::vector<std::filesystem::path>& files, const std::filesystem::path& out,
+                        uint64_t memory, uint64_t cache_bytes, const Progress& progress = {}) {
+    std::vector<std::string> warnings;
+    const auto sources = open_sources(files, cache_bytes, progress, warnings);
+    const ModelAttributes model = common_attributes(sources, warnings);
+    BuildSettings s;
+    s.memory = memory;
+    return build_hlod(sources, model, out, s, "sphere", progress);
+}
+
+TEST(StreamingBuild, BinaryPlyStreamsToTheBytesOfTheMeshInMemory) {
+    test::TempDir dir;
+    const Mesh mesh = scrambled_sphere();
+    write_ply(dir / "little.ply", mesh, PlyEncoding::binary_little_endian);
+    write_ply(dir / "big.ply", mesh, PlyEncoding::binary_big_endian);
+    write_ply(dir / "text.ply", mesh, PlyEncoding::ascii);
+
+    // Which files stream: the binary ones; the text one is read whole.
+    EXPECT_EQ(estimate_build({dir / "little.ply"}, uint64_t(1) << 30).in_memory_triangles, 0u);
+    EXPECT_EQ(estimate_build({dir / "big.ply"}, uint64_t(1) << 30).in_memory_triangles, 0u);
+    EXPECT_EQ(estimate_build({dir / "text.ply"}, uint64_t(1) << 30).in_memory_triangles, mesh.triangle_count());
+
+    build_hlod(read_mesh(dir / "little.ply"), dir / "in_memory.hlod", BuildSettings{}, "sphere");
+    const std::vector<char> want = file_bytes(dir / "in_memory.hlod");
+    ASSERT_FALSE(want.empty());
+    // The smallest limit and cache (four pages of 4096 vertices) against a generous one.
+    const BuildReport tight = build_files({dir / "little.ply"}, dir / "tight.hlod", uint64_t(16) << 20, 1);
+    EXPECT_EQ(file_bytes(dir / "tight.hlod"), want) << "a small memory limit changed the output";
+    EXPECT_LE(tight.source_memory_bytes, uint64_t(6) << 20) << "the vertex cache outgrew its four pages";
+    build_files({dir / "little.ply"}, dir / "roomy.hlod", uint64_t(4) << 30, uint64_t(1) << 30);
+    EXPECT_EQ(file_bytes(dir / "roomy.hlod"), want);
+    build_files({dir / "big.ply"}, dir / "big.hlod", uint64_t(16) << 20, 1);
+    EXPECT_EQ(file_bytes(dir / "big.hlod"), want) << "big-endian PLY streamed differently";
+    build_files({dir / "text.ply"}, dir / "text.hlod", uint64_t(16) << 20, 1);
+    EXPECT_EQ(file_bytes(dir / "text.hlod"), want) << "ASCII PLY, read whole, differed";
+
+    EXPECT_NO_THROW(verify_hlod(HlodFile(dir / "tight.hlod")));
+}
+
+// Tiles stream one after the other and weld along their shared border as tiles read into memory do.
+TEST(StreamingBuild, StreamedTilesWeldAsTheWholeMesh) {
+    test::TempDir dir;
+    const Mesh grid = test::colored_grid(160);
+    Mesh halves[2];
+    for (Mesh& half : halves) half.positions = grid.positions, half.colors = grid.colors, half.uvs = grid.uvs;
+    const size_t split = grid.indices.size() / 2 / 3 * 3;
+    halves[0].indices.assign(grid.indices.begin(), grid.indices.begin() + ptrdiff_t(split));
+    halves[1].indices.assign(grid.indices.begin() + ptrdiff_t(split), grid.indices.end());
+    write_ply(dir / "a.ply", halves[0]);
+    write_ply(dir / "b.ply", halves[1]);
+    write_ply(dir / "whole.ply", grid);
+    build_files({dir / "a.ply", dir / "b.ply"}, dir / "tiles.hlod", uint64_t(16) << 20, 1);
+    build_files({dir / "whole.ply"}, dir / "whole.hlod", uint64_t(16) << 20, 1);
+    const HlodFile tiles(dir / "tiles.hlod"), whole(dir / "whole.hlod");
+    ASSERT_EQ(tiles.nodes().size(), whole.nodes().size());
+    for (size_t i = 0; i < whole.nodes().size(); ++i) {
+        EXPECT_EQ(tiles.nodes()[i].vertex_count, whole.nodes()[i].vertex_count) << describe_cube(whole.nodes()[i]);
+        EXPECT_EQ(tiles.nodes()[i].checksum, whole.nodes()[i].checksum) << describe_cube(whole.nodes()[i]);
+    }
+}
+
+class StreamingBuildRejects : public ::testing::Test {
+protected:
+    // A binary PLY of `mesh`, then `edit` applied to its bytes.
+    std::filesystem::path write(const Mesh& mesh, const std::function<void(std::string&)>& edit) {
+        const auto path = dir_ / "input.ply";
+        write_ply(path, mesh);
+        std::string bytes;
+        {
+            std::ifstream in(path, std::ios::binary);
+            bytes.assign(std::istreambuf_iterator<char>(in), {});
+        }
+        edit(bytes);
+        std::ofstream(path, std::ios::binary | std::ios::trunc) << bytes;
+        return path;
+    }
+    void expect_rejected(const std::filesystem::path& input, const std::string& what, const Progress& progress = {}) {
+        try {
+            build_files({input}, dir_ / "out.hlod", uint64_t(16) << 20, 1, progress);
+            ADD_FAILURE() << "built, expected: " << what;
+        } catch (const InputError& e) {
+            EXPECT_THAT(e.what(), StartsWith(input.string() + ": "));
+            EXPECT_THAT(e.what(), HasSubstr(what));
+        }
+        std::vector<std::string> left;
+        for (const auto& entry : std::filesystem::directory_iterator(dir_.path()))
+            if (entry.path() != input) left.push_back(entry.path().filename().string());
+        EXPECT_TRUE(left.empty()) << "left " << left.front();
+    }
+    static size_t body(const std::string& bytes) { return bytes.find("end_header\n") + 11; }
+
+    test::TempDir dir_;
+    const Mesh mesh_ = test::icosphere(3);  // 1280 triangles, 642 vertices
+};
+
+TEST_F(StreamingBuildRejects, TruncatedFaces) {
+    const auto path = write(mesh_, [](std::string& b) { b.resize(b.size() - 20); });
+    expect_rejected(path, "expected 1280 faces, file ends after 1278");
+}
+
+TEST_F(StreamingBuildRejects, TruncatedVertices) {
+    const auto path = write(mesh_, [&](std::string& b) { b.resize(body(b) + 12 * 100 + 5); });
+    expect_rejected(path, "expected 642 vertices, file ends after 100");
+}
+
+TEST_F(StreamingBuildRejects, IndexPastTheVertices) {
+    const auto path = write(mesh_, [&](std::string& b) {
+        const uint32_t far = 5000;
+        std::memcpy(&b[body(b) + 12 * 642 + 13 * 700 + 5], &far, 4);  // face 700's second corner
+    });
+    expect_rejected(path, "face 700 indexes vertex 5000 of 642");
+}
+
+TEST_F(StreamingBuildRejects, FaceWithTwoCorners) {
+    const auto path = write(mesh_, [&](std::string& b) { b[body(b) + 12 * 642 + 13 * 9] = 2; });
+    expect_rejected(path, "face 9 has 2 corners, at least 3 needed");
+}
+
+TEST_F(StreamingBuildRejects, NaNCoordinate) {
+    const auto path = write(mesh_, [&](std::string& b) {
+        const float nan = std::nanf("");
+        std::memcpy(&b[body(b) + 12 * 321 + 4], &nan, 4);
+    });
+    expect_rejected(path, "vertex 321 has a NaN or infinite coordinate");
+}
+
+// Another program rewriting the input while the build reads it: the build stops rather than mix two
+// versions of the scan.
+TEST_F(StreamingBuildRejects, InputThatChangesDuringTheBuild) {
+    const auto path = write(mesh_, [](std::string&) {});
+    bool changed = false;
+    Progress progress;
+    progress.report = [&](std::string_view stage, double, double, std::string_view) {
+        if (stage != "partition" || changed) return;
+        std::ofstream(path, std::ios::binary | std::ios::app) << "more";
+        changed = true;
+    };
+    expect_rejected(path, "the file changed while it was being read", progress);
+    EXPECT_TRUE(changed);
+}
+
+}  // namespace
+}  // namespace strata
