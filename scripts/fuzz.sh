@@ -15,7 +15,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-all_targets=(ply obj off stl hlod path_json osg_path)
+all_targets=(ply ply_stream obj off stl hlod path_json osg_path)
 merge=0 budget=(-max_total_time=60)
 if [ "${1:-}" = --merge ]; then merge=1; shift
 elif [ "${1:-}" = --runs ] && [[ "${2:-}" =~ ^[0-9]+$ ]]; then budget=(-runs="$2" -seed=1); shift 2
