@@ -47,42 +47,6 @@ private:
     std::chrono::steady_clock::time_point start_;
 };
 
-// ---- setting up level L -------------------------------------------------------------------
-
-Frame make_frame(const build::InputScan& scan, const std::string& source) {
-    // The frame lives in the input's float space (partition, lattice and simplifier all measure float
-    // positions against it); the true origin, the sources' origin + f.origin, is what the header records.
-    Frame f{};
-    for (int a = 0; a < 3; ++a) f.origin[a] = scan.low[size_t(a)];
-    f.root_size = std::max({scan.high[0] - scan.low[0], scan.high[1] - scan.low[1], scan.high[2] - scan.low[2]});
-    if (!(f.root_size > 0)) throw InputError(source + ": every vertex lies at one point");
-    return f;
-}
-
-// Smallest L at which the typical triangle's cell (the load-weighted mean Σn²/Σn) holds at most `leaf`
-// triangles. The scan keeps one triangle in k = stride: a cell of n triangles shows m ≈ n/k of them,
-// and Σm² overstates Σn²/k² by about Σm (each sampled triangle meets itself), so the estimate is
-// k·(Σm²/Σm − 1) + 1, not k·Σm²/Σm, which never falls below k: on 328 M triangles (k = 4096) that
-// chose cells of 372 triangles.
-uint32_t choose_levels(const build::InputScan& scan, const Frame& f, int leaf) {
-    std::vector<CubeKey> keys;
-    for (uint32_t level = 0; level < kMaxLevels; ++level) {
-        keys.clear();
-        for (const auto& point : scan.sample) keys.push_back(build::cell_of(f, point, level));
-        std::sort(keys.begin(), keys.end());
-        double weighted = 0;
-        for (size_t i = 0, j; i < keys.size(); i = j) {
-            for (j = i; j < keys.size() && keys[j] == keys[i]; ++j) {
-            }
-            weighted += double(j - i) * double(j - i);
-        }
-        const double k = double(scan.stride);
-        const double typical = k * (weighted / double(keys.size()) - 1) + 1;
-        if (typical <= leaf) return level;
-    }
-    return kMaxLevels;
-}
-
 // ---- simplifying level by level ---------------------------------------------------------
 
 // The keys of a level's cubes grouped by block (blocks in key order, cubes in key order within one).
@@ -242,12 +206,12 @@ BuildReport build_hlod(const std::vector<std::unique_ptr<TriangleSource>>& sourc
     if (scan.triangles == 0)
         throw InputError(source_name + (scan.degenerate > 0 ? ": every triangle has two corners at one point"
                                                             : ": the mesh has no triangles"));
-    Frame f = make_frame(scan, source_name);
+    Frame f = build::make_frame(scan, source_name);
     f.block = uint32_t(settings.block);
 
     // σ0 and L together (DESIGN.md §2): pick L, then the σ0 the data needs; never break constraint 1.
     const bool automatic = settings.levels < 0;
-    uint32_t L = automatic ? choose_levels(scan, f, settings.leaf_triangles) : uint32_t(settings.levels);
+    uint32_t L = automatic ? build::choose_levels(scan, f, settings.leaf_triangles, kMaxLevels) : uint32_t(settings.levels);
     // At L = 0 every vertex lies in the root cell and nothing morphs: no edge bound applies there,
     // so capping L always ends in a model.
     const double edge = scan.longest_edge;

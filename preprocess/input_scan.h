@@ -5,6 +5,7 @@
 #include <array>
 #include <cstdint>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "preprocess/build_cubes.h"
@@ -31,5 +32,13 @@ struct InputScan {
 
 // Reads every source once. Throws InputError naming the source for a non-finite coordinate.
 InputScan scan_inputs(const std::vector<std::unique_ptr<TriangleSource>>& sources, const Progress& progress);
+
+// The frame of the proper triangles' extent (its origin the extent's low corner, its root the longest
+// side). Throws InputError naming `source` when every vertex lies at one point.
+Frame make_frame(const InputScan& scan, const std::string& source);
+
+// The smallest L below `max_levels` at which the typical triangle's cell holds at most `leaf`
+// triangles; `max_levels` when none does.
+uint32_t choose_levels(const InputScan& scan, const Frame& f, int leaf, uint32_t max_levels);
 
 }  // namespace strata::build

@@ -4,6 +4,7 @@
 #include "preprocess/byte_size.h"
 #include "preprocess/hlod_builder.h"
 #include "preprocess/hlod_verify.h"
+#include "preprocess/input_scan.h"
 #include "preprocess/mesh_io.h"
 #include "tests/support/test_meshes.h"
 
@@ -147,6 +148,26 @@ TEST(StreamingBuild, PeakMemoryStaysUnderTheLimitPlusTheFixedOverhead) {
     EXPECT_EQ(report.input_triangles, 2u * 1131 * 1131);
     EXPECT_LE(peak_resident_bytes(), uint64_t(16 + 64) << 20);
     EXPECT_LE(report.spill_memory_bytes, (uint64_t(4) << 20) + 36) << "the spill waited past its quarter of the limit";
+}
+
+// L from a sparse sample: 65 536 barycenters spread evenly over a flat square, each standing for
+// k = 4096 triangles (268 M in all). At level l a cell holds 2^28 / 4^l of them: 4096 at l = 8, so with
+// leaves of 5000 L is 8. An estimate that counts each sampled triangle against itself never falls
+// below k and chose 10.
+TEST(StreamingBuild, LevelsFromASparseSampleFollowTheTrueLoad) {
+    build::InputScan scan;
+    scan.stride = 4096;
+    uint64_t state = 12345;
+    auto uniform = [&] {
+        state = state * 6364136223846793005ull + 1442695040888963407ull;
+        return double(state >> 11) / double(uint64_t(1) << 53);
+    };
+    for (int i = 0; i < 65536; ++i) scan.sample.push_back({uniform(), uniform(), 0.5});
+    scan.triangles = 65536 * scan.stride;
+    scan.low = {0, 0, 0}, scan.high = {1, 1, 1};
+    const build::Frame f = build::make_frame(scan, "square");
+    EXPECT_EQ(build::choose_levels(scan, f, 5000, 15), 8u);
+    EXPECT_EQ(build::choose_levels(scan, f, 20000, 15), 7u);  // 16 384 a cell at l = 7
 }
 
 class StreamingBuildRejects : public ::testing::Test {
