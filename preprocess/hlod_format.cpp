@@ -553,6 +553,15 @@ std::vector<uint8_t> unpacked(std::span<const uint8_t> stored, uint32_t size, co
 // triangles of (b − a) × (c − a) in lattice integers, in wrapping 64-bit arithmetic so that every
 // reader gets the same bits, mapped in f64. Where the builder computed a vertex's normal from the same
 // triangles (inside a cube, without seams), the prediction is the stored normal or next to it.
+// std::lround for |t| ≤ 2047 without its library call (decoding calls it twice per vertex): the
+// truncation is exact, and so is t minus it.
+int16_t round_half_away(double t) {
+    int32_t whole = int32_t(t);
+    const double fraction = t - double(whole);
+    whole += (fraction >= 0.5) - (fraction <= -0.5);
+    return int16_t(whole);
+}
+
 std::vector<int16_t> predicted_normals(const std::vector<uint16_t>& positions, const std::vector<uint32_t>& indices) {
     const size_t n = positions.size() / 3;
     std::vector<std::array<uint64_t, 3>> sums(n, {0, 0, 0});
@@ -580,8 +589,8 @@ std::vector<int16_t> predicted_normals(const std::vector<uint16_t>& positions, c
             const double oy = (1 - std::fabs(x)) * (y >= 0 ? 1.0 : -1.0);
             x = ox, y = oy;
         }
-        out[2 * v] = int16_t(std::lround(std::clamp(x, -1.0, 1.0) * steps));
-        out[2 * v + 1] = int16_t(std::lround(std::clamp(y, -1.0, 1.0) * steps));
+        out[2 * v] = round_half_away(std::clamp(x, -1.0, 1.0) * steps);
+        out[2 * v + 1] = round_half_away(std::clamp(y, -1.0, 1.0) * steps);
     }
     return out;
 }
