@@ -666,13 +666,14 @@ void decode_normals(const std::vector<FirstUse>& walk, std::span<const uint8_t> 
 // What the decoder already knows when it reaches a vertex's parent (FORMAT.md §9).
 struct ParentContext {
     uint32_t previous = 0;  // the previous vertex's parent in walk order
-    uint32_t next_new = 0;  // one past the largest parent so far
+    uint32_t largest = 0;
     bool any = false;
     void add(uint32_t parent) {
         previous = parent;
-        if (!any || parent + 1 > next_new) next_new = parent + 1;  // wraps like every u32 here
+        if (!any || parent > largest) largest = parent;
         any = true;
     }
+    uint32_t next_new() const { return any ? largest + 1 : 0; }  // wraps like every u32 here
 };
 
 std::vector<uint8_t> encode_parents(const std::vector<FirstUse>& walk, const std::vector<uint32_t>& parents,
@@ -685,7 +686,7 @@ std::vector<uint8_t> encode_parents(const std::vector<FirstUse>& walk, const std
         if (parent == known.previous) symbols.push_back(kSameAsPrevious);
         else if (f.a != kNone && parent == parents[f.a]) symbols.push_back(kSameAsA);
         else if (f.b != kNone && parent == parents[f.b]) symbols.push_back(kSameAsB);
-        else if (parent == known.next_new) symbols.push_back(kNextNew);
+        else if (parent == known.next_new()) symbols.push_back(kNextNew);
         else {
             const uint32_t z = zigzag(int32_t(parent - known.previous));
             symbols.push_back(uint8_t(kExplicit + size_class(z)));
@@ -710,7 +711,7 @@ void decode_parents(const std::vector<FirstUse>& walk, std::span<const uint8_t> 
             if (corner == kNone)
                 throw std::runtime_error(what + ": parent of vertex " + std::to_string(f.v) + " names a corner not yet decoded");
             parent = parents[corner];
-        } else if (s == kNextNew) parent = known.next_new;
+        } else if (s == kNextNew) parent = known.next_new();
         else if (s <= kLastParentSymbol) parent = known.previous + uint32_t(unzigzag(bits.value_of_class(s - kExplicit)));
         else throw std::runtime_error(what + ": parent symbol " + std::to_string(s) + " past " + std::to_string(kLastParentSymbol));
         parents[f.v] = parent;
