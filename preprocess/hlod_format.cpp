@@ -412,48 +412,52 @@ private:
 
 // Each vertex in the order the triangles first use it, with what the decoder knows of its surroundings
 // then: `a` and `b`, the two other corners of that first triangle (next and previous, keeping the
-// winding) if they came earlier, and `d`, the far corner of the earliest earlier triangle across the edge
-// b→a (the neighbour that shares the edge with matching winding). Vertices no triangle uses follow, in
-// index order, with nothing known.
+// winding) if they came earlier, and `d`, the far corner of a recent earlier triangle across the edge
+// b→a (the neighbour that shares the edge with matching winding), found in a small hash table of recent
+// edges. Vertices no triangle uses follow, in index order, with nothing known.
 struct FirstUse {
     uint32_t v, a, b, d;
 };
 
-std::vector<FirstUse> first_use_walk(const std::vector<uint32_t>& indices, uint32_t vertex_count) {
-    // Each vertex's triangles, in triangle order (counted, then filled).
-    std::vector<uint32_t> start(size_t(vertex_count) + 1, 0), triangles_of(indices.size());
-    for (uint32_t v : indices) ++start[v + 1];
-    for (uint32_t v = 0; v < vertex_count; ++v) start[v + 1] += start[v];
-    {
-        std::vector<uint32_t> next(start.begin(), start.end() - 1);
-        for (size_t c = 0, t = 0; c < indices.size(); c += 3, ++t)
-            for (size_t k = 0; k < 3; ++k) triangles_of[next[indices[c + k]]++] = uint32_t(t);
+// The recent edges (FORMAT.md §5): entry h(x, y) holds the last triangle's edge x→y that hashed there,
+// with its third corner. 4096 entries find the neighbour of 99 % of the vertices an exact search over
+// all earlier triangles finds, at a fraction of its cost (no per-vertex lists to build).
+class RecentEdges {
+public:
+    RecentEdges() : entries_(kEntries, Entry{kNone, kNone, kNone}) {}
+    void add(uint32_t x, uint32_t y, uint32_t third) { entries_[slot(x, y)] = {x, y, third}; }
+    uint32_t third(uint32_t x, uint32_t y) const {
+        const Entry& e = entries_[slot(x, y)];
+        return e.x == x && e.y == y ? e.third : kNone;
     }
+
+private:
+    static constexpr uint32_t kEntryBits = 12, kEntries = 1u << kEntryBits;
+    static uint32_t slot(uint32_t x, uint32_t y) { return ((x * 2654435761u + y) * 2246822519u) >> (32 - kEntryBits); }
+    struct Entry {
+        uint32_t x, y, third;
+    };
+    std::vector<Entry> entries_;
+};
+
+std::vector<FirstUse> first_use_walk(const std::vector<uint32_t>& indices, uint32_t vertex_count) {
     std::vector<uint8_t> seen(vertex_count, 0);
     std::vector<FirstUse> walk;
     walk.reserve(vertex_count);
-    const uint32_t triangle_count = uint32_t(indices.size() / 3);
-    for (uint32_t t = 0; t < triangle_count; ++t) {
-        const uint32_t* corner = &indices[3 * size_t(t)];
+    RecentEdges edges;
+    for (size_t t = 0; t < indices.size(); t += 3) {
+        const uint32_t* corner = &indices[t];
         for (int k = 0; k < 3; ++k) {
             const uint32_t v = corner[k];
             if (seen[v]) continue;
-            uint32_t a = corner[(k + 1) % 3], b = corner[(k + 2) % 3], d = kNone;
-            if (seen[a] && seen[b]) {
-                for (uint32_t e = start[a]; e < start[a + 1] && triangles_of[e] < t; ++e) {
-                    const uint32_t* o = &indices[3 * size_t(triangles_of[e])];
-                    if (o[0] == b && o[1] == a) d = o[2];
-                    else if (o[1] == b && o[2] == a) d = o[0];
-                    else if (o[2] == b && o[0] == a) d = o[1];
-                    else continue;
-                    break;
-                }
-            }
-            if (!seen[a]) a = kNone;
-            if (!seen[b]) b = kNone;
-            walk.push_back({v, a, b, d});
+            const uint32_t a = corner[(k + 1) % 3], b = corner[(k + 2) % 3];
+            const bool a_known = seen[a], b_known = seen[b];
+            walk.push_back({v, a_known ? a : kNone, b_known ? b : kNone, a_known && b_known ? edges.third(b, a) : kNone});
             seen[v] = 1;
         }
+        edges.add(corner[0], corner[1], corner[2]);
+        edges.add(corner[1], corner[2], corner[0]);
+        edges.add(corner[2], corner[0], corner[1]);
     }
     for (uint32_t v = 0; v < vertex_count; ++v)
         if (!seen[v]) walk.push_back({v, kNone, kNone, kNone});
@@ -514,10 +518,14 @@ std::vector<uint32_t> decode_indices(std::span<const uint8_t> stream, uint32_t t
     std::vector<uint32_t> indices(size_t(triangles) * 3);
     if (triangles && meshopt_decodeIndexBuffer(indices.data(), indices.size(), 4, stream.data(), stream.size()) != 0)
         throw std::runtime_error(what + ": index stream does not decode");
-    for (uint32_t index : indices)
-        if (index >= vertex_count)
-            throw std::runtime_error(what + ": index " + std::to_string(index) + " past its " +
-                                     std::to_string(vertex_count) + " vertices");
+    // The largest index first (a loop the compiler vectorizes), the offending one only when there is one.
+    uint32_t largest = 0;
+    for (uint32_t index : indices) largest = std::max(largest, index);
+    if (!indices.empty() && largest >= vertex_count) {
+        const uint32_t index = *std::find_if(indices.begin(), indices.end(), [&](uint32_t i) { return i >= vertex_count; });
+        throw std::runtime_error(what + ": index " + std::to_string(index) + " past its " + std::to_string(vertex_count) +
+                                 " vertices");
+    }
     return indices;
 }
 
