@@ -354,20 +354,20 @@ public:
     void put(uint64_t value, uint32_t count) {  // count ≤ 32
         pending_ |= value << filled_;
         filled_ += count;
-        while (filled_ >= 8) bytes.push_back(uint8_t(pending_)), pending_ >>= 8, filled_ -= 8;
+        while (filled_ >= 8) bytes_.push_back(uint8_t(pending_)), pending_ >>= 8, filled_ -= 8;
     }
     // A value of class `n` has its top bit implied: the other n − 1 go to the stream.
     void put_low_bits(uint32_t z, uint32_t n) {
         if (n > 1) put(z & ((uint64_t(1) << (n - 1)) - 1), n - 1);
     }
     std::vector<uint8_t> finish() {
-        if (filled_ > 0) bytes.push_back(uint8_t(pending_));
+        if (filled_ > 0) bytes_.push_back(uint8_t(pending_));
         pending_ = 0, filled_ = 0;
-        return std::move(bytes);
+        return std::move(bytes_);
     }
 
 private:
-    std::vector<uint8_t> bytes;
+    std::vector<uint8_t> bytes_;
     uint64_t pending_ = 0;
     uint32_t filled_ = 0;
 };
@@ -408,7 +408,7 @@ private:
     uint32_t filled_ = 0;
 };
 
-// ---- the first-use walk (FORMAT.md §6) -----------------------------------------------------
+// ---- the first-use walk (FORMAT.md §5) -----------------------------------------------------
 
 // Each vertex in the order the triangles first use it, with what the decoder knows of its surroundings
 // then: `a` and `b`, the two other corners of that first triangle (next and previous, keeping the
