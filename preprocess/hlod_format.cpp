@@ -123,15 +123,6 @@ __attribute__((target("sse4.2"))) uint32_t crc32c_hardware(uint32_t crc, const u
 
 // ---- streams -------------------------------------------------------------------------------
 
-// Positions as 8-byte records (x, y, z, then a zero u16): the vertex codec takes records of a multiple
-// of 4 bytes, and a constant column costs it almost nothing.
-std::vector<uint8_t> position_records(const std::vector<uint16_t>& positions) {
-    const size_t n = positions.size() / 3;
-    std::vector<uint8_t> out(n * 8, 0);
-    for (size_t i = 0; i < n; ++i) std::memcpy(&out[8 * i], &positions[3 * i], 6);
-    return out;
-}
-
 template <class T>
 std::vector<uint8_t> as_bytes(const std::vector<T>& v) {
     std::vector<uint8_t> out(v.size() * sizeof(T));
@@ -143,22 +134,6 @@ template <class T>
 void from_bytes(const std::vector<uint8_t>& bytes, std::vector<T>& v) {
     v.resize(bytes.size() / sizeof(T));
     if (!v.empty()) std::memcpy(v.data(), bytes.data(), bytes.size());
-}
-
-std::vector<uint8_t> encode_vertices(const std::vector<uint8_t>& records, size_t count, size_t record_size) {
-    if (count == 0) return {};
-    std::vector<uint8_t> out(meshopt_encodeVertexBufferBound(count, record_size));
-    out.resize(meshopt_encodeVertexBuffer(out.data(), out.size(), records.data(), count, record_size));
-    return out;
-}
-
-std::vector<uint8_t> decode_vertices(std::span<const uint8_t> encoded, size_t count, size_t record_size,
-                                     const std::string& what) {
-    std::vector<uint8_t> out(count * record_size);
-    if (count == 0) return out;
-    if (meshopt_decodeVertexBuffer(out.data(), count, record_size, encoded.data(), encoded.size()) != 0)
-        throw std::runtime_error(what + ": vertex stream does not decode");
-    return out;
 }
 
 
@@ -346,15 +321,18 @@ std::array<float, 3> decode_normal(int16_t u, int16_t v) {
 
 namespace {
 
-// A payload's streams (FORMAT.md §5): positions, normal residuals, colours, UVs, parents, triangles.
-enum Stream { kPositions, kNormals, kColors, kUvs, kParents, kIndices, kStreams };
-// How the streams follow the header: as they are, or as one zstd frame of all of them.
-enum Packing : uint32_t { kStored = 0, kZstd = 1 };
-// zstd level 9: most of what 19 saves, at a fraction of its time; decoding speed does not depend on it.
-constexpr int kZstdLevel = 9;
-// The streams may be at most this many times the zstd frame, so that a small payload cannot make a reader
-// allocate gigabytes; a writer stores the streams as they are when they would compress further.
+// A payload's streams (FORMAT.md §5), each stored as it is or as its own zstd frame: one Huffman table
+// per stream fits its symbols far better than one table over all of them.
+enum Stream { kIndices, kPositions, kNormals, kParents, kColors, kUvs, kBits, kStreams };
+// zstd level 19: on the 19.3 M-triangle bunny 3 % smaller than level 9 for 5 % more build time (the
+// streams are small and mostly literals); decoding speed does not depend on it.
+constexpr int kZstdLevel = 19;
+// A stream may be at most this many times its zstd frame, so that a small payload cannot make a reader
+// allocate gigabytes; a writer stores a stream as it is when it would compress further.
 constexpr uint64_t kMaxZstdRatio = 64;
+constexpr uint32_t kNone = ~0u;
+// The position prediction where a cube's walk starts (FORMAT.md §6): the centre of the cell.
+constexpr uint16_t kCellCentre = uint16_t(kLatticeBias + (1 << (kLatticeBits - 1)));
 
 struct ZstdContexts {
     ZSTD_CCtx* compress = ZSTD_createCCtx();
@@ -363,10 +341,235 @@ struct ZstdContexts {
 };
 thread_local ZstdContexts zstd;  // reused: creating a context costs more than decoding a small cube
 
+// ---- residuals: a size class per value, its low bits in a shared bit stream ----------------
+
+uint32_t zigzag(int32_t v) { return (uint32_t(v) << 1) ^ uint32_t(v >> 31); }
+int32_t unzigzag(uint32_t z) { return int32_t(z >> 1) ^ -int32_t(z & 1); }
+// The size class of a zigzagged value: its bit length (0 for 0).
+uint32_t size_class(uint32_t z) { return z ? uint32_t(32 - __builtin_clz(z)) : 0; }
+
+// Bits packed from the lowest bit of the first byte up.
+class BitWriter {
+public:
+    void put(uint64_t value, uint32_t count) {  // count ≤ 32
+        pending_ |= value << filled_;
+        filled_ += count;
+        while (filled_ >= 8) bytes_.push_back(uint8_t(pending_)), pending_ >>= 8, filled_ -= 8;
+    }
+    // A value of class `n` has its top bit implied: the other n − 1 go to the stream.
+    void put_low_bits(uint32_t z, uint32_t n) {
+        if (n > 1) put(z & ((uint64_t(1) << (n - 1)) - 1), n - 1);
+    }
+    std::vector<uint8_t> finish() {
+        if (filled_ > 0) bytes_.push_back(uint8_t(pending_));
+        pending_ = 0, filled_ = 0;
+        return std::move(bytes_);
+    }
+
+private:
+    std::vector<uint8_t> bytes_;
+    uint64_t pending_ = 0;
+    uint32_t filled_ = 0;
+};
+
+class BitReader {
+public:
+    BitReader(std::span<const uint8_t> bytes, const std::string& what) : bytes_(bytes), what_(what) {}
+    uint32_t get(uint32_t count) {  // count ≤ 32
+        if (filled_ < count) refill(count);
+        const uint32_t value = uint32_t(pending_ & ((uint64_t(1) << count) - 1));
+        pending_ >>= count, filled_ -= count;
+        return value;
+    }
+    // The zigzagged value of class n (≤ 32).
+    uint32_t value_of_class(uint32_t n) {  // without a branch on n, which the data makes unpredictable
+        return uint32_t((uint64_t(1) << n) >> 1) | get(n - (n != 0));
+    }
+    // No whole byte left unread: the writer ends the stream with the last value's bits.
+    bool at_end() const { return at_ == bytes_.size() && filled_ < 8; }
+
+private:
+    void refill(uint32_t count) {
+        if (bytes_.size() - at_ >= 8) {  // a whole word: take as many of its bytes as fit
+            uint64_t word;
+            std::memcpy(&word, bytes_.data() + at_, 8);
+            pending_ |= word << filled_;
+            at_ += (63 - filled_) >> 3;
+            filled_ |= 56;
+            return;
+        }
+        while (filled_ <= 56 && at_ < bytes_.size()) pending_ |= uint64_t(bytes_[at_++]) << filled_, filled_ += 8;
+        if (filled_ < count) throw std::runtime_error(what_ + ": bit stream ends early");
+    }
+    std::span<const uint8_t> bytes_;
+    const std::string& what_;
+    size_t at_ = 0;
+    uint64_t pending_ = 0;
+    uint32_t filled_ = 0;
+};
+
+// ---- the first-use walk (FORMAT.md §5) -----------------------------------------------------
+
+// Each vertex in the order the triangles first use it, with what the decoder knows of its surroundings
+// then: `a` and `b`, the two other corners of that first triangle (next and previous, keeping the
+// winding) if they came earlier, and `d`, the far corner of a recent earlier triangle across the edge
+// b→a (the neighbour that shares the edge with matching winding), found in a small hash table of recent
+// edges. Vertices no triangle uses follow, in index order, with nothing known.
+struct FirstUse {
+    uint32_t v, a, b, d;
+};
+
+// The recent edges (FORMAT.md §5): entry h(x, y) holds the last triangle's edge x→y that hashed there,
+// with its third corner. 4096 entries find the neighbour of 99 % of the vertices an exact search over
+// all earlier triangles finds, at a fraction of its cost (no per-vertex lists to build).
+class RecentEdges {
+public:
+    RecentEdges() : entries_(kEntries, Entry{kNone, kNone, kNone}) {}
+    void add(uint32_t x, uint32_t y, uint32_t third) { entries_[slot(x, y)] = {x, y, third}; }
+    uint32_t third(uint32_t x, uint32_t y) const {
+        const Entry& e = entries_[slot(x, y)];
+        return e.x == x && e.y == y ? e.third : kNone;
+    }
+
+private:
+    static constexpr uint32_t kEntryBits = 12, kEntries = 1u << kEntryBits;
+    static uint32_t slot(uint32_t x, uint32_t y) { return ((x * 2654435761u + y) * 2246822519u) >> (32 - kEntryBits); }
+    struct Entry {
+        uint32_t x, y, third;
+    };
+    std::vector<Entry> entries_;
+};
+
+std::vector<FirstUse> first_use_walk(const std::vector<uint32_t>& indices, uint32_t vertex_count) {
+    std::vector<uint8_t> seen(vertex_count, 0);
+    std::vector<FirstUse> walk;
+    walk.reserve(vertex_count);
+    RecentEdges edges;
+    for (size_t t = 0; t < indices.size(); t += 3) {
+        const uint32_t* corner = &indices[t];
+        for (int k = 0; k < 3; ++k) {
+            const uint32_t v = corner[k];
+            if (seen[v]) continue;
+            const uint32_t a = corner[(k + 1) % 3], b = corner[(k + 2) % 3];
+            const bool a_known = seen[a], b_known = seen[b];
+            walk.push_back({v, a_known ? a : kNone, b_known ? b : kNone, a_known && b_known ? edges.third(b, a) : kNone});
+            seen[v] = 1;
+        }
+        edges.add(corner[0], corner[1], corner[2]);
+        edges.add(corner[1], corner[2], corner[0]);
+        edges.add(corner[2], corner[0], corner[1]);
+    }
+    for (uint32_t v = 0; v < vertex_count; ++v)
+        if (!seen[v]) walk.push_back({v, kNone, kNone, kNone});
+    return walk;
+}
+
+// The position the decoder expects for a vertex of the walk, from positions it already has: across the
+// edge a→b from the neighbour d (parallelogram a + b − d), else the middle of a and b, else a or b, else
+// the previous vertex of the walk. Arithmetic modulo 2^16, as the residuals.
+inline std::array<uint16_t, 3> predicted_position(const FirstUse& f, const uint16_t* positions, const uint16_t* previous) {
+    const uint16_t* a = f.a != kNone ? positions + 3 * size_t(f.a) : nullptr;
+    const uint16_t* b = f.b != kNone ? positions + 3 * size_t(f.b) : nullptr;
+    if (a && b && f.d != kNone) {
+        const uint16_t* d = positions + 3 * size_t(f.d);
+        return {uint16_t(a[0] + b[0] - d[0]), uint16_t(a[1] + b[1] - d[1]), uint16_t(a[2] + b[2] - d[2])};
+    }
+    if (a && b)
+        return {uint16_t((uint32_t(a[0]) + b[0]) >> 1), uint16_t((uint32_t(a[1]) + b[1]) >> 1),
+                uint16_t((uint32_t(a[2]) + b[2]) >> 1)};
+    const uint16_t* known = a ? a : b ? b : previous;
+    return {known[0], known[1], known[2]};
+}
+
+// Parent symbols (FORMAT.md §9): the parent repeats the previous vertex's, or a's or b's, or is one past
+// the largest so far; else it is coded as a difference from the previous vertex's.
+enum ParentSymbol : uint8_t { kSameAsPrevious, kSameAsA, kSameAsB, kNextNew, kExplicit };
+constexpr uint32_t kLastParentSymbol = kExplicit + 32;
+
+// ---- stream containers ---------------------------------------------------------------------
+
+std::vector<uint8_t> encode_vertices(const std::vector<uint8_t>& records, size_t count, size_t record_size) {
+    if (count == 0) return {};
+    std::vector<uint8_t> out(meshopt_encodeVertexBufferBound(count, record_size));
+    out.resize(meshopt_encodeVertexBuffer(out.data(), out.size(), records.data(), count, record_size));
+    return out;
+}
+
+std::vector<uint8_t> decode_vertices(std::span<const uint8_t> encoded, size_t count, size_t record_size,
+                                     const std::string& what) {
+    std::vector<uint8_t> out(count * record_size);
+    if (count == 0) return out;
+    if (meshopt_decodeVertexBuffer(out.data(), count, record_size, encoded.data(), encoded.size()) != 0)
+        throw std::runtime_error(what + ": vertex stream does not decode");
+    return out;
+}
+
+std::vector<uint8_t> encode_indices(const std::vector<uint32_t>& indices, size_t vertex_count) {
+    if (indices.empty()) return {};
+    std::vector<uint8_t> out(meshopt_encodeIndexBufferBound(indices.size(), vertex_count));
+    out.resize(meshopt_encodeIndexBuffer(out.data(), out.size(), indices.data(), indices.size()));
+    return out;
+}
+
+// The triangles as the decoder gets them back: every prediction uses the decoded buffer, whose corners
+// the index codec may have rotated.
+std::vector<uint32_t> decode_indices(std::span<const uint8_t> stream, uint32_t triangles, uint32_t vertex_count,
+                                     const std::string& what) {
+    std::vector<uint32_t> indices(size_t(triangles) * 3);
+    if (triangles && meshopt_decodeIndexBuffer(indices.data(), indices.size(), 4, stream.data(), stream.size()) != 0)
+        throw std::runtime_error(what + ": index stream does not decode");
+    // The largest index first (a loop the compiler vectorizes), the offending one only when there is one.
+    uint32_t largest = 0;
+    for (uint32_t index : indices) largest = std::max(largest, index);
+    if (!indices.empty() && largest >= vertex_count) {
+        const uint32_t index = *std::find_if(indices.begin(), indices.end(), [&](uint32_t i) { return i >= vertex_count; });
+        throw std::runtime_error(what + ": index " + std::to_string(index) + " past its " + std::to_string(vertex_count) +
+                                 " vertices");
+    }
+    return indices;
+}
+
+// A stream in the payload: as a zstd frame when that is smaller and within the ratio a reader accepts,
+// else as it is. Returns the bytes to store.
+std::vector<uint8_t> packed(const std::vector<uint8_t>& stream) {
+    if (stream.empty()) return {};
+    std::vector<uint8_t> frame(ZSTD_compressBound(stream.size()));
+    const size_t size = ZSTD_compressCCtx(zstd.compress, frame.data(), frame.size(), stream.data(), stream.size(), kZstdLevel);
+    if (ZSTD_isError(size)) throw std::runtime_error(std::string("zstd: ") + ZSTD_getErrorName(size));
+    if (size < stream.size() && stream.size() <= kMaxZstdRatio * size) {
+        frame.resize(size);
+        return frame;
+    }
+    return stream;
+}
+
+// A stream back from its stored bytes: `size` is its unpacked length, checked against the stored bytes
+// before anything is allocated for it.
+std::vector<uint8_t> unpacked(std::span<const uint8_t> stored, uint32_t size, const std::string& what) {
+    if (stored.size() == size) return {stored.begin(), stored.end()};
+    if (stored.size() > size) throw std::runtime_error(what + ": stream stored in more bytes than it holds");
+    if (size > kMaxZstdRatio * stored.size()) throw std::runtime_error(what + ": counts larger than the payload could hold");
+    if (ZSTD_getFrameContentSize(stored.data(), stored.size()) != size)
+        throw std::runtime_error(what + ": zstd frame does not hold the stream's size");
+    std::vector<uint8_t> stream(size);
+    const size_t got = ZSTD_decompressDCtx(zstd.decompress, stream.data(), stream.size(), stored.data(), stored.size());
+    if (ZSTD_isError(got) || got != size) throw std::runtime_error(what + ": zstd frame does not decode");
+    return stream;
+}
+
 // The octahedral normal of vertex v that the triangles predict (FORMAT.md §7): the sum over its
 // triangles of (b − a) × (c − a) in lattice integers, in wrapping 64-bit arithmetic so that every
 // reader gets the same bits, mapped in f64. Where the builder computed a vertex's normal from the same
 // triangles (inside a cube, without seams), the prediction is the stored normal or next to it.
+// std::lround for |t| ≤ 2047 without its library call (decoding calls it twice per vertex): the
+// truncation is exact, and so is t minus it.
+int16_t round_half_away(double t) {
+    int32_t whole = int32_t(t);
+    const double fraction = t - double(whole);
+    whole += (fraction >= 0.5) - (fraction <= -0.5);
+    return int16_t(whole);
+}
+
 std::vector<int16_t> predicted_normals(const std::vector<uint16_t>& positions, const std::vector<uint32_t>& indices) {
     const size_t n = positions.size() / 3;
     std::vector<std::array<uint64_t, 3>> sums(n, {0, 0, 0});
@@ -394,80 +597,166 @@ std::vector<int16_t> predicted_normals(const std::vector<uint16_t>& positions, c
             const double oy = (1 - std::fabs(x)) * (y >= 0 ? 1.0 : -1.0);
             x = ox, y = oy;
         }
-        out[2 * v] = int16_t(std::lround(std::clamp(x, -1.0, 1.0) * steps));
-        out[2 * v + 1] = int16_t(std::lround(std::clamp(y, -1.0, 1.0) * steps));
+        out[2 * v] = round_half_away(std::clamp(x, -1.0, 1.0) * steps);
+        out[2 * v + 1] = round_half_away(std::clamp(y, -1.0, 1.0) * steps);
     }
     return out;
 }
 
-std::vector<uint8_t> encode_indices(const std::vector<uint32_t>& indices, size_t vertex_count) {
-    if (indices.empty()) return {};
-    std::vector<uint8_t> out(meshopt_encodeIndexBufferBound(indices.size(), vertex_count));
-    out.resize(meshopt_encodeIndexBuffer(out.data(), out.size(), indices.data(), indices.size()));
-    return out;
+// ---- the streams, one function each way ----------------------------------------------------
+
+std::vector<uint8_t> encode_positions(const std::vector<FirstUse>& walk, const std::vector<uint16_t>& positions,
+                                      BitWriter& bits) {
+    std::vector<uint8_t> classes;
+    classes.reserve(positions.size());
+    uint16_t previous[3] = {kCellCentre, kCellCentre, kCellCentre};
+    for (const FirstUse& f : walk) {
+        const std::array<uint16_t, 3> p = predicted_position(f, positions.data(), previous);
+        for (int x = 0; x < 3; ++x) {
+            const uint16_t value = positions[3 * size_t(f.v) + x];
+            const uint32_t z = zigzag(int16_t(uint16_t(value - p[x])));
+            classes.push_back(uint8_t(size_class(z)));
+            bits.put_low_bits(z, classes.back());
+            previous[x] = value;
+        }
+    }
+    return classes;
 }
 
-// The streams after the header: one zstd frame of them all, unless that would not be smaller or would
-// exceed the ratio a reader accepts.
-void append_packed(ByteWriter& w, const std::vector<uint8_t>& streams) {
-    std::vector<uint8_t> frame(ZSTD_compressBound(streams.size()));
-    const size_t size = ZSTD_compressCCtx(zstd.compress, frame.data(), frame.size(), streams.data(), streams.size(), kZstdLevel);
-    if (ZSTD_isError(size)) throw std::runtime_error(std::string("zstd: ") + ZSTD_getErrorName(size));
-    if (size < streams.size() && streams.size() <= kMaxZstdRatio * size) {
-        w.put(uint32_t(kZstd));
-        w.put_bytes(frame.data(), size);
-    } else {
-        w.put(uint32_t(kStored));
-        w.put_bytes(streams.data(), streams.size());
+void decode_positions(const std::vector<FirstUse>& walk, std::span<const uint8_t> classes, BitReader& bits,
+                      std::vector<uint16_t>& positions, const std::string& what) {
+    positions.resize(3 * walk.size());
+    uint16_t previous[3] = {kCellCentre, kCellCentre, kCellCentre};
+    const uint8_t* c = classes.data();
+    for (const FirstUse& f : walk) {
+        const std::array<uint16_t, 3> p = predicted_position(f, positions.data(), previous);
+        for (int x = 0; x < 3; ++x, ++c) {
+            if (*c > 16) throw std::runtime_error(what + ": position residual class " + std::to_string(*c) + " past 16");
+            const uint16_t value = uint16_t(p[x] + uint16_t(unzigzag(bits.value_of_class(*c))));
+            positions[3 * size_t(f.v) + x] = previous[x] = value;
+        }
     }
 }
 
-// The streams, unpacked; `total` (the sum of the stream sizes) is checked against the body before
-// anything is allocated for it.
-std::vector<uint8_t> unpack_streams(uint32_t packing, std::span<const uint8_t> body, uint64_t total, const std::string& what) {
-    if (packing == kStored) {
-        if (total > body.size()) throw std::runtime_error(what + " payload ends early");
-        if (total < body.size()) throw std::runtime_error(what + ": payload longer than its streams");
-        return {body.begin(), body.end()};
+// Normal residuals: one byte per vertex, the classes of du (high four bits) and dv (low four).
+std::vector<uint8_t> encode_normals(const std::vector<FirstUse>& walk, const std::vector<int16_t>& normals,
+                                    const std::vector<int16_t>& predicted, BitWriter& bits) {
+    std::vector<uint8_t> classes;
+    classes.reserve(walk.size());
+    for (const FirstUse& f : walk) {
+        uint32_t z[2], n[2];
+        for (int k = 0; k < 2; ++k) {
+            const size_t at = 2 * size_t(f.v) + k;
+            z[k] = zigzag(int32_t(normals[at]) - predicted[at]), n[k] = size_class(z[k]);
+        }
+        classes.push_back(uint8_t(n[0] << 4 | n[1]));
+        bits.put_low_bits(z[0], n[0]), bits.put_low_bits(z[1], n[1]);
     }
-    if (packing != kZstd) throw std::runtime_error(what + ": unknown stream packing " + std::to_string(packing));
-    if (total > kMaxZstdRatio * body.size()) throw std::runtime_error(what + ": counts larger than the payload could hold");
-    if (ZSTD_getFrameContentSize(body.data(), body.size()) != total)
-        throw std::runtime_error(what + ": zstd frame does not hold the streams' size");
-    std::vector<uint8_t> streams(total);
-    const size_t size = ZSTD_decompressDCtx(zstd.decompress, streams.data(), streams.size(), body.data(), body.size());
-    if (ZSTD_isError(size) || size != total) throw std::runtime_error(what + ": zstd frame does not decode");
-    return streams;
+    return classes;
+}
+
+void decode_normals(const std::vector<FirstUse>& walk, std::span<const uint8_t> classes, BitReader& bits,
+                    const std::vector<int16_t>& predicted, std::vector<int16_t>& normals, const std::string& what) {
+    constexpr int kNormalLimit = (1 << (kNormalBits - 1)) - 1;
+    normals.resize(2 * walk.size());
+    for (size_t i = 0; i < walk.size(); ++i) {
+        const uint32_t n[2] = {uint32_t(classes[i] >> 4), uint32_t(classes[i] & 15)};
+        for (int k = 0; k < 2; ++k) {
+            const size_t at = 2 * size_t(walk[i].v) + k;
+            const int32_t value = predicted[at] + unzigzag(bits.value_of_class(n[k]));
+            if (value < -kNormalLimit || value > kNormalLimit)
+                throw std::runtime_error(what + ": normal of vertex " + std::to_string(walk[i].v) + " out of range");
+            normals[at] = int16_t(value);
+        }
+    }
+}
+
+// What the decoder already knows when it reaches a vertex's parent (FORMAT.md §9).
+struct ParentContext {
+    uint32_t previous = 0;  // the previous vertex's parent in walk order
+    uint32_t largest = 0;
+    bool any = false;
+    void add(uint32_t parent) {
+        previous = parent;
+        if (!any || parent > largest) largest = parent;
+        any = true;
+    }
+    uint32_t next_new() const { return any ? largest + 1 : 0; }  // wraps like every u32 here
+};
+
+std::vector<uint8_t> encode_parents(const std::vector<FirstUse>& walk, const std::vector<uint32_t>& parents,
+                                    BitWriter& bits) {
+    std::vector<uint8_t> symbols;
+    symbols.reserve(walk.size());
+    ParentContext known;
+    for (const FirstUse& f : walk) {
+        const uint32_t parent = parents[f.v];
+        if (parent == known.previous) symbols.push_back(kSameAsPrevious);
+        else if (f.a != kNone && parent == parents[f.a]) symbols.push_back(kSameAsA);
+        else if (f.b != kNone && parent == parents[f.b]) symbols.push_back(kSameAsB);
+        else if (parent == known.next_new()) symbols.push_back(kNextNew);
+        else {
+            const uint32_t z = zigzag(int32_t(parent - known.previous));
+            symbols.push_back(uint8_t(kExplicit + size_class(z)));
+            bits.put_low_bits(z, size_class(z));
+        }
+        known.add(parent);
+    }
+    return symbols;
+}
+
+void decode_parents(const std::vector<FirstUse>& walk, std::span<const uint8_t> symbols, BitReader& bits,
+                    std::vector<uint32_t>& parents, const std::string& what) {
+    parents.resize(walk.size());
+    ParentContext known;
+    for (size_t i = 0; i < walk.size(); ++i) {
+        const FirstUse& f = walk[i];
+        const uint8_t s = symbols[i];
+        uint32_t parent;
+        if (s == kSameAsPrevious) parent = known.previous;
+        else if (s == kSameAsA || s == kSameAsB) {
+            const uint32_t corner = s == kSameAsA ? f.a : f.b;
+            if (corner == kNone)
+                throw std::runtime_error(what + ": parent of vertex " + std::to_string(f.v) + " names a corner not yet decoded");
+            parent = parents[corner];
+        } else if (s == kNextNew) parent = known.next_new();
+        else if (s <= kLastParentSymbol) parent = known.previous + uint32_t(unzigzag(bits.value_of_class(s - kExplicit)));
+        else throw std::runtime_error(what + ": parent symbol " + std::to_string(s) + " past " + std::to_string(kLastParentSymbol));
+        parents[f.v] = parent;
+        known.add(parent);
+    }
 }
 
 }  // namespace
 
-// Payload (FORMAT.md §5): counts, child triangle counts, six stream sizes, the packing, then the
-// streams: positions, normals as residuals against the triangles' prediction, colours, UVs, each
-// vertex's parent index in the parent cube (meshoptimizer's vertex codec), and the triangles (its
-// index codec), usually as one zstd frame.
+// Payload (FORMAT.md §5): counts, child triangle counts, each stream's size and stored size, then the
+// streams: the triangles (meshoptimizer's index codec), then positions, normals and parents as residual
+// classes against what the triangles predict, walking the vertices in first-use order, colours and UVs
+// (its vertex codec), and the residuals' low bits.
 std::vector<uint8_t> encode_cube(const CubeData& cube, uint32_t flags) {
-    const size_t n = cube.vertex_count();
-    std::vector<int16_t> residuals = predicted_normals(cube.vertices.positions, cube.indices);
-    for (size_t i = 0; i < residuals.size(); ++i) residuals[i] = int16_t(cube.vertices.normals[i] - residuals[i]);
+    const uint32_t n = cube.vertex_count();
     std::vector<uint8_t> streams[kStreams];
-    streams[kPositions] = encode_vertices(position_records(cube.vertices.positions), n, 8);
-    streams[kNormals] = encode_vertices(as_bytes(residuals), n, 4);
+    streams[kIndices] = encode_indices(cube.indices, n);
+    const std::vector<uint32_t> indices = decode_indices(streams[kIndices], cube.triangle_count(), n, "encode_cube");
+    const std::vector<FirstUse> walk = first_use_walk(indices, n);
+    BitWriter bits;
+    streams[kPositions] = encode_positions(walk, cube.vertices.positions, bits);
+    streams[kNormals] = encode_normals(walk, cube.vertices.normals, predicted_normals(cube.vertices.positions, indices), bits);
+    streams[kParents] = encode_parents(walk, cube.parent_vertex, bits);
     if (flags & kHasColors) streams[kColors] = encode_vertices(cube.vertices.colors, n, 4);
     if (flags & kHasUvs) streams[kUvs] = encode_vertices(as_bytes(cube.vertices.uvs), n, 8);
-    streams[kParents] = encode_vertices(as_bytes(cube.parent_vertex), n, 4);
-    streams[kIndices] = encode_indices(cube.indices, n);
+    streams[kBits] = bits.finish();
     ByteWriter w;
-    w.put(uint32_t(n));
+    w.put(n);
     w.put(cube.triangle_count());
     for (uint32_t c : cube.child_triangle_counts) w.put(c);
-    std::vector<uint8_t> all;
+    std::vector<uint8_t> body;
     for (const auto& s : streams) {
-        w.put(uint32_t(s.size()));
-        all.insert(all.end(), s.begin(), s.end());
+        const std::vector<uint8_t> stored = packed(s);
+        w.put(uint32_t(s.size())), w.put(uint32_t(stored.size()));
+        body.insert(body.end(), stored.begin(), stored.end());
     }
-    if (!all.empty()) append_packed(w, all);
-    else w.put(uint32_t(kStored));
+    w.put_bytes(body.data(), body.size());
     return std::move(w.bytes);
 }
 
@@ -481,46 +770,30 @@ CubeData decode_cube(std::span<const uint8_t> bytes, const HlodNode& node, uint3
     uint64_t grouped = 0;
     for (uint32_t& c : cube.child_triangle_counts) grouped += c = r.get<uint32_t>();
     if (grouped != triangles) throw std::runtime_error(what + ": child triangle counts do not add up");
-    uint32_t sizes[kStreams];
-    uint64_t total = 0;
-    for (uint32_t& s : sizes) total += s = r.get<uint32_t>();
-    const uint32_t packing = r.get<uint32_t>();
-    // Bound every count by the stream that holds it before allocating for it: meshoptimizer's vertex
-    // codec spends at least 2 bits per 16 records on each byte of a record (so an 8-byte record costs
-    // ≥ 1/8 byte), its index codec at least a byte per triangle.
-    auto fits = [](uint64_t count, uint32_t stream) { return count <= 8 * uint64_t(stream) + 16; };
-    if (!fits(n, sizes[kPositions]) || triangles > sizes[kIndices])
+    uint32_t sizes[kStreams], stored[kStreams];
+    for (int s = 0; s < kStreams; ++s) sizes[s] = r.get<uint32_t>(), stored[s] = r.get<uint32_t>();
+    // Every count is bounded by the stream that holds it before anything is allocated for it: one byte
+    // per position coordinate and one per normal and parent, at least a byte per triangle in the index codec.
+    const bool colours = (flags & kHasColors) && n > 0, uvs = (flags & kHasUvs) && n > 0;
+    if (sizes[kPositions] != 3 * uint64_t(n) || sizes[kNormals] != n || sizes[kParents] != n ||
+        colours != (sizes[kColors] != 0) || uvs != (sizes[kUvs] != 0))
+        throw std::runtime_error(what + ": stream sizes disagree with the counts");
+    if (triangles > sizes[kIndices] || (triangles == 0) != (sizes[kIndices] == 0))
         throw std::runtime_error(what + ": counts larger than the payload could hold");
-    const std::vector<uint8_t> streams = unpack_streams(packing, bytes.subspan(r.position()), total, what);
-    ByteReader s(streams, what + " payload");
+    std::vector<uint8_t> streams[kStreams];
+    for (int s = 0; s < kStreams; ++s) streams[s] = unpacked(r.get_bytes(stored[s]), sizes[s], what);
+    if (!r.at_end()) throw std::runtime_error(what + ": payload longer than its streams");
 
-    const auto positions = decode_vertices(s.get_bytes(sizes[kPositions]), n, 8, what);
-    cube.vertices.positions.resize(3 * size_t(n));
-    for (size_t i = 0; i < n; ++i) std::memcpy(&cube.vertices.positions[3 * i], &positions[8 * i], 6);
-    from_bytes(decode_vertices(s.get_bytes(sizes[kNormals]), n, 4, what), cube.vertices.normals);
-    const auto colors = s.get_bytes(sizes[kColors]);
-    if (flags & kHasColors) cube.vertices.colors = decode_vertices(colors, n, 4, what);
-    const auto uvs = s.get_bytes(sizes[kUvs]);
-    if (flags & kHasUvs) from_bytes(decode_vertices(uvs, n, 8, what), cube.vertices.uvs);
-    from_bytes(decode_vertices(s.get_bytes(sizes[kParents]), n, 4, what), cube.parent_vertex);
-    cube.indices.resize(size_t(triangles) * 3);
-    const auto index_stream = s.get_bytes(sizes[kIndices]);
-    if (triangles && meshopt_decodeIndexBuffer(cube.indices.data(), cube.indices.size(), 4, index_stream.data(),
-                                               index_stream.size()) != 0)
-        throw std::runtime_error(what + ": index stream does not decode");
-    for (uint32_t index : cube.indices)
-        if (index >= n) throw std::runtime_error(what + ": index " + std::to_string(index) + " past its " +
-                                                 std::to_string(n) + " vertices");
-
-    // Normals last: their prediction needs the positions and the triangles.
-    const std::vector<int16_t> predicted = predicted_normals(cube.vertices.positions, cube.indices);
-    constexpr int kNormalLimit = (1 << (kNormalBits - 1)) - 1;
-    for (size_t i = 0; i < predicted.size(); ++i) {
-        const int value = cube.vertices.normals[i] + predicted[i];
-        if (value < -kNormalLimit || value > kNormalLimit)
-            throw std::runtime_error(what + ": normal of vertex " + std::to_string(i / 2) + " out of range");
-        cube.vertices.normals[i] = int16_t(value);
-    }
+    cube.indices = decode_indices(streams[kIndices], triangles, n, what);
+    const std::vector<FirstUse> walk = first_use_walk(cube.indices, n);
+    BitReader bits(streams[kBits], what);
+    decode_positions(walk, streams[kPositions], bits, cube.vertices.positions, what);
+    decode_normals(walk, streams[kNormals], bits, predicted_normals(cube.vertices.positions, cube.indices),
+                   cube.vertices.normals, what);
+    decode_parents(walk, streams[kParents], bits, cube.parent_vertex, what);
+    if (!bits.at_end()) throw std::runtime_error(what + ": bit stream longer than its residuals");
+    if (flags & kHasColors) cube.vertices.colors = decode_vertices(streams[kColors], n, 4, what);
+    if (flags & kHasUvs) from_bytes(decode_vertices(streams[kUvs], n, 8, what), cube.vertices.uvs);
     return cube;
 }
 
@@ -859,6 +1132,10 @@ void HlodFile::read_model_section(const HlodSection& section) {
     ByteReader r(bytes, name + ": " + quoted(section));
     HlodHeader& h = header_;
     h.payload_codec = r.get<uint32_t>();
+    if (h.payload_codec < kCubePayloadCodec)
+        throw std::runtime_error(name + ": payload codec " + std::to_string(h.payload_codec) +
+                                 " (from an older Strata), which this Strata no longer reads; rebuild it from its scan: "
+                                 "strata build SCAN -o " + name);
     if (h.payload_codec != kCubePayloadCodec)
         throw std::runtime_error(name + ": payload codec " + std::to_string(h.payload_codec) +
                                  ", which this Strata does not know; it was written by a newer version");

@@ -16,10 +16,11 @@ namespace strata {
 
 inline constexpr char kHlodMagic[8] = {'S', 'T', 'R', 'A', 'T', 'A', 'H', 'L'};
 inline constexpr uint32_t kHlodVersion = 2;
-// MODL's payload codec id: 1 is the six-stream cube payload (positions, normals as residuals against
-// the triangles' prediction, colours, UVs, parents as indices, triangles), usually zstd-packed (FORMAT.md §5). A later payload layout
-// gets a new id, which older readers refuse by name instead of misreading.
-inline constexpr uint32_t kCubePayloadCodec = 1;
+// MODL's payload codec id: 2 is the seven-stream cube payload (triangles; positions, normals and parents
+// as residuals against what the triangles predict, with their low bits in a shared bit stream; colours;
+// UVs), each stream stored or zstd-packed (FORMAT.md §5). Codec 1 (before 2026-12) is refused with how to
+// rebuild; a later layout gets a new id, which older readers refuse by name instead of misreading.
+inline constexpr uint32_t kCubePayloadCodec = 2;
 
 // Vertex positions live on one lattice per level anchored at the model origin (DESIGN.md §2):
 // q = round((x − O)/h_l) with h_l = 2^-15·s_l, stored as the 16-bit q − 2^15·cell + 2^14.

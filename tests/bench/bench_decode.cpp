@@ -3,11 +3,14 @@
 //   bench_decode MODEL.hlod
 //
 // The payloads are read (and their checksums checked) once, untimed, so the runs measure decoding from
-// memory, not the disk. Prints the payload bytes per input triangle, and decode speed as MB of payload
-// per second (to compare with the disk's read speed: decoding must outpace it) and M triangles per second.
+// memory, not the disk. Prints the payload bytes per input triangle, each stream's share of them (as
+// stored, from the payload headers, FORMAT.md §5), and decode speed as MB of payload per second (to
+// compare with the disk's read speed: decoding must outpace it) and M triangles per second.
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cstdio>
+#include <cstring>
 #include <exception>
 #include <vector>
 
@@ -22,6 +25,29 @@ double seconds_to_decode(const std::vector<strata::HlodNode>& nodes, const std::
     for (size_t c = 0; c < nodes.size(); ++c) triangles += strata::decode_cube(payloads[c], nodes[c], flags).triangle_count();
     const std::chrono::duration<double> elapsed = std::chrono::steady_clock::now() - start;
     return elapsed.count();
+}
+
+// FORMAT.md §5: the payload header, then each stream's unpacked and stored size.
+constexpr size_t kStreamSizesAt = 40;
+constexpr const char* kStreamNames[] = {"triangles", "positions", "normals", "parents", "colours", "UVs", "low bits"};
+constexpr size_t kStreams = std::size(kStreamNames);
+
+void print_stream_shares(const std::vector<std::vector<uint8_t>>& payloads, double input_triangles) {
+    std::array<uint64_t, kStreams> stored{};
+    uint64_t headers = 0;
+    for (const auto& p : payloads) {
+        if (p.size() < kStreamSizesAt + 8 * kStreams) continue;  // decode_cube refuses it
+        headers += kStreamSizesAt + 8 * kStreams;
+        for (size_t s = 0; s < kStreams; ++s) {
+            uint32_t size;
+            std::memcpy(&size, p.data() + kStreamSizesAt + 8 * s + 4, 4);
+            stored[s] += size;
+        }
+    }
+    std::printf("bytes per input triangle: headers %.3f", double(headers) / input_triangles);
+    for (size_t s = 0; s < kStreams; ++s)
+        if (stored[s]) std::printf(", %s %.3f", kStreamNames[s], double(stored[s]) / input_triangles);
+    std::printf("\n");
 }
 
 }  // namespace
@@ -48,6 +74,7 @@ int main(int argc, char** argv) {
         std::printf("file: %s, %.1f MB (%.3f bytes per input triangle), payloads %.1f MB, %zu cubes, %llu triangles\n",
                     argv[1], double(file.file_size()) / 1e6, double(file.file_size()) / input_triangles,
                     double(payload_bytes) / 1e6, file.nodes().size(), static_cast<unsigned long long>(triangles));
+        print_stream_shares(payloads, input_triangles);
         std::printf("decode: median %.3f s: %.0f MB/s of payload, %.1f M triangles/s\n", median,
                     double(payload_bytes) / 1e6 / median, double(triangles) / 1e6 / median);
     } catch (const std::exception& e) {

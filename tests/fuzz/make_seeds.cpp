@@ -136,7 +136,7 @@ void hlod_seeds(const fs::path& dir) {
     settings.threads = 1;
     settings.leaf_triangles = 64;  // a few levels from a small mesh
     strata::build_hlod(strata::test::icosphere(2), dir / "hlod/sphere", settings, "sphere.ply");
-    Mesh grid = strata::test::colored_grid(6);  // colours and UVs: streams 1, 2, 5 and 6
+    Mesh grid = strata::test::colored_grid(6);  // colours and UVs: payload streams 4 and 5
     grid.texture = "grid.png";
     strata::build_hlod(std::move(grid), dir / "hlod/grid", settings, "grid.obj");
     georeferenced_copy(dir / "hlod/sphere", dir / "hlod/sphere_georeferenced");

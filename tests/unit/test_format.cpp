@@ -117,43 +117,91 @@ void expect_same_cube(const CubeData& got, const CubeData& want, uint32_t flags)
 }
 
 // Payload header offsets and streams (FORMAT.md §5).
-constexpr size_t kVertexCountAt = 0, kTriangleCountAt = 4, kChildCountsAt = 8, kSizesAt = 40, kPackingAt = 64,
-                 kStreamsAt = 68;
-constexpr int kStreams = 6, kNormalStream = 1, kColorStream = 2, kUvStream = 3, kParentStream = 4, kIndexStream = 5;
-constexpr uint32_t kStored = 0, kZstd = 1;
-
-// The streams of a payload, unpacked as FORMAT.md §5 says (independently of decode_cube).
-std::vector<uint8_t> unpacked_streams(const std::vector<uint8_t>& payload) {
-    uint64_t total = 0;
-    for (int s = 0; s < kStreams; ++s) total += get<uint32_t>(payload, kSizesAt + 4 * s);
-    std::vector<uint8_t> body(payload.begin() + kStreamsAt, payload.end());
-    if (get<uint32_t>(payload, kPackingAt) == kStored) return body;
-    std::vector<uint8_t> streams(total);
-    EXPECT_EQ(ZSTD_decompress(streams.data(), streams.size(), body.data(), body.size()), total);
-    return streams;
-}
-
-// A payload with its streams stored as they are, not as a zstd frame: for editing a stream in place.
-std::vector<uint8_t> stored_payload(const std::vector<uint8_t>& payload) {
-    std::vector<uint8_t> out(payload.begin(), payload.begin() + kStreamsAt);
-    put<uint32_t>(out, kPackingAt, kStored);
-    const std::vector<uint8_t> streams = unpacked_streams(payload);
-    out.insert(out.end(), streams.begin(), streams.end());
-    return out;
-}
-
-// The same payload with its streams as the zstd frame `frame`.
-std::vector<uint8_t> with_frame(const std::vector<uint8_t>& payload, const std::vector<uint8_t>& frame) {
-    std::vector<uint8_t> out(payload.begin(), payload.begin() + kStreamsAt);
-    put<uint32_t>(out, kPackingAt, kZstd);
-    out.insert(out.end(), frame.begin(), frame.end());
-    return out;
-}
+constexpr size_t kVertexCountAt = 0, kTriangleCountAt = 4, kChildCountsAt = 8, kStreamSizesAt = 40, kStreamsAt = 96;
+constexpr int kStreams = 7, kIndexStream = 0, kPositionStream = 1, kNormalStream = 2, kParentStream = 3, kColorStream = 4,
+              kUvStream = 5, kBitStream = 6;
+uint32_t stream_size(const std::vector<uint8_t>& payload, int s) { return get<uint32_t>(payload, kStreamSizesAt + 8 * s); }
+uint32_t stored_size(const std::vector<uint8_t>& payload, int s) { return get<uint32_t>(payload, kStreamSizesAt + 8 * s + 4); }
 
 std::vector<uint8_t> zstd_frame(const std::vector<uint8_t>& bytes) {
     std::vector<uint8_t> frame(ZSTD_compressBound(bytes.size()));
     frame.resize(ZSTD_compress(frame.data(), frame.size(), bytes.data(), bytes.size(), 3));
     return frame;
+}
+
+// The streams of a payload, unpacked as FORMAT.md §5 says (independently of decode_cube).
+std::vector<std::vector<uint8_t>> unpacked_streams(const std::vector<uint8_t>& payload) {
+    std::vector<std::vector<uint8_t>> streams(kStreams);
+    size_t at = kStreamsAt;
+    for (int s = 0; s < kStreams; ++s) {
+        const uint32_t size = stream_size(payload, s), stored = stored_size(payload, s);
+        streams[s].resize(size);
+        if (stored == size) {
+            std::copy(payload.begin() + at, payload.begin() + at + size, streams[s].begin());
+        } else {
+            EXPECT_EQ(ZSTD_decompress(streams[s].data(), size, &payload[at], stored), size) << "stream " << s;
+        }
+        at += stored;
+    }
+    EXPECT_EQ(at, payload.size());
+    return streams;
+}
+
+// The payload's header (counts) with these streams, each stored as it is or, where `zstd` says, as a
+// zstd frame where that is smaller (or as the frame given in `frames`).
+std::vector<uint8_t> with_streams(const std::vector<uint8_t>& payload, const std::vector<std::vector<uint8_t>>& streams,
+                                  bool zstd, const std::vector<std::vector<uint8_t>>& frames = {}) {
+    std::vector<uint8_t> out(payload.begin(), payload.begin() + kStreamsAt);
+    for (int s = 0; s < kStreams; ++s) {
+        std::vector<uint8_t> stored = streams[s];
+        if (!frames.empty() && !frames[s].empty()) stored = frames[s];
+        else if (zstd && !stored.empty() && zstd_frame(stored).size() < stored.size()) stored = zstd_frame(stored);
+        put<uint32_t>(out, kStreamSizesAt + 8 * s, uint32_t(streams[s].size()));
+        put<uint32_t>(out, kStreamSizesAt + 8 * s + 4, uint32_t(stored.size()));
+        out.insert(out.end(), stored.begin(), stored.end());
+    }
+    return out;
+}
+
+// The same payload with every stream stored as it is: for editing a stream in place.
+std::vector<uint8_t> stored_payload(const std::vector<uint8_t>& payload) {
+    return with_streams(payload, unpacked_streams(payload), false);
+}
+
+// A regular grid of side² vertices at spacing 1000, heights h(x, y), its two triangles per square, the
+// parents of a grid half as fine, and normals that are the area-weighted ones of its own triangles (as
+// the builder computes them inside a cube).
+template <class Height>
+CubeData grid_cube(uint32_t side, Height h) {
+    CubeData c;
+    for (uint32_t y = 0; y < side; ++y)
+        for (uint32_t x = 0; x < side; ++x) {
+            c.vertices.positions.insert(c.vertices.positions.end(),
+                                        {uint16_t(20000 + 1000 * x), uint16_t(20000 + 1000 * y), uint16_t(32768 + h(x, y))});
+            c.parent_vertex.push_back((y / 2) * (side / 2) + x / 2);
+        }
+    for (uint32_t y = 0; y + 1 < side; ++y)
+        for (uint32_t x = 0; x + 1 < side; ++x) {
+            const uint32_t a = y * side + x;
+            c.indices.insert(c.indices.end(), {a, a + 1, a + side + 1, a, a + side + 1, a + side});
+        }
+    c.child_triangle_counts[0] = c.triangle_count();
+    std::vector<std::array<float, 3>> sums(side * side, {0, 0, 0});
+    for (size_t t = 0; t < c.indices.size(); t += 3) {
+        float p[3][3];
+        for (int k = 0; k < 3; ++k)
+            for (int a = 0; a < 3; ++a) p[k][a] = float(c.vertices.positions[3 * c.indices[t + k] + a]);
+        const float e1[3] = {p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]};
+        const float e2[3] = {p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]};
+        const float n[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
+        for (int k = 0; k < 3; ++k)
+            for (int a = 0; a < 3; ++a) sums[c.indices[t + k]][a] += n[a];
+    }
+    for (const auto& s : sums) {
+        const auto n = encode_normal(s[0], s[1], s[2]);
+        c.vertices.normals.insert(c.vertices.normals.end(), n.begin(), n.end());
+    }
+    return c;
 }
 
 // ---- CRC-32C ----------------------------------------------------------------------------------------
@@ -309,76 +357,80 @@ TEST(CubePayload, RoundTripWithEveryFlagCombination) {
         SCOPED_TRACE("flags " + std::to_string(flags));
         expect_same_cube(back, cube, flags);
 
-        // The layout of FORMAT.md §5: counts, child counts, sizes, packing, then the streams.
+        // The layout of FORMAT.md §5: counts, child counts, each stream's size and stored size, the streams.
         ASSERT_GE(payload.size(), kStreamsAt);
         EXPECT_EQ(get<uint32_t>(payload, kVertexCountAt), 40u);
         EXPECT_EQ(get<uint32_t>(payload, kTriangleCountAt), 57u);
         EXPECT_EQ(get<uint32_t>(payload, kChildCountsAt + 4 * 5), cube.child_triangle_counts[5]);
-        size_t total = 0;
-        uint32_t sizes[kStreams];
-        for (int s = 0; s < kStreams; ++s) total += sizes[s] = get<uint32_t>(payload, kSizesAt + 4 * s);
-        const std::vector<uint8_t> streams = unpacked_streams(payload);
-        EXPECT_EQ(streams.size(), total);
-        for (int s : {0, kNormalStream, kParentStream, kIndexStream}) EXPECT_GT(sizes[s], 0u) << "stream " << s;
-        EXPECT_EQ(sizes[kColorStream] > 0, bool(flags & kHasColors));
-        EXPECT_EQ(sizes[kUvStream] > 0, bool(flags & kHasUvs));
-        EXPECT_EQ(streams[0], 0xA0) << "vertex codec version 0";
-        EXPECT_EQ(streams[total - sizes[kIndexStream]], 0xE0) << "index codec version 0";
+        EXPECT_EQ(stream_size(payload, kPositionStream), 3 * 40u);
+        EXPECT_EQ(stream_size(payload, kNormalStream), 40u);
+        EXPECT_EQ(stream_size(payload, kParentStream), 40u);
+        EXPECT_GT(stream_size(payload, kIndexStream), 0u);
+        EXPECT_GT(stream_size(payload, kBitStream), 0u);
+        EXPECT_EQ(stream_size(payload, kColorStream) > 0, bool(flags & kHasColors));
+        EXPECT_EQ(stream_size(payload, kUvStream) > 0, bool(flags & kHasUvs));
+        const auto streams = unpacked_streams(payload);
+        EXPECT_EQ(streams[kIndexStream][0], 0xE0) << "index codec version 0";
+        if (flags & kHasColors) {
+            EXPECT_EQ(streams[kColorStream][0], 0xA0) << "vertex codec version 0";
+        }
 
-        // Either packing decodes to the same cube.
-        expect_same_cube(decode_cube(stored_payload(payload), node_for(cube), flags), cube, flags);
-        expect_same_cube(decode_cube(with_frame(payload, zstd_frame(streams)), node_for(cube), flags), cube, flags);
+        // Stored or zstd, every stream decodes to the same cube.
+        expect_same_cube(decode_cube(with_streams(payload, streams, false), node_for(cube), flags), cube, flags);
+        const std::vector<uint8_t> packed = with_streams(payload, streams, true);
+        EXPECT_LT(stored_size(packed, kPositionStream), stream_size(packed, kPositionStream)) << "zstd-packed";
+        expect_same_cube(decode_cube(packed, node_for(cube), flags), cube, flags);
     }
 }
 
-// A smooth patch whose normals are the area-weighted ones of its own triangles (as the builder computes
-// them inside a cube): the triangles predict them, so the normal stream is far smaller than for the
-// same patch with unrelated normals, and a cube of many such vertices is packed with zstd.
+// A regular flat grid: every vertex that a triangle across an edge predicts (all but the first row and
+// the first of each other row) is exactly its parallelogram, residual class 0.
+TEST(CubePayload, PositionsThatTheTrianglesPredictCostNothing) {
+    constexpr uint32_t side = 20;
+    const CubeData flat = grid_cube(side, [](uint32_t, uint32_t) { return 0.0; });
+    const std::vector<uint8_t> payload = encode_cube(flat, 0);
+    expect_same_cube(decode_cube(payload, node_for(flat), 0), flat, 0);
+    const std::vector<uint8_t> classes = unpacked_streams(payload)[kPositionStream];
+    const size_t nonzero = size_t(std::count_if(classes.begin(), classes.end(), [](uint8_t c) { return c != 0; }));
+    EXPECT_LE(nonzero, 3 * (2 * side)) << "of " << classes.size();
+    // The same vertices in a random order cost far more.
+    CubeData shuffled = flat;
+    std::mt19937 rng(3);
+    for (size_t v = 0; v < flat.vertex_count(); ++v) {
+        const size_t w = rng() % flat.vertex_count();
+        for (int a = 0; a < 3; ++a) std::swap(shuffled.vertices.positions[3 * v + a], shuffled.vertices.positions[3 * w + a]);
+    }
+    EXPECT_LT(4 * payload.size(), encode_cube(shuffled, 0).size());
+}
+
+// Normals that the triangles predict cost far less than the same patch with unrelated normals.
 TEST(CubePayload, NormalsThatTheTrianglesPredictCostLittle) {
-    constexpr uint32_t side = 24;
-    CubeData smooth;
-    for (uint32_t y = 0; y < side; ++y)
-        for (uint32_t x = 0; x < side; ++x) {
-            const double h = 4000 * std::sin(0.2 * x) * std::cos(0.15 * y);
-            smooth.vertices.positions.insert(smooth.vertices.positions.end(),
-                                             {uint16_t(20000 + 1000 * x), uint16_t(20000 + 1000 * y), uint16_t(32768 + h)});
-            smooth.parent_vertex.push_back((y / 2) * (side / 2) + x / 2);
-        }
-    for (uint32_t y = 0; y + 1 < side; ++y)
-        for (uint32_t x = 0; x + 1 < side; ++x) {
-            const uint32_t a = y * side + x;
-            smooth.indices.insert(smooth.indices.end(), {a, a + 1, a + side + 1, a, a + side + 1, a + side});
-        }
-    smooth.child_triangle_counts[0] = smooth.triangle_count();
-    std::vector<std::array<float, 3>> sums(side * side, {0, 0, 0});
-    for (size_t t = 0; t < smooth.indices.size(); t += 3) {
-        float p[3][3];
-        for (int k = 0; k < 3; ++k)
-            for (int a = 0; a < 3; ++a) p[k][a] = float(smooth.vertices.positions[3 * smooth.indices[t + k] + a]);
-        const float e1[3] = {p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]};
-        const float e2[3] = {p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]};
-        const float n[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
-        for (int k = 0; k < 3; ++k)
-            for (int a = 0; a < 3; ++a) sums[smooth.indices[t + k]][a] += n[a];
-    }
-    for (const auto& s : sums) {
-        const auto n = encode_normal(s[0], s[1], s[2]);
-        smooth.vertices.normals.insert(smooth.vertices.normals.end(), n.begin(), n.end());
-    }
+    const CubeData smooth = grid_cube(24, [](uint32_t x, uint32_t y) { return 4000 * std::sin(0.2 * x) * std::cos(0.15 * y); });
     CubeData unrelated = smooth;
     std::mt19937 rng(7);
     std::uniform_real_distribution<float> component(-1, 1);
-    for (size_t v = 0; v < sums.size(); ++v) {
+    for (size_t v = 0; v < smooth.vertex_count(); ++v) {
         const auto n = encode_normal(component(rng), component(rng), component(rng));
         std::copy(n.begin(), n.end(), unrelated.vertices.normals.begin() + 2 * v);
     }
     const std::vector<uint8_t> predicted = encode_cube(smooth, 0), random = encode_cube(unrelated, 0);
     expect_same_cube(decode_cube(predicted, node_for(smooth), 0), smooth, 0);
     expect_same_cube(decode_cube(random, node_for(unrelated), 0), unrelated, 0);
-    const uint32_t predicted_bytes = get<uint32_t>(predicted, kSizesAt + 4 * kNormalStream);
-    const uint32_t random_bytes = get<uint32_t>(random, kSizesAt + 4 * kNormalStream);
-    EXPECT_LT(predicted_bytes * 4, random_bytes) << predicted_bytes << " vs " << random_bytes;
-    EXPECT_EQ(get<uint32_t>(predicted, kPackingAt), kZstd);
+    // Positions are the same in both, so the difference is the normals' classes and low bits.
+    const size_t predicted_bytes = predicted.size() - stored_size(predicted, kPositionStream);
+    const size_t random_bytes = random.size() - stored_size(random, kPositionStream);
+    EXPECT_LT(2 * predicted_bytes, random_bytes) << predicted_bytes << " vs " << random_bytes;
+    EXPECT_LT(stored_size(predicted, kNormalStream), stream_size(predicted, kNormalStream)) << "zstd-packed";
+}
+
+// Parents of a grid half as fine: most repeat a neighbour's or are the next new one.
+TEST(CubePayload, ParentsThatRepeatANeighboursCostLittle) {
+    const CubeData grid = grid_cube(24, [](uint32_t, uint32_t) { return 0.0; });
+    const std::vector<uint8_t> payload = encode_cube(grid, 0);
+    const std::vector<uint8_t> symbols = unpacked_streams(payload)[kParentStream];
+    // Symbols 0‥3 need no low bits (FORMAT.md §9).
+    const size_t explicit_parents = size_t(std::count_if(symbols.begin(), symbols.end(), [](uint8_t s) { return s >= 4; }));
+    EXPECT_LT(explicit_parents * 4, symbols.size());
 }
 
 TEST(CubePayload, RoundTripWithoutTriangles) {
@@ -386,16 +438,16 @@ TEST(CubePayload, RoundTripWithoutTriangles) {
         // Extra vertices only (FORMAT.md §9): vertices with their parents, no triangles.
         CubeData extras = make_cube(3, 2, 0, flags);
         std::vector<uint8_t> payload = encode_cube(extras, flags);
-        EXPECT_EQ(get<uint32_t>(payload, kSizesAt + 4 * kIndexStream), 0u);  // empty index stream
+        EXPECT_EQ(stream_size(payload, kIndexStream), 0u);  // empty index stream
         CubeData back = decode_cube(payload, node_for(extras), flags);
         expect_same_cube(back, extras, flags);
         EXPECT_EQ(back.triangle_count(), 0u);
 
-        // Nothing at all: just the header, streams stored (all empty).
+        // Nothing at all: just the header, every stream empty.
         CubeData empty;
         payload = encode_cube(empty, flags);
         EXPECT_EQ(payload.size(), kStreamsAt);
-        EXPECT_EQ(get<uint32_t>(payload, kPackingAt), kStored);
+        for (int s = 0; s < kStreams; ++s) EXPECT_EQ(stream_size(payload, s) + stored_size(payload, s), 0u);
         back = decode_cube(payload, node_for(empty), flags);
         EXPECT_EQ(back.vertex_count(), 0u);
         EXPECT_TRUE(back.parent_vertex.empty());
@@ -409,6 +461,7 @@ protected:
         cube = make_cube(24, 7, 30, flags);
         node = node_for(cube);
         payload = encode_cube(cube, flags);
+        streams = unpacked_streams(payload);
         ASSERT_NO_THROW(decode_cube(payload, node, flags));
     }
     // Decoding throws std::runtime_error naming the cube and containing `what`.
@@ -421,20 +474,26 @@ protected:
             EXPECT_THAT(e.what(), HasSubstr(what));
         }
     }
+    // The payload with stream s replaced (stored as it is).
+    std::vector<uint8_t> with_stream(int s, const std::vector<uint8_t>& bytes) const {
+        auto edited = streams;
+        edited[s] = bytes;
+        return with_streams(payload, edited, false);
+    }
     const uint32_t flags = kHasColors | kHasUvs;
     CubeData cube;
     HlodNode node;
     std::vector<uint8_t> payload;
+    std::vector<std::vector<uint8_t>> streams;
 };
 
 TEST_F(BadPayload, Truncated) {
-    for (size_t keep : {size_t(0), size_t(10), kSizesAt + 8, kStreamsAt, payload.size() / 2, payload.size() - 1}) {
+    for (size_t keep : {size_t(0), size_t(10), kStreamSizesAt + 8, kStreamsAt, payload.size() / 2, payload.size() - 1}) {
         std::vector<uint8_t> cut(payload.begin(), payload.begin() + keep);
         EXPECT_THROW(decode_cube(cut, node, flags), std::runtime_error) << "kept " << keep << " bytes";
     }
-    expect_rejected(std::vector<uint8_t>(payload.begin(), payload.begin() + kPackingAt), node, "ends early");
-    const std::vector<uint8_t> stored = stored_payload(payload);
-    expect_rejected(std::vector<uint8_t>(stored.begin(), stored.end() - 1), node, "ends early");
+    expect_rejected(std::vector<uint8_t>(payload.begin(), payload.begin() + kStreamsAt - 4), node, "ends early");
+    expect_rejected(std::vector<uint8_t>(payload.begin(), payload.end() - 1), node, "ends early");
 }
 
 TEST_F(BadPayload, CountsDisagreeWithTheNode) {
@@ -460,79 +519,82 @@ TEST_F(BadPayload, ChildCountsDoNotAddUp) {
 }
 
 TEST_F(BadPayload, StreamSizesThatDoNotMatchTheStreams) {
-    // Stored: the sizes must add up to exactly the bytes after the header.
-    const std::vector<uint8_t> stored = stored_payload(payload);
-    ASSERT_NO_THROW(decode_cube(stored, node, flags));
-    std::vector<uint8_t> edited = stored;
-    put<uint32_t>(edited, kSizesAt, get<uint32_t>(stored, kSizesAt) + 1);  // stream 0 one byte longer
-    expect_rejected(edited, node, "ends early");
-    edited = stored;
-    put<uint32_t>(edited, kSizesAt + 4 * kIndexStream, get<uint32_t>(stored, kSizesAt + 4 * kIndexStream) - 1);
-    expect_rejected(edited, node, "payload longer than its streams");
-    edited = stored;  // sizes add up, but the boundary between two streams moved
-    put<uint32_t>(edited, kSizesAt, get<uint32_t>(stored, kSizesAt) + 2);
-    put<uint32_t>(edited, kSizesAt + 4 * kNormalStream, get<uint32_t>(stored, kSizesAt + 4 * kNormalStream) - 2);
-    EXPECT_THROW(decode_cube(edited, node, flags), std::runtime_error);
-    // zstd: the frame must hold exactly the streams' size.
-    edited = with_frame(payload, zstd_frame(unpacked_streams(payload)));
-    put<uint32_t>(edited, kSizesAt + 4 * kIndexStream, get<uint32_t>(edited, kSizesAt + 4 * kIndexStream) + 100);
-    expect_rejected(edited, node, "zstd frame does not hold the streams' size");
-}
-
-TEST_F(BadPayload, UnknownPacking) {
+    // Positions, normals and parents hold exactly 3, 1 and 1 bytes per vertex; colours and UVs are present
+    // exactly when the flags say so.
+    auto longer = streams[kPositionStream];
+    longer.push_back(0);
+    expect_rejected(with_stream(kPositionStream, longer), node, "stream sizes disagree with the counts");
+    expect_rejected(with_stream(kParentStream, {}), node, "stream sizes disagree with the counts");
+    expect_rejected(with_stream(kUvStream, {}), node, "stream sizes disagree with the counts");
+    // Stored bytes: after the last stream nothing may follow, and none may be stored in more bytes than it holds.
     std::vector<uint8_t> edited = payload;
-    put<uint32_t>(edited, kPackingAt, 2);
-    expect_rejected(edited, node, "unknown stream packing 2");
+    edited.push_back(0);
+    expect_rejected(edited, node, "payload longer than its streams");
+    edited = stored_payload(payload);
+    put<uint32_t>(edited, kStreamSizesAt + 8 * kBitStream, stream_size(edited, kBitStream) - 1);
+    expect_rejected(edited, node, "stored in more bytes than it holds");
+    // zstd: the frame must hold exactly the stream's size.
+    auto frames = std::vector<std::vector<uint8_t>>(kStreams);
+    frames[kBitStream] = zstd_frame(std::vector<uint8_t>(streams[kBitStream].size() - 1, 0));
+    expect_rejected(with_streams(payload, streams, false, frames), node, "zstd frame does not hold the stream's size");
 }
 
 TEST_F(BadPayload, CorruptZstdFrame) {
-    std::vector<uint8_t> frame = zstd_frame(unpacked_streams(payload));
-    frame.resize(frame.size() - 3);  // the frame's end cut off (its header still declares the size)
-    expect_rejected(with_frame(payload, frame), node, "zstd frame does not decode");
-    frame = zstd_frame(unpacked_streams(payload));
-    frame[0] ^= 0xFF;  // no zstd magic
-    expect_rejected(with_frame(payload, frame), node, "zstd frame does not hold the streams' size");
+    auto frames = std::vector<std::vector<uint8_t>>(kStreams);
+    frames[kPositionStream] = zstd_frame(streams[kPositionStream]);
+    frames[kPositionStream].resize(frames[kPositionStream].size() - 3);  // its end cut off (the header still declares the size)
+    expect_rejected(with_streams(payload, streams, false, frames), node, "zstd frame does not decode");
+    frames[kPositionStream] = zstd_frame(streams[kPositionStream]);
+    frames[kPositionStream][0] ^= 0xFF;  // no zstd magic
+    expect_rejected(with_streams(payload, streams, false, frames), node, "zstd frame does not hold the stream's size");
 }
 
 TEST_F(BadPayload, StreamsFarLargerThanTheirFrame) {
-    // A zstd frame of 64 KiB of zeros is a few dozen bytes: a reader refuses what would take more
-    // than 64 times the payload, before allocating for it.
-    std::vector<uint8_t> edited = payload;
-    put<uint32_t>(edited, kSizesAt + 4 * kParentStream, 65536);
-    uint64_t total = 0;
-    for (int s = 0; s < kStreams; ++s) total += get<uint32_t>(edited, kSizesAt + 4 * s);
-    expect_rejected(with_frame(edited, zstd_frame(std::vector<uint8_t>(total, 0))), node,
-                    "counts larger than the payload could hold");
+    // A zstd frame of 64 KiB of zeros is a few dozen bytes: a reader refuses what would take more than 64
+    // times its stored bytes, before allocating for it.
+    auto edited = streams;
+    edited[kBitStream] = std::vector<uint8_t>(65536, 0);
+    auto frames = std::vector<std::vector<uint8_t>>(kStreams);
+    frames[kBitStream] = zstd_frame(edited[kBitStream]);
+    expect_rejected(with_streams(payload, edited, false, frames), node, "counts larger than the payload could hold");
 }
 
 TEST_F(BadPayload, StreamThatDoesNotDecode) {
-    // Each vertex stream in turn, and the index stream, overwritten with bytes no codec version starts with.
-    for (int stream = 0; stream < kStreams; ++stream) {
-        std::vector<uint8_t> edited = stored_payload(payload);
-        size_t at = kStreamsAt;
-        for (int s = 0; s < stream; ++s) at += get<uint32_t>(edited, kSizesAt + 4 * s);
-        edited[at] = 0x00;
-        expect_rejected(edited, node, stream == kIndexStream ? "index stream does not decode" : "vertex stream does not decode");
+    // The meshoptimizer streams overwritten with bytes no codec version starts with.
+    for (int s : {kIndexStream, kColorStream, kUvStream}) {
+        auto bytes = streams[s];
+        bytes[0] = 0x00;
+        expect_rejected(with_stream(s, bytes), node, s == kIndexStream ? "index stream does not decode" : "vertex stream does not decode");
     }
 }
 
+TEST_F(BadPayload, ResidualsPastTheirClasses) {
+    auto classes = streams[kPositionStream];
+    classes[4] = 17;
+    expect_rejected(with_stream(kPositionStream, classes), node, "position residual class 17 past 16");
+    auto symbols = streams[kParentStream];
+    symbols[2] = 37;
+    expect_rejected(with_stream(kParentStream, symbols), node, "parent symbol 37 past 36");
+    // The first vertex of the walk has no corner before it whose parent it could repeat.
+    symbols = streams[kParentStream];
+    symbols[0] = 1;
+    expect_rejected(with_stream(kParentStream, symbols), node, "names a corner not yet decoded");
+}
+
+TEST_F(BadPayload, BitStreamOfTheWrongLength) {
+    auto bits = streams[kBitStream];
+    bits.pop_back();
+    expect_rejected(with_stream(kBitStream, bits), node, "bit stream ends early");
+    bits = streams[kBitStream];
+    bits.push_back(0);
+    expect_rejected(with_stream(kBitStream, bits), node, "bit stream longer than its residuals");
+}
+
 TEST_F(BadPayload, NormalOutOfRange) {
-    // A normal residual that puts the stored value past ±2047 (FORMAT.md §7).
+    // A residual that puts the normal past ±2047 (FORMAT.md §7): the writer codes any int16 it is given.
     CubeData bad = cube;
-    bad.vertices.normals[2 * 3] = 2047;
-    std::vector<uint8_t> edited = stored_payload(encode_cube(bad, flags));
-    // The residual stream, re-encoded with vertex 3's first residual raised by 4000.
-    size_t at = kStreamsAt + get<uint32_t>(edited, kSizesAt);
-    const uint32_t size = get<uint32_t>(edited, kSizesAt + 4 * kNormalStream);
-    std::vector<int16_t> residuals(2 * cube.vertex_count());
-    ASSERT_EQ(meshopt_decodeVertexBuffer(residuals.data(), cube.vertex_count(), 4, &edited[at], size), 0);
-    residuals[2 * 3] = int16_t(residuals[2 * 3] + 4000);
-    std::vector<uint8_t> stream(meshopt_encodeVertexBufferBound(cube.vertex_count(), 4));
-    stream.resize(meshopt_encodeVertexBuffer(stream.data(), stream.size(), residuals.data(), cube.vertex_count(), 4));
-    edited.erase(edited.begin() + at, edited.begin() + at + size);
-    edited.insert(edited.begin() + at, stream.begin(), stream.end());
-    put<uint32_t>(edited, kSizesAt + 4 * kNormalStream, uint32_t(stream.size()));
-    expect_rejected(edited, node, "normal of vertex 3 out of range");
+    bad.vertices.normals[2 * 3] = 3000;
+    expect_rejected(encode_cube(bad, flags), node, "normal of vertex 3 out of range");
 }
 
 TEST_F(BadPayload, ParentPastTheParentCubeIsRefusedWhenResolved) {
@@ -567,9 +629,12 @@ TEST(ResolveParents, CopiesEachDistinctParentOnceInFirstUseOrder) {
 }
 
 TEST_F(BadPayload, IndexPastTheVertices) {
-    CubeData bad = cube;
-    bad.indices[3 * 12 + 1] = 24;
-    expect_rejected(encode_cube(bad, flags), node, "index 24 past its 24 vertices");
+    // The writer never codes such an index (it checks the triangles it codes), so the stream is made here.
+    std::vector<uint32_t> bad = cube.indices;
+    bad[3 * 12 + 1] = 24;
+    std::vector<uint8_t> stream(meshopt_encodeIndexBufferBound(bad.size(), 25));
+    stream.resize(meshopt_encodeIndexBuffer(stream.data(), stream.size(), bad.data(), bad.size()));
+    expect_rejected(with_stream(kIndexStream, stream), node, "index 24 past its 24 vertices");
 }
 
 // ---- files ------------------------------------------------------------------------------------------
@@ -1029,8 +1094,12 @@ TEST_F(BadFile, RequiredSectionMissing) {
 }
 
 TEST_F(BadFile, UnknownPayloadCodec) {
-    expect_rejected(with_model_field<uint32_t>(kCodecAt, 2),
-                    "payload codec 2, which this Strata does not know; it was written by a newer version");
+    expect_rejected(with_model_field<uint32_t>(kCodecAt, 3),
+                    "payload codec 3, which this Strata does not know; it was written by a newer version");
+    // Codec 1, the payload before codec 2 (2026-12), is no longer read: the message says how to rebuild.
+    expect_rejected(with_model_field<uint32_t>(kCodecAt, 1),
+                    "payload codec 1 (from an older Strata), which this Strata no longer reads; rebuild it from its "
+                    "scan: strata build SCAN -o ");
 }
 
 TEST_F(BadFile, ModelValuesOutOfRange) {
@@ -1070,7 +1139,7 @@ TEST_F(BadFile, ValidPayloadDeclaringFourBillionVertices) {
     put<uint32_t>(bytes, entry + kNodeVerticesAt, 4'000'000'000u);
     put<uint32_t>(bytes, get<uint64_t>(bytes, entry + kNodeOffsetAt), 4'000'000'000u);
     reseal_nodes(bytes);
-    expect_cube_rejected(bytes, 0, "counts larger than the payload could hold");
+    expect_cube_rejected(bytes, 0, "stream sizes disagree with the counts");
 }
 
 TEST_F(BadFile, PayloadChecksumMismatchNamesTheCube) {
