@@ -153,7 +153,7 @@ Command add_build(CLI::App& app) {
                     "are read whole, and a build estimated not to fit is refused before reading. Never changes the output");
     sub->add_option("--temp", o->settings.temp_dir,
                     "Folder for the build's temporary files (the input's triangles sorted by block, then each "
-                    "level's cubes and shared border points; about 60 bytes per input triangle at the peak); "
+                    "level's cubes and shared border points; about 40 bytes per input triangle at the peak); "
                     "default beside the output. Removed when the build ends");
     sub->add_flag("-q,--quiet", o->quiet, "No progress bar and no summary");
     sub->add_flag("-v,--verbose", o->verbose, "Also print the memory estimate, each level's counts and each stage's time");

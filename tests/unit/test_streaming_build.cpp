@@ -67,6 +67,8 @@ TEST(StreamingBuild, BinaryPlyStreamsToTheBytesOfTheMeshInMemory) {
     EXPECT_EQ(estimate_build({dir / "little.ply"}, uint64_t(1) << 30).in_memory_triangles, 0u);
     EXPECT_EQ(estimate_build({dir / "big.ply"}, uint64_t(1) << 30).in_memory_triangles, 0u);
     EXPECT_EQ(estimate_build({dir / "text.ply"}, uint64_t(1) << 30).in_memory_triangles, mesh.triangle_count());
+    // Temporary disk: three spilled corners of position and colour (16 bytes each), plus 6.
+    EXPECT_EQ(estimate_build({dir / "little.ply"}, uint64_t(1) << 30).temp_bytes, 54 * mesh.triangle_count());
 
     build_hlod(read_mesh(dir / "little.ply"), dir / "in_memory.hlod", BuildSettings{}, "sphere");
     const std::vector<char> want = file_bytes(dir / "in_memory.hlod");
