@@ -118,12 +118,14 @@ BorderTable::BorderTable(std::vector<BorderEntry> entries) {
         point.several_blocks |= e.block != point.first_block;
         for (int a = 0; a < 3; ++a) point.normal_sum[a] += e.normal_sum[a];
     }
+    index_.reset(positions_.size());
+    for (uint32_t i = 0; i < positions_.size(); ++i)
+        index_.find_or_insert(hash_position(positions_[i]), i, [](uint32_t) { return false; });  // all distinct
 }
 
 const BorderTable::Point* BorderTable::find(const PositionBits& position) const {
-    const auto it = std::lower_bound(positions_.begin(), positions_.end(), position);
-    if (it == positions_.end() || *it != position) return nullptr;
-    return &points_[size_t(it - positions_.begin())];
+    const uint32_t i = index_.find(hash_position(position), [&](uint32_t stored) { return positions_[stored] == position; });
+    return i == IndexMap::kMissing ? nullptr : &points_[i];
 }
 
 }  // namespace strata::build

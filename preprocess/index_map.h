@@ -65,6 +65,17 @@ public:
         }
     }
 
+    // Set-of-items mode, lookup only: the stored item that `same` accepts, or kMissing.
+    template <class Same>
+    uint32_t find(uint64_t item_hash, Same&& same) const {
+        for (size_t slot = mix(item_hash) & mask_;; slot = (slot + 1) & mask_) {
+            if (keys_[slot] == kMissing) return kMissing;
+            if (same(keys_[slot])) return keys_[slot];
+        }
+    }
+
+    size_t memory_bytes() const { return (keys_.capacity() + values_.capacity()) * sizeof(uint32_t); }
+
 private:
     void grow() {
         std::vector<uint32_t> keys(keys_.size() * 2, kMissing), values(keys_.size() * 2);

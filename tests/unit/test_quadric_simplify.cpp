@@ -392,6 +392,42 @@ TEST(SimplifyBlock, ThinTorusIsNeverPinched) {
     }
 }
 
+// Flat discs of `rim` points around one shared centre (point 0), all in the plane z = 0, disc k of
+// radius k + 1: moving the centre costs nothing and folds nothing, whatever the topology says.
+BlockMesh discs_on_one_centre(int discs, int rim) {
+    BlockMesh m;
+    m.point_positions = {0, 0, 0};
+    for (int d = 0; d < discs; ++d)
+        for (int i = 0; i < rim; ++i) {
+            const float a = 6.2831853f * float(i) / float(rim);
+            m.point_positions.insert(m.point_positions.end(), {float(d + 1) * std::cos(a), float(d + 1) * std::sin(a), 0});
+        }
+    const uint32_t points = uint32_t(m.point_positions.size() / 3);
+    m.point_locked.assign(points, 0);
+    for (uint32_t p = 0; p < points; ++p) m.wedge_point.push_back(p);
+    for (int d = 0; d < discs; ++d)
+        for (int i = 0; i < rim; ++i)
+            m.triangles.insert(m.triangles.end(), {0u, uint32_t(1 + d * rim + i), uint32_t(1 + d * rim + (i + 1) % rim)});
+    return m;
+}
+
+TEST(SimplifyBlock, TwoFansOnOnePointKeepItInPlace) {
+    // One high-valence disc: its centre is an interior point, free to go (a flat collapse costs nothing).
+    SimplifyLimits limits;
+    limits.target_triangles = 8;
+    const BlockMesh one = discs_on_one_centre(1, 96);
+    const SimplifyResult free = simplify_block(one, limits);
+    ASSERT_NO_FATAL_FAILURE(expect_consistent(one, free));
+    EXPECT_NE(free.wedge_remap[0], 0u) << "the centre of a single disc should have collapsed";
+    // Two discs on the same centre, as many triangles there: two surfaces touching at one point,
+    // which no collapse may move (it would tear one surface or glue the two).
+    const BlockMesh two = discs_on_one_centre(2, 48);
+    const SimplifyResult held = simplify_block(two, limits);
+    ASSERT_NO_FATAL_FAILURE(expect_consistent(two, held));
+    EXPECT_LT(held.triangles_left, two.triangle_count());
+    EXPECT_EQ(held.wedge_remap[0], 0u) << "the point two fans share moved";
+}
+
 TEST(SimplifyBlock, AttributesNeverCrossASeam) {
     Grid g = curved_grid(10, /*seam=*/5);  // 121 points, 132 wedges
     ASSERT_EQ(g.mesh.wedge_count(), 132u);
