@@ -1071,7 +1071,10 @@ class PlyStream::Faces {
 public:
     static constexpr size_t kWindow = size_t(4) << 20;
 
-    explicit Faces(const PlyStream& ply) : ply_(ply), offset_(ply.face_offset_) { window_.resize(kWindow); }
+    // No larger than what is left of the file: a small file's faces cost no 4 MiB buffer.
+    explicit Faces(const PlyStream& ply) : ply_(ply), offset_(ply.face_offset_) {
+        window_.resize(size_t(std::clamp<uint64_t>(ply.file_->size() - std::min(ply.file_->size(), offset_), 64, kWindow)));
+    }
 
     // Appends the corners of up to `triangles` more triangles; false when every face has been read.
     bool next(std::vector<uint32_t>& corners, size_t triangles) {
