@@ -34,7 +34,8 @@ using build::Frame;
 // The 16-bit lattice holds a cell plus an overhang below half a cell on each side.
 constexpr float kMaxSigma0 = 0.45f;
 constexpr int kMaxLevels = 15;
-constexpr uint64_t kLeastMemory = uint64_t(16) << 20;  // keeps the lattice integer q = 2^15·cell + … within 31 bits
+constexpr uint64_t kLeastMemory = uint64_t(16) << 20;
+constexpr uint64_t kMostSpillBuffer = uint64_t(256) << 20;  // keeps the lattice integer q = 2^15·cell + … within 31 bits
 
 // Adds the wall time of its scope to a counter.
 class StageTimer {
@@ -248,16 +249,19 @@ BuildReport build_hlod(const std::vector<std::unique_ptr<TriangleSource>>& sourc
     const WorkFolder work(output, settings.temp_dir);
     const unsigned threads = resolve_thread_count(settings.threads);
     const uint64_t memory = settings.memory ? settings.memory : default_memory_limit();
+    // What a spill may hold back before writing: a quarter of the limit, but beyond 256 MiB larger
+    // buffers only make longer chunks on disk (all of it is written out anyway).
+    const uint64_t spill_buffer = std::min(memory / 4, kMostSpillBuffer);
     build::DiskUsage disk;
     auto level_file = [&](uint32_t l) { return work / ("level-" + std::to_string(l) + ".cubes"); };
     auto listings = [&](uint32_t l) {
-        return std::make_unique<build::RunSpill>(work / ("level-" + std::to_string(l) + ".border"), disk, memory / 4);
+        return std::make_unique<build::RunSpill>(work / ("level-" + std::to_string(l) + ".border"), disk, spill_buffer);
     };
     auto level = std::make_unique<build::CubeStore>(level_file(L), disk);
     auto listed = listings(L);
     {
         StageTimer timer(report.partition_seconds);
-        build::RunSpill spill(work / "triangles.spill", disk, memory / 4);
+        build::RunSpill spill(work / "triangles.spill", disk, spill_buffer);
         const build::CornerLayout layout{model.kept};
         uint64_t done = 0;
         for (const auto& source : sources)

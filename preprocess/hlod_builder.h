@@ -22,8 +22,8 @@ struct BuildSettings {
     int leaf_triangles = 4096;
     std::filesystem::path temp_dir;  // the build's temporary files; empty: beside the output
     // Bytes the build may hold for its buffers (a quarter for the vertex cache of streamed inputs, a
-    // quarter for the triangle spill's buffers); 0: a quarter of physical memory. Never changes a byte
-    // of the output.
+    // quarter, at most 256 MiB, for the triangle spill's and the border listings' buffers); 0: a quarter
+    // of physical memory. Never changes a byte of the output.
     uint64_t memory = 0;
 };
 
