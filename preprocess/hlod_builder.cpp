@@ -35,7 +35,9 @@ using build::Frame;
 constexpr float kMaxSigma0 = 0.45f;
 constexpr int kMaxLevels = 15;
 constexpr uint64_t kLeastMemory = uint64_t(16) << 20;
-constexpr uint64_t kMostSpillBuffer = uint64_t(256) << 20;  // keeps the lattice integer q = 2^15·cell + … within 31 bits
+constexpr uint64_t kMostSpillBuffer = uint64_t(256) << 20;
+// A build of OUT keeps its temporary files in OUT<kWorkMarker>PID (WorkFolder, remove_build_leftovers).
+constexpr std::string_view kWorkMarker = ".build-";  // keeps the lattice integer q = 2^15·cell + … within 31 bits
 
 // Adds the wall time of its scope to a counter.
 class StageTimer {
@@ -124,7 +126,7 @@ class WorkFolder {
 public:
     WorkFolder(const std::filesystem::path& output, const std::filesystem::path& temp) {
         path_ = folder_or_here(temp.empty() ? output.parent_path() : temp) /
-                (output.filename().string() + ".build-" + std::to_string(::getpid()));
+                (output.filename().string() + std::string(kWorkMarker) + std::to_string(::getpid()));
         std::error_code ec;
         std::filesystem::create_directories(path_, ec);
         if (ec) throw std::runtime_error(path_.parent_path().string() + ": cannot create the build's temporary folder (" + ec.message() + ")");
@@ -145,8 +147,8 @@ std::vector<std::filesystem::path> remove_build_leftovers(const std::filesystem:
                                                           const std::filesystem::path& temp_dir) {
     const std::string name = output.filename().string();
     // "<name><marker><pid>" plus the given suffix, for a process that is gone.
-    auto left_by_dead_build = [&](const std::string& entry, const std::string& marker, const std::string& suffix) {
-        const std::string prefix = name + marker;
+    auto left_by_dead_build = [&](const std::string& entry, std::string_view marker, std::string_view suffix) {
+        const std::string prefix = name + std::string(marker);
         if (entry.size() <= prefix.size() + suffix.size() || entry.compare(0, prefix.size(), prefix) != 0 ||
             entry.compare(entry.size() - suffix.size(), suffix.size(), suffix) != 0)
             return false;
@@ -164,9 +166,10 @@ std::vector<std::filesystem::path> remove_build_leftovers(const std::filesystem:
             }
     };
     sweep(temp_dir.empty() ? output.parent_path() : temp_dir,
-          [&](const std::string& entry) { return left_by_dead_build(entry, ".build-", ""); });
+          [&](const std::string& entry) { return left_by_dead_build(entry, kWorkMarker, ""); });
     sweep(output.parent_path(), [&](const std::string& entry) {
-        return left_by_dead_build(entry, ".tmp-", "") || left_by_dead_build(entry, ".tmp-", ".payloads");
+        return left_by_dead_build(entry, HlodWriter::kTempMarker, "") ||
+               left_by_dead_build(entry, HlodWriter::kTempMarker, HlodWriter::kSpoolSuffix);
     });
     return removed;
 }

@@ -825,9 +825,9 @@ void resolve_parents(CubeData& cube, const VertexArrays& from, const std::string
 
 HlodWriter::HlodWriter(std::filesystem::path path) : path_(std::move(path)) {
     temp_path_ = path_;
-    temp_path_ += ".tmp-" + std::to_string(::getpid());
+    temp_path_ += std::string(kTempMarker) + std::to_string(::getpid());
     spool_path_ = temp_path_;
-    spool_path_ += ".payloads";
+    spool_path_ += kSpoolSuffix;
     errno = 0;
     spool_ = std::fopen(spool_path_.c_str(), "w+b");
     if (!spool_) throw std::runtime_error(io_error(path_, "cannot create the output file"));

@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace strata {
@@ -153,6 +154,10 @@ private:
 // leaves nothing behind. Memory: the node entries only.
 class HlodWriter {
 public:
+    // While it runs, the writer of OUT keeps OUT<kTempMarker>PID (the file being assembled) and
+    // OUT<kTempMarker>PID<kSpoolSuffix> (its payloads): what remove_build_leftovers looks for.
+    static constexpr std::string_view kTempMarker = ".tmp-", kSpoolSuffix = ".payloads";
+
     explicit HlodWriter(std::filesystem::path path);
     ~HlodWriter();
     HlodWriter(const HlodWriter&) = delete;
