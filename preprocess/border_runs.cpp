@@ -1,5 +1,6 @@
 #include "preprocess/border_runs.h"
 
+#include <algorithm>
 #include <cstring>
 
 namespace strata::build {
@@ -14,7 +15,8 @@ void append_run(const RunSpill& listed, CubeKey block, std::vector<BorderEntry>&
 
 }  // namespace
 
-void append_listings(std::span<const BorderEntry> entries, RunSpill& listed) {
+void append_listings(std::vector<BorderEntry>& entries, RunSpill& listed) {
+    std::stable_sort(entries.begin(), entries.end(), [](const BorderEntry& a, const BorderEntry& b) { return a.block < b.block; });
     for (size_t first = 0, last; first < entries.size(); first = last) {
         for (last = first; last < entries.size() && entries[last].block == entries[first].block; ++last) {
         }

@@ -2,15 +2,16 @@
 // that memory holds only the tables of the blocks being simplified, whatever the scan's size.
 #pragma once
 
-#include <span>
+#include <vector>
 
 #include "preprocess/border_table.h"
 #include "preprocess/run_spill.h"
 
 namespace strata::build {
 
-// Appends entries to the runs of their blocks (entries of one block, in order, from any thread).
-void append_listings(std::span<const BorderEntry> entries, RunSpill& listed);
+// Appends entries to the runs of their blocks, each block's in their order (sorting `entries` by
+// block, stably); from any thread, as long as no two threads append entries of one block.
+void append_listings(std::vector<BorderEntry>& entries, RunSpill& listed);
 
 // The table a level-`level` block looks its points up in: the listings of it and of its 26
 // neighbours that lie within its reach. No other block can list a point the block uses: a vertex

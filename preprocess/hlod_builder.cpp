@@ -4,13 +4,13 @@
 #include "preprocess/border_runs.h"
 #include "preprocess/border_table.h"
 #include "preprocess/build_cubes.h"
+#include "preprocess/byte_size.h"
 #include "preprocess/cube_store.h"
 #include "preprocess/hlod_format.h"
 #include "preprocess/input_scan.h"
 #include "preprocess/leaf_cubes.h"
-#include "preprocess/byte_size.h"
-#include "preprocess/triangle_spill.h"
 #include "preprocess/parallel.h"
+#include "preprocess/triangle_spill.h"
 
 #include <signal.h>
 #include <unistd.h>
@@ -33,11 +33,11 @@ using build::Frame;
 
 // The 16-bit lattice holds a cell plus an overhang below half a cell on each side.
 constexpr float kMaxSigma0 = 0.45f;
-constexpr int kMaxLevels = 15;
+constexpr int kMaxLevels = 15;  // keeps the lattice integer q = 2^15·cell + … within 31 bits
 constexpr uint64_t kLeastMemory = uint64_t(16) << 20;
 constexpr uint64_t kMostSpillBuffer = uint64_t(256) << 20;
 // A build of OUT keeps its temporary files in OUT<kWorkMarker>PID (WorkFolder, remove_build_leftovers).
-constexpr std::string_view kWorkMarker = ".build-";  // keeps the lattice integer q = 2^15·cell + … within 31 bits
+constexpr std::string_view kWorkMarker = ".build-";
 
 // Adds the wall time of its scope to a counter.
 class StageTimer {
@@ -106,8 +106,6 @@ void simplify_level(build::CubeStore& level, const build::RunSpill& listed, uint
         build::BlockOutput result = build::simplify_block_cubes(cubes, l, border, f, s, flags);
         for (const build::EncodedCube& e : result.encoded) out.add(e);
         for (const CubeRecord& parent : result.parents) next.put(parent);
-        std::stable_sort(result.border.begin(), result.border.end(),
-                         [](const build::BorderEntry& a, const build::BorderEntry& b) { return a.block < b.block; });
         build::append_listings(result.border, next_listed);
         const uint64_t finished = done += triangles;
         if (worker == 0) progress(stage, double(finished), total, "tri");
@@ -305,8 +303,7 @@ BuildReport build_hlod(const std::vector<std::unique_ptr<TriangleSource>>& sourc
         out.add(build::encode_root(root, build::whole_border_table(*listed), f, header.flags));
         error_q = std::max(error_q, out.relative_error());
     }
-    const uint64_t temp_bytes = disk.peak();
-    report.temp_bytes = temp_bytes;
+    report.temp_bytes = disk.peak();
 
     header.error_q = error_q;
     header.input_vertices = report.levels.front().vertices;

@@ -5,6 +5,7 @@
 #include <cstring>
 #include <span>
 
+#include "preprocess/border_runs.h"
 #include "preprocess/index_map.h"
 #include "preprocess/parallel.h"
 
@@ -53,12 +54,11 @@ void block_leaves(RunSpill& spill, const CornerLayout& layout, CubeKey block, co
                   RunSpill& listed) {
     const std::vector<uint8_t> records = spill.read(block);
     spill.release(block);
-    const size_t triangle_bytes = 3 * layout.bytes();
+    const size_t triangle_bytes = 3 * layout.bytes(), step = layout.bytes() / 4;  // a corner in floats
     const size_t triangles = records.size() / triangle_bytes;
     std::vector<std::pair<CubeKey, uint32_t>> order(triangles);
     for (size_t t = 0; t < triangles; ++t) {
         const float* p = reinterpret_cast<const float*>(&records[t * triangle_bytes]);
-        const size_t step = layout.bytes() / 4;
         order[t] = {cell_of(f, barycenter(p, p + step, p + 2 * step), f.max_level), uint32_t(t)};
     }
     std::sort(order.begin(), order.end());  // by cube, then input order
@@ -73,7 +73,7 @@ void block_leaves(RunSpill& spill, const CornerLayout& layout, CubeKey block, co
         list_border_points(cube, f, f.max_level, border);
         store.put(cube);
     }
-    listed.append(block, border.data(), border.size() * sizeof(BorderEntry));
+    append_listings(border, listed);
 }
 
 }  // namespace

@@ -6,7 +6,7 @@ namespace strata::build {
 
 size_t spill_triangles(const TriangleBatch& batch, const Frame& f, const CornerLayout& layout, RunSpill& spill) {
     const size_t corner = layout.bytes();
-    uint8_t record[3 * 36];
+    uint8_t record[3 * CornerLayout::kMostBytes];
     size_t spilled = 0;
     for (size_t t = 0; t < batch.triangle_count(); ++t) {
         if (batch.degenerate(t)) continue;

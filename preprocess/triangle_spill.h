@@ -13,6 +13,7 @@ namespace strata::build {
 
 // One corner as the spill stores it: position, then the kept attributes (normal, colour, UV).
 struct CornerLayout {
+    static constexpr size_t kMostBytes = 36;  // with every attribute
     AttributeSet kept;
     size_t bytes() const { return 12 + (kept.normals ? 12 : 0) + (kept.colors ? 4 : 0) + (kept.uvs ? 8 : 0); }
     size_t normal_offset() const { return 12; }
