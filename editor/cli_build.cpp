@@ -74,18 +74,16 @@ int run_build(const BuildOptions& o) {
     }
     const std::vector<std::filesystem::path> files = expand_inputs(o.inputs);
     const MemoryEstimate estimate = estimate_build(files, memory_limit);
-    const std::filesystem::path temp_folder =
-        o.settings.temp_dir.empty() ? std::filesystem::path(o.output).parent_path() : o.settings.temp_dir;
+    const std::filesystem::path temp = temp_folder(o.output, o.settings.temp_dir);
     if (o.verbose) {
         std::printf("  memory: about %s for %llu%s triangles in %zu file%s, %llu of them read whole into memory (limit %s)\n",
                     describe_bytes(estimate.bytes).c_str(), (unsigned long long)estimate.triangles,
                     estimate.guessed ? " (estimated)" : "", files.size(), files.size() == 1 ? "" : "s",
                     (unsigned long long)estimate.in_memory_triangles, describe_bytes(memory_limit).c_str());
-        std::printf("  temporary disk: about %s in %s\n", describe_bytes(estimate.temp_bytes).c_str(),
-                    temp_folder.empty() ? "." : temp_folder.c_str());
+        std::printf("  temporary disk: about %s in %s\n", describe_bytes(estimate.temp_bytes).c_str(), temp.c_str());
     }
     check_memory(estimate, memory_limit, limit_name);
-    check_temp_disk(estimate, temp_folder);
+    check_temp_disk(estimate, temp);
     const std::atomic<bool>* cancel = install_interrupt_flag();
     ProgressBar bar(!o.quiet);
     Progress progress = bar.progress(cancel);

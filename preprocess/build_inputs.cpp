@@ -10,6 +10,7 @@
 #include "preprocess/mesh.h"
 #include "preprocess/mesh_io.h"
 #include "preprocess/mesh_readers.h"
+#include "preprocess/triangle_spill.h"
 
 namespace strata {
 namespace {
@@ -28,8 +29,6 @@ constexpr uint64_t kStreamBytesPerTriangle = 48;
 // border listings (about 4 bytes a triangle). Measured on 328 M triangles with positions alone: 35.9.
 constexpr uint64_t kTempBytesBesideCorners = 6;
 
-// Bytes of one spilled corner (triangle_spill.h): a position and the attributes.
-uint64_t corner_bytes(const AttributeSet& a) { return 12 + (a.normals ? 12 : 0) + (a.colors ? 4 : 0) + (a.uvs ? 8 : 0); }
 
 bool is_list(const std::string& argument) { return argument.size() > 1 && argument[0] == '@'; }
 
@@ -90,7 +89,7 @@ MemoryEstimate estimate_build(const std::vector<std::filesystem::path>& files, u
         }
         (stream ? streamed : estimate.in_memory_triangles) += counted.triangles;
         // A file read whole tells its attributes only once read: positions alone are assumed.
-        const uint64_t corner = stream ? corner_bytes(stream->attributes()) : corner_bytes({});
+        const uint64_t corner = build::CornerLayout{stream ? stream->attributes() : AttributeSet{}}.bytes();
         estimate.temp_bytes += (3 * corner + kTempBytesBesideCorners) * counted.triangles;
     }
     estimate.bytes = kPeakBytesPerTriangle * estimate.in_memory_triangles +

@@ -118,12 +118,20 @@ std::filesystem::path folder_or_here(const std::filesystem::path& folder) {
     return folder.empty() ? std::filesystem::path(".") : folder;
 }
 
+}  // namespace
+
+std::filesystem::path temp_folder(const std::filesystem::path& output, const std::filesystem::path& temp_dir) {
+    return folder_or_here(temp_dir.empty() ? output.parent_path() : temp_dir);
+}
+
+namespace {
+
 // Where the builder keeps its temporary files: a folder of its own, "OUT.hlod.build-PID", removed with
 // everything in it.
 class WorkFolder {
 public:
     WorkFolder(const std::filesystem::path& output, const std::filesystem::path& temp) {
-        path_ = folder_or_here(temp.empty() ? output.parent_path() : temp) /
+        path_ = temp_folder(output, temp) /
                 (output.filename().string() + std::string(kWorkMarker) + std::to_string(::getpid()));
         std::error_code ec;
         std::filesystem::create_directories(path_, ec);
@@ -163,7 +171,7 @@ std::vector<std::filesystem::path> remove_build_leftovers(const std::filesystem:
                 removed.push_back(e.path());
             }
     };
-    sweep(temp_dir.empty() ? output.parent_path() : temp_dir,
+    sweep(temp_folder(output, temp_dir),
           [&](const std::string& entry) { return left_by_dead_build(entry, kWorkMarker, ""); });
     sweep(output.parent_path(), [&](const std::string& entry) {
         return left_by_dead_build(entry, HlodWriter::kTempMarker, "") ||

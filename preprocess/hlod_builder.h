@@ -68,6 +68,10 @@ BuildReport build_hlod(const std::vector<std::unique_ptr<TriangleSource>>& sourc
 BuildReport build_hlod(Mesh&& mesh, const std::filesystem::path& output, const BuildSettings& settings,
                        const std::string& source_name, const Progress& progress = {});
 
+// The folder a build of `output` keeps its temporary files in: `temp_dir`, or else the output's own
+// folder ("." for a bare file name).
+std::filesystem::path temp_folder(const std::filesystem::path& output, const std::filesystem::path& temp_dir);
+
 // What builds of `output` that were killed left behind: their work folders (in `temp_dir`, or beside
 // the output when it is empty) and the writer's temporary files beside the output. A running build's
 // are kept. Removes them and returns their paths.

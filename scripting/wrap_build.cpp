@@ -158,8 +158,7 @@ int build(lua_State* L) {
             check_settings(settings);
             estimate = estimate_build(files, job.memory_limit);
             check_memory(estimate, job.memory_limit, job.limit_name);
-            check_temp_disk(estimate, job.settings.temp_dir.empty() ? std::filesystem::path(job.output).parent_path()
-                                                                    : job.settings.temp_dir);
+            check_temp_disk(estimate, temp_folder(job.output, job.settings.temp_dir));
             const auto sources = open_sources(files, job.memory_limit / 4, progress, warnings);
             const ModelAttributes model = common_attributes(sources, warnings);
             report = build_hlod(sources, model, job.output, settings, source_name(job.inputs, files.size()), progress);
