@@ -154,7 +154,7 @@ Command add_build(CLI::App& app) {
                     "level's cubes and shared border points; about 40 bytes per input triangle at the peak); "
                     "default beside the output. Removed when the build ends");
     sub->add_flag("-q,--quiet", o->quiet, "No progress bar and no summary");
-    sub->add_flag("-v,--verbose", o->verbose, "Also print the memory estimate, each level's counts and each stage's time");
+    sub->add_flag("-v,--verbose", o->verbose, "Also print the memory and temporary-disk estimates, each level's counts, each stage's time, and the peak temporary disk and memory");
     return {sub, [o] { return run_build(*o); }};
 }
 
