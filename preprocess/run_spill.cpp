@@ -4,8 +4,25 @@
 
 namespace strata::build {
 
-RunSpill::RunSpill(std::filesystem::path path, DiskUsage& usage, uint64_t buffer_bytes)
-    : file_(std::move(path), usage), budget_(std::max<uint64_t>(buffer_bytes, 1 << 20)) {}
+RunSpill::RunSpill(std::filesystem::path path, DiskUsage& usage, uint64_t buffer_bytes, ScratchFile::Lifetime lifetime)
+    : file_(std::move(path), usage, lifetime), budget_(std::max<uint64_t>(buffer_bytes, 1 << 20)) {}
+
+RunSpill::RunSpill(std::filesystem::path path, DiskUsage& usage, ByteReader& index)
+    : file_(std::move(path), usage, ScratchFile::Lifetime::reopened), budget_(0) {
+    const uint64_t runs = index.get<uint64_t>();
+    for (uint64_t r = 0; r < runs; ++r) {
+        const CubeKey key = index.get<CubeKey>();
+        Run& run = runs_[key];
+        const uint64_t chunks = index.get<uint64_t>();
+        for (uint64_t c = 0; c < chunks; ++c) {
+            const Chunk chunk{index.get<uint64_t>(), index.get<uint64_t>()};
+            run.chunks.push_back(chunk);
+            run.bytes += chunk.size;
+        }
+        keys_.push_back(key);
+    }
+    std::sort(keys_.begin(), keys_.end());
+}
 
 void RunSpill::append(CubeKey key, const void* bytes, size_t size) {
     const auto* p = static_cast<const uint8_t*>(bytes);
@@ -53,6 +70,16 @@ std::vector<uint8_t> RunSpill::read(CubeKey key) const {
         at += chunk.size;
     }
     return bytes;
+}
+
+void RunSpill::save_index(ByteWriter& out) const {
+    out.put(uint64_t(keys_.size()));
+    for (CubeKey key : keys_) {
+        const Run& run = runs_.at(key);
+        out.put(key);
+        out.put(uint64_t(run.chunks.size()));
+        for (const Chunk& chunk : run.chunks) out.put(chunk.offset), out.put(chunk.size);
+    }
 }
 
 void RunSpill::release(CubeKey key) {

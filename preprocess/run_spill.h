@@ -1,7 +1,8 @@
 // Runs of records keyed by block, larger than memory (000 §3.3.1's out-of-core leaf files, in one
 // file): appends wait in memory up to a budget, then every waiting run goes to the end of one
 // temporary file as a chunk; a run reads back as its chunks in order. What reads back does not
-// depend on the budget, so neither does anything built from it.
+// depend on the budget, so neither does anything built from it. A kept spill outlives its process:
+// its index, saved with the build's plan, opens it again in the jobs that read it.
 #pragma once
 
 #include <cstdint>
@@ -11,6 +12,7 @@
 #include <vector>
 
 #include "preprocess/build_cubes.h"
+#include "preprocess/byte_packing.h"
 #include "preprocess/scratch_file.h"
 
 namespace strata::build {
@@ -18,7 +20,11 @@ namespace strata::build {
 class RunSpill {
 public:
     // Creates (or empties) `path`, removed with the spill. At most `buffer_bytes` wait in memory.
-    RunSpill(std::filesystem::path path, DiskUsage& usage, uint64_t buffer_bytes);
+    RunSpill(std::filesystem::path path, DiskUsage& usage, uint64_t buffer_bytes,
+             ScratchFile::Lifetime lifetime = ScratchFile::Lifetime::temporary);
+    // A kept spill opened again, finished, from the index save_index() wrote. Throws std::runtime_error
+    // (from the reader) when the index is cut short.
+    RunSpill(std::filesystem::path path, DiskUsage& usage, ByteReader& index);
     RunSpill(const RunSpill&) = delete;
     RunSpill& operator=(const RunSpill&) = delete;
 
@@ -31,6 +37,8 @@ public:
     std::vector<uint8_t> read(CubeKey key) const;
     // Gives the disk back a run's bytes once it has been read for the last time.
     void release(CubeKey key);
+    // After finish(): where every run lies in the file.
+    void save_index(ByteWriter& out) const;
 
     uint64_t memory_bytes() const { return peak_waiting_; }  // the most that waited in memory
 

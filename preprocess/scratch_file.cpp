@@ -10,12 +10,21 @@
 
 namespace strata::build {
 
-ScratchFile::ScratchFile(std::filesystem::path path, DiskUsage& usage)
-    : path_(std::move(path)), file_(::open(path_.c_str(), O_RDWR | O_CREAT | O_TRUNC | O_CLOEXEC, 0600)), usage_(usage) {
-    if (file_.get() < 0) fail("cannot create", errno);
+namespace {
+
+int open_flags(ScratchFile::Lifetime lifetime) {
+    return lifetime == ScratchFile::Lifetime::reopened ? O_RDWR | O_CLOEXEC : O_RDWR | O_CREAT | O_TRUNC | O_CLOEXEC;
+}
+
+}  // namespace
+
+ScratchFile::ScratchFile(std::filesystem::path path, DiskUsage& usage, Lifetime lifetime)
+    : path_(std::move(path)), file_(::open(path_.c_str(), open_flags(lifetime), 0600)), usage_(usage), lifetime_(lifetime) {
+    if (file_.get() < 0) fail(lifetime == Lifetime::reopened ? "cannot open" : "cannot create", errno);
 }
 
 ScratchFile::~ScratchFile() {
+    if (lifetime_ != Lifetime::temporary) return;
     usage_.remove(held_.load());
     std::error_code ignored;
     std::filesystem::remove(path_, ignored);
@@ -51,7 +60,7 @@ void ScratchFile::read(void* data, size_t size, uint64_t offset) const {
 void ScratchFile::release(uint64_t offset, uint64_t size) {
     // A file system that cannot punch holes keeps the bytes until the file is removed, and they count.
     if (::fallocate(file_.get(), FALLOC_FL_PUNCH_HOLE | FALLOC_FL_KEEP_SIZE, off_t(offset), off_t(size)) != 0) return;
-    held_ -= size;
+    if (lifetime_ == Lifetime::temporary) held_ -= size;
     usage_.remove(size);
 }
 

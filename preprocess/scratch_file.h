@@ -31,7 +31,12 @@ private:
 
 class ScratchFile {
 public:
-    ScratchFile(std::filesystem::path path, DiskUsage& usage);
+    enum class Lifetime {
+        temporary,  // created empty, removed when destroyed
+        kept,       // created empty, left in place for later jobs (the plan's triangle spill)
+        reopened,   // a kept file opened again to read (its bytes counted where the build began)
+    };
+    ScratchFile(std::filesystem::path path, DiskUsage& usage, Lifetime lifetime = Lifetime::temporary);
     ~ScratchFile();
     ScratchFile(const ScratchFile&) = delete;
     ScratchFile& operator=(const ScratchFile&) = delete;
@@ -47,6 +52,7 @@ private:
     std::filesystem::path path_;
     FileHandle file_;
     DiskUsage& usage_;
+    Lifetime lifetime_;
     std::atomic<uint64_t> held_{0};
 };
 

@@ -16,7 +16,7 @@
 #include <stdexcept>
 #include <typeinfo>
 
-#include "engine/io/atomic_file.h"
+#include "preprocess/atomic_file.h"
 #include "engine/scene/light.h"
 #include "nodes/geometry.h"
 #include "nodes/hlod_model.h"

@@ -10,7 +10,7 @@
 #include <lua.hpp>
 #include <nlohmann/json.hpp>
 
-#include "engine/io/atomic_file.h"
+#include "preprocess/atomic_file.h"
 #include "scripting/lua_util.h"
 #include "scripting/runtime.h"
 

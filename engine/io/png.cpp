@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "engine/io/atomic_file.h"
+#include "preprocess/atomic_file.h"
 #include "engine/io/image.h"
 
 namespace strata {

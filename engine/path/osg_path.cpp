@@ -11,7 +11,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "engine/io/atomic_file.h"
+#include "preprocess/atomic_file.h"
 
 namespace strata {
 

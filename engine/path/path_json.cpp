@@ -28,7 +28,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "engine/io/atomic_file.h"
+#include "preprocess/atomic_file.h"
 #include "engine/path/camera_path.h"
 
 namespace strata {

@@ -1,5 +1,5 @@
 // AtomicOutputFile: a temporary file beside the target, renamed over it once complete.
-#include "engine/io/atomic_file.h"
+#include "preprocess/atomic_file.h"
 
 #include <unistd.h>
 

@@ -1,5 +1,6 @@
 // AtomicOutputFile: writes a temporary file beside a target and renames it over the target only once it
-// is complete, so readers (and a crash or full disk) never see half a file under the real name.
+// is complete, so readers (and a crash or full disk) never see half a file under the real name. Images,
+// paths and the build's job files all go through it.
 #pragma once
 
 #include <cstddef>
