@@ -16,11 +16,78 @@ namespace {
 
 struct BuildOptions {
     std::vector<std::string> inputs;
-    std::string output, levels = "auto", memory, clean;
+    std::string output, levels = "auto", memory, clean, plan, assemble;
+    std::vector<std::string> run_blocks;  // DIR FIRST-LAST
     BuildSettings settings;
     bool quiet = false;
     bool verbose = false;
 };
+
+// FIRST-LAST, or one job number.
+bool parse_job_range(const std::string& text, uint64_t& first, uint64_t& last) {
+    const size_t dash = text.find('-');
+    auto number = [](const std::string& digits, uint64_t& value) {
+        if (digits.empty() || digits.size() > 18 || digits.find_first_not_of("0123456789") != std::string::npos) return false;
+        value = std::stoull(digits);
+        return true;
+    };
+    if (dash == std::string::npos) return number(text, first) && number(text, last);
+    return number(text.substr(0, dash), first) && number(text.substr(dash + 1), last);
+}
+
+// strata build --run-blocks DIR FIRST-LAST: some of a planned build's jobs.
+int run_jobs(const BuildOptions& o) {
+    uint64_t first = 0, last = 0;
+    if (!parse_job_range(o.run_blocks[1], first, last)) {
+        std::fprintf(stderr, "strata build: --run-blocks takes a folder and a job range FIRST-LAST, not '%s'\n",
+                     o.run_blocks[1].c_str());
+        return kUsage;
+    }
+    const std::atomic<bool>* cancel = install_interrupt_flag();
+    ProgressBar bar(!o.quiet);
+    try {
+        const JobRunReport report = run_build_jobs(o.run_blocks[0], first, last, o.settings.threads, bar.progress(cancel));
+        bar.finish();
+        if (!o.quiet)
+            std::printf("%s: jobs %llu-%llu: %llu run, %llu had finished\n", o.run_blocks[0].c_str(), (unsigned long long)first,
+                        (unsigned long long)last, (unsigned long long)report.run, (unsigned long long)report.already_finished);
+        return kOk;
+    } catch (const Cancelled&) {
+        bar.finish();
+        std::fprintf(stderr, "strata build: interrupted; the jobs that finished are kept in %s\n", o.run_blocks[0].c_str());
+        return kInterrupted;
+    }
+}
+
+void print_levels(const BuildReport& report) {
+    for (const LevelStats& l : report.levels)
+        std::printf("  level %2u: %7llu cubes %11llu vertices %11llu triangles %10.2f MB\n", l.level,
+                    (unsigned long long)l.cubes, (unsigned long long)l.vertices, (unsigned long long)l.triangles, l.bytes / 1e6);
+}
+
+// strata build --assemble DIR -o OUT: the model from a planned build's finished jobs.
+int run_assemble(const BuildOptions& o) {
+    if (o.output.empty()) {
+        std::fprintf(stderr, "strata build: --assemble needs --output\n");
+        return kUsage;
+    }
+    const std::atomic<bool>* cancel = install_interrupt_flag();
+    ProgressBar bar(!o.quiet);
+    try {
+        const BuildReport report = assemble_build(o.assemble, o.output, bar.progress(cancel));
+        bar.finish();
+        if (!o.quiet)
+            std::printf("%s: %llu triangles, %u levels, σ0 %.3g, ε_q %.3g, %.1f MB, from %llu jobs\n", o.output.c_str(),
+                        (unsigned long long)report.input_triangles, report.max_level + 1, report.sigma0, report.error_q,
+                        report.output_bytes / 1e6, (unsigned long long)report.jobs);
+        if (o.verbose) print_levels(report);
+        return kOk;
+    } catch (const Cancelled&) {
+        bar.finish();
+        std::fprintf(stderr, "strata build: interrupted; %s was not written\n", o.output.c_str());
+        return kInterrupted;
+    }
+}
 
 // strata build --clean OUT.hlod: what killed builds of OUT.hlod left.
 int run_clean(const BuildOptions& o) {
@@ -34,13 +101,26 @@ int run_clean(const BuildOptions& o) {
 }
 
 int run_build(const BuildOptions& o) {
+    const int modes = !o.clean.empty() + !o.plan.empty() + !o.run_blocks.empty() + !o.assemble.empty();
+    if (modes > 1) {
+        std::fprintf(stderr, "strata build: --clean, --plan, --run-blocks and --assemble exclude each other\n");
+        return kUsage;
+    }
     if (!o.clean.empty()) return run_clean(o);
+    if (!o.run_blocks.empty() || !o.assemble.empty()) {
+        if (!o.inputs.empty()) {
+            std::fprintf(stderr, "strata build: --run-blocks and --assemble read the plan's folder, not inputs\n");
+            return kUsage;
+        }
+        return o.assemble.empty() ? run_jobs(o) : run_assemble(o);
+    }
     if (o.inputs.empty()) {
         std::fprintf(stderr, "strata build: input is required (or --clean OUT.hlod)\n");
         return kUsage;
     }
-    if (o.output.empty()) {
-        std::fprintf(stderr, "strata build: --output is required\n");
+    if (o.output.empty() == o.plan.empty()) {
+        std::fprintf(stderr, o.plan.empty() ? "strata build: --output is required\n"
+                                            : "strata build: --plan writes a plan, not --output (that is --assemble's)\n");
         return kUsage;
     }
     BuildSettings settings = o.settings;
@@ -74,7 +154,7 @@ int run_build(const BuildOptions& o) {
     }
     const std::vector<std::filesystem::path> files = expand_inputs(o.inputs);
     const MemoryEstimate estimate = estimate_build(files, memory_limit);
-    const std::filesystem::path temp = temp_folder(o.output, o.settings.temp_dir);
+    const std::filesystem::path temp = o.plan.empty() ? temp_folder(o.output, o.settings.temp_dir) : std::filesystem::path(o.plan);
     if (o.verbose) {
         std::printf("  memory: about %s for %llu%s triangles in %zu file%s, %llu of them read whole into memory (limit %s)\n",
                     describe_bytes(estimate.bytes).c_str(), (unsigned long long)estimate.triangles,
@@ -88,29 +168,42 @@ int run_build(const BuildOptions& o) {
     ProgressBar bar(!o.quiet);
     Progress progress = bar.progress(cancel);
     auto start = std::chrono::steady_clock::now();
-    try {
-        std::vector<std::string> warnings;
-        const auto sources = open_sources(files, memory_limit / 4, progress, warnings);
-        const ModelAttributes model = common_attributes(sources, warnings);
-        bar.finish();  // clears the bar's line for the warnings; the next report draws it again
+    std::vector<std::string> warnings;
+    // The readers' warnings, printed once the input is open, on a line of their own.
+    const OpenInput read_input = [&, open = input_from_files(files, memory_limit, progress, warnings)] {
+        BuildInput input = open();
+        bar.finish();  // clears the bar's line; the next report draws it again
         for (const std::string& warning : warnings) std::fprintf(stderr, "strata build: warning: %s\n", warning.c_str());
-        const double open_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-        BuildReport report = build_hlod(sources, model, o.output, settings, source_name(o.inputs, files.size()), progress);
-        const uint64_t triangles = report.input_triangles;
+        return input;
+    };
+    const std::string name = source_name(o.inputs, files.size());
+    try {
+        if (!o.plan.empty()) {
+            const std::string jobs = plan_build(read_input, files, o.plan, settings, name, progress);
+            bar.finish();
+            if (!o.quiet) std::printf("%s: planned; run its jobs (listed in %s/jobs.txt):\n%s", o.plan.c_str(), o.plan.c_str(), jobs.c_str());
+            return kOk;
+        }
+        BuildReport report = build_hlod(read_input, files, o.output, settings, name, progress);
         bar.finish();
+        if (report.already_complete) {
+            if (!o.quiet) std::printf("%s: complete; nothing to resume\n", o.output.c_str());
+            return kOk;
+        }
+        const uint64_t triangles = report.input_triangles;
         double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         for (const std::string& note : report.notes) std::fprintf(stderr, "strata build: note: %s\n", note.c_str());
+        if (!o.quiet && report.resumed)
+            std::printf("%s: resumed, %llu of its %llu jobs had finished\n", o.output.c_str(),
+                        (unsigned long long)report.jobs_resumed, (unsigned long long)report.jobs);
         if (!o.quiet)
             std::printf("%s: %llu triangles, %u levels, σ0 %.3g, ε_q %.3g, %.1f MB, %.2f s (%.2f M triangles/s)\n",
                         o.output.c_str(), (unsigned long long)triangles, report.max_level + 1, report.sigma0, report.error_q,
                         report.output_bytes / 1e6, seconds, triangles / seconds / 1e6);
         if (o.verbose) {
-            for (const LevelStats& l : report.levels)
-                std::printf("  level %2u: %7llu cubes %11llu vertices %11llu triangles %10.2f MB\n", l.level,
-                            (unsigned long long)l.cubes, (unsigned long long)l.vertices,
-                            (unsigned long long)l.triangles, l.bytes / 1e6);
-            std::printf("  seconds: open %.2f, read %.2f, partition %.2f, simplify %.2f, write %.2f\n", open_seconds,
-                        report.read_seconds, report.partition_seconds, report.simplify_seconds, report.write_seconds);
+            print_levels(report);
+            std::printf("  seconds: read %.2f, partition %.2f, simplify %.2f, write %.2f\n", report.read_seconds,
+                        report.partition_seconds, report.simplify_seconds, report.write_seconds);
             std::printf("  temporary disk: %s at most\n", describe_bytes(report.temp_bytes).c_str());
             std::printf("  memory: %s at most (largest input %s, triangle spill %s, border listings %s)\n",
                         describe_bytes(peak_resident_bytes()).c_str(), describe_bytes(report.source_memory_bytes).c_str(),
@@ -133,9 +226,22 @@ Command add_build(CLI::App& app) {
                     "The scan: one file, or the tiles of one model (welded along shared borders); @LIST reads "
                     "the inputs from a text file, one per line (# comments; relative to the list's folder)");
     sub->add_option("-o,--output", o->output, "The .hlod file to write");
+    sub->add_flag("--resume", o->settings.resume,
+                  "Go on from what a killed or failed build of this output left (its finished blocks), making the "
+                  "same bytes; refused, naming it, when a setting that changes the output (levels, block, ratio, "
+                  "sigma0, error) or an input differs. With nothing to resume it builds, or leaves a complete output");
+    sub->add_option("--plan", o->plan,
+                    "Instead of building: read the input into DIR (new or empty) and list the build's jobs in "
+                    "DIR/jobs.txt, for a cluster (--run-blocks, then --assemble)");
+    sub->add_option("--run-blocks", o->run_blocks,
+                    "Instead of building: run jobs FIRST-LAST of the plan in DIR (jobs of one stage need the stages "
+                    "before them finished); safe to run again, or twice at once")
+        ->expected(2)
+        ->type_name("DIR FIRST-LAST");
+    sub->add_option("--assemble", o->assemble, "Instead of building: write --output from the finished jobs in DIR, then remove DIR");
     sub->add_option("--clean", o->clean,
-                    "Instead of building: remove what killed builds of this output left (work folders in --temp "
-                    "or beside it, temporary output files), keeping a running build's");
+                    "Instead of building: remove what killed or failed builds of this output left (its work folder "
+                    "in --temp or beside it, temporary output files), keeping a running build's");
     sub->add_option("--levels", o->levels, "L, the finest level: 'auto' (a leaf holds a few thousand triangles) or a number")
         ->capture_default_str();
     sub->add_option("--block", o->settings.block, "Cubes per block side (a multiple of 4)")->capture_default_str();
@@ -150,9 +256,10 @@ Command add_build(CLI::App& app) {
                     "under it plus a fixed overhead (about 150 MiB). Binary PLY streams from disk; other formats "
                     "are read whole, and a build estimated not to fit is refused before reading. Never changes the output");
     sub->add_option("--temp", o->settings.temp_dir,
-                    "Folder for the build's temporary files (the input's triangles sorted by block, then each "
-                    "level's cubes and shared border points; about 40 bytes per input triangle at the peak); "
-                    "default beside the output. Removed when the build ends");
+                    "Folder for the build's work folder OUT.build (the input's triangles sorted by block, then "
+                    "each level's cubes and shared border points; about 40 bytes per input triangle at the peak); "
+                    "default beside the output. Removed when the build succeeds, is interrupted or meets bad "
+                    "input; kept after a kill or another failure, for --resume");
     sub->add_flag("-q,--quiet", o->quiet, "No progress bar and no summary");
     sub->add_flag("-v,--verbose", o->verbose, "Also print the memory and temporary-disk estimates, each level's counts, each stage's time, and the peak temporary disk and memory");
     return {sub, [o] { return run_build(*o); }};

@@ -128,4 +128,23 @@ const BorderTable::Point* BorderTable::find(const PositionBits& position) const 
     return i == IndexMap::kMissing ? nullptr : &points_[i];
 }
 
+BorderTable block_border_table(const std::vector<BorderEntry>& candidates, CubeKey block, const Frame& f, uint32_t level) {
+    const double size = f.cube_size(level);
+    const double reach = f.sigma0 * size * 1.001 + size * 1e-4;  // as list_border_points() reaches
+    double low[3], high[3];
+    for (int a = 0; a < 3; ++a) {
+        low[a] = f.block_low(block, a, level) - reach;
+        high[a] = low[a] + 2 * reach + f.block * size;
+    }
+    std::vector<BorderEntry> near;
+    for (const BorderEntry& e : candidates) {
+        float x[3];
+        std::memcpy(x, e.position.data(), 12);
+        bool inside = true;
+        for (int a = 0; a < 3; ++a) inside &= x[a] >= low[a] && x[a] <= high[a];
+        if (inside) near.push_back(e);
+    }
+    return BorderTable(std::move(near));
+}
+
 }  // namespace strata::build

@@ -64,4 +64,12 @@ private:
     IndexMap index_{0};
 };
 
+// The table a level-`level` block looks its points up in: of `candidates` (listings of that level), those
+// within the block's reach. A block's table needs every listing of a point it uses, and those are
+// listed near it: a vertex lies within σ0·s_l (σ0 < 1/2) of its cube, so two cubes sharing a point
+// touch, and so do their blocks. So the listings of a block and its 26 neighbours, or of the jobs that
+// made the cubes within one cube of the block (hlod_builder.cpp), give the same table as the level's
+// whole listing.
+BorderTable block_border_table(const std::vector<BorderEntry>& candidates, CubeKey block, const Frame& f, uint32_t level);
+
 }  // namespace strata::build

@@ -114,4 +114,14 @@ void check_temp_disk(const MemoryEstimate& estimate, const std::filesystem::path
                      describe_bytes(space.available) + " is free; free some or choose another folder with --temp");
 }
 
+OpenInput input_from_files(const std::vector<std::filesystem::path>& files, uint64_t memory, const Progress& progress,
+                           std::vector<std::string>& warnings) {
+    return [files, memory, &progress, &warnings] {
+        BuildInput input;
+        input.sources = open_sources(files, memory / 4, progress, warnings);
+        input.model = common_attributes(input.sources, warnings);
+        return input;
+    };
+}
+
 }  // namespace strata

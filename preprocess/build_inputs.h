@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include "preprocess/hlod_builder.h"
+
 namespace strata {
 
 // The files the arguments name, in order: a plain argument is a mesh file; "@LIST" is a text file naming
@@ -40,5 +42,11 @@ void check_memory(const MemoryEstimate& estimate, uint64_t limit, const std::str
 
 // Throws InputError naming `folder` when it has less free space than the estimate's temporary disk.
 void check_temp_disk(const MemoryEstimate& estimate, const std::filesystem::path& folder);
+
+// The input the files hold, for build_hlod to open when it reads it: open_sources() with a quarter of
+// `memory` for the streamed files' vertex caches, and common_attributes(). What the readers read past
+// goes to `warnings`; it and `progress` must outlive the build.
+OpenInput input_from_files(const std::vector<std::filesystem::path>& files, uint64_t memory, const Progress& progress,
+                           std::vector<std::string>& warnings);
 
 }  // namespace strata

@@ -1,13 +1,10 @@
 #include "preprocess/leaf_cubes.h"
 
 #include <algorithm>
-#include <atomic>
 #include <cstring>
 #include <span>
 
-#include "preprocess/border_runs.h"
 #include "preprocess/index_map.h"
-#include "preprocess/parallel.h"
 
 namespace strata::build {
 namespace {
@@ -49,11 +46,9 @@ CubeRecord make_leaf(const uint8_t* records, const CornerLayout& layout, CubeKey
     return cube;
 }
 
-// One block's cubes, into the store; their border entries, into `listed`.
-void block_leaves(RunSpill& spill, const CornerLayout& layout, CubeKey block, const Frame& f, CubeStore& store,
-                  RunSpill& listed) {
-    const std::vector<uint8_t> records = spill.read(block);
-    spill.release(block);
+}  // namespace
+
+LeafBlock leaf_block(const std::vector<uint8_t>& records, const CornerLayout& layout, const Frame& f) {
     const size_t triangle_bytes = 3 * layout.bytes(), step = layout.bytes() / 4;  // a corner in floats
     const size_t triangles = records.size() / triangle_bytes;
     std::vector<std::pair<CubeKey, uint32_t>> order(triangles);
@@ -64,30 +59,14 @@ void block_leaves(RunSpill& spill, const CornerLayout& layout, CubeKey block, co
     std::sort(order.begin(), order.end());  // by cube, then input order
     std::vector<uint32_t> ids(triangles);
     for (size_t t = 0; t < triangles; ++t) ids[t] = order[t].second;
-    std::vector<BorderEntry> border;
+    LeafBlock block;
     for (size_t first = 0, last; first < triangles; first = last) {
         for (last = first; last < triangles && order[last].first == order[first].first; ++last) {
         }
-        const CubeRecord cube = make_leaf(records.data(), layout, order[first].first,
-                                          std::span(ids).subspan(first, last - first));
-        list_border_points(cube, f, f.max_level, border);
-        store.put(cube);
+        block.cubes.push_back(make_leaf(records.data(), layout, order[first].first, std::span(ids).subspan(first, last - first)));
+        list_border_points(block.cubes.back(), f, f.max_level, block.border);
     }
-    append_listings(border, listed);
-}
-
-}  // namespace
-
-void leaf_cubes(RunSpill& spill, const CornerLayout& layout, const Frame& f, unsigned threads, CubeStore& store,
-                RunSpill& listed, const Progress& progress) {
-    const std::vector<CubeKey>& blocks = spill.keys();
-    std::atomic<uint64_t> done{0};
-    parallel_for(blocks.size(), threads, [&](size_t b, unsigned worker) {
-        progress.check();
-        block_leaves(spill, layout, blocks[b], f, store, listed);
-        const uint64_t finished = ++done;
-        if (worker == 0) progress("level cubes", double(finished), double(blocks.size()), "blocks");
-    });
+    return block;
 }
 
 }  // namespace strata::build

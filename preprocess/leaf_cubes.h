@@ -4,17 +4,20 @@
 // payload order and lists its border points.
 #pragma once
 
+#include <vector>
+
 #include "preprocess/border_table.h"
 #include "preprocess/build_cubes.h"
-#include "preprocess/cube_store.h"
-#include "preprocess/progress.h"
 #include "preprocess/triangle_spill.h"
 
 namespace strata::build {
 
-// Puts level L's cubes in `store`, and the points they list in `listed`, keyed by block. Gives the
-// spill's disk back block by block.
-void leaf_cubes(RunSpill& spill, const CornerLayout& layout, const Frame& frame, unsigned threads, CubeStore& store,
-                RunSpill& listed, const Progress& progress);
+struct LeafBlock {
+    std::vector<CubeRecord> cubes;   // in key order
+    std::vector<BorderEntry> border;  // the points they list
+};
+
+// One level-L block's cubes from its run of spilled triangles (`records`, in input order).
+LeafBlock leaf_block(const std::vector<uint8_t>& records, const CornerLayout& layout, const Frame& frame);
 
 }  // namespace strata::build

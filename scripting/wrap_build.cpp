@@ -106,6 +106,7 @@ BuildJob check_job(lua_State* L, int index) {
     job.settings.error = lua::opt_float(L, index, "error", job.settings.error);
     job.settings.threads = int(lua::opt_integer_in(L, index, "threads", 0, 0, kMaxThreads));
     job.settings.temp_dir = lua::opt_string(L, index, "temp", "");
+    job.settings.resume = lua::opt_boolean(L, index, "resume", false);
     return job;
 }
 
@@ -159,9 +160,8 @@ int build(lua_State* L) {
             estimate = estimate_build(files, job.memory_limit);
             check_memory(estimate, job.memory_limit, job.limit_name);
             check_temp_disk(estimate, temp_folder(job.output, job.settings.temp_dir));
-            const auto sources = open_sources(files, job.memory_limit / 4, progress, warnings);
-            const ModelAttributes model = common_attributes(sources, warnings);
-            report = build_hlod(sources, model, job.output, settings, source_name(job.inputs, files.size()), progress);
+            report = build_hlod(input_from_files(files, job.memory_limit, progress, warnings), files, job.output, settings,
+                                source_name(job.inputs, files.size()), progress);
             triangles = report.input_triangles;
         } catch (const Cancelled&) {
             cancelled = true;
@@ -222,7 +222,7 @@ int build(lua_State* L) {
         return luaL_error(L, "build of %s cancelled; %s was not written", job.inputs.front().c_str(), job.output.c_str());
 
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    lua_createtable(L, 0, 10);
+    lua_createtable(L, 0, 11);
     lua_pushstring(L, job.output.c_str());
     lua_setfield(L, -2, "output");
     lua_pushinteger(L, report.max_level + 1);
@@ -239,6 +239,8 @@ int build(lua_State* L) {
     lua_setfield(L, -2, "seconds");
     lua_pushinteger(L, lua_Integer(estimate.bytes));
     lua_setfield(L, -2, "memory_estimate");
+    lua_pushboolean(L, report.resumed || report.already_complete);
+    lua_setfield(L, -2, "resumed");
     lua_createtable(L, int(report.levels.size()), 0);
     for (size_t i = 0; i < report.levels.size(); ++i) {
         const LevelStats& l = report.levels[i];

@@ -49,11 +49,12 @@ Mesh scrambled_sphere() {
 BuildReport build_files(const std::vector<std::filesystem::path>& files, const std::filesystem::path& out,
                         uint64_t memory, uint64_t cache_bytes, const Progress& progress = {}) {
     std::vector<std::string> warnings;
-    const auto sources = open_sources(files, cache_bytes, progress, warnings);
-    const ModelAttributes model = common_attributes(sources, warnings);
+    BuildInput input;
+    input.sources = open_sources(files, cache_bytes, progress, warnings);
+    input.model = common_attributes(input.sources, warnings);
     BuildSettings s;
     s.memory = memory;
-    return build_hlod(sources, model, out, s, "sphere", progress);
+    return build_hlod(std::move(input), out, s, "sphere", progress);
 }
 
 TEST(StreamingBuild, BinaryPlyStreamsToTheBytesOfTheMeshInMemory) {

@@ -1,0 +1,60 @@
+// The files a build's jobs hand each other in its work folder (hlod_builder.cpp runs the jobs, in one
+// process or many): the cubes a job made for the next level with the border points they list, and
+// the payloads it encoded. Each is written whole under a temporary name and renamed into place, so a
+// file that exists is complete, and a job is finished exactly when its file exists; each section
+// carries a CRC, so a damaged file is an error naming it, never a wrong model.
+#pragma once
+
+#include <filesystem>
+#include <vector>
+
+#include "preprocess/block_step.h"
+#include "preprocess/border_table.h"
+#include "preprocess/build_cubes.h"
+
+namespace strata::build {
+
+// Writes the level-`level` cubes one job made (a leaf job: its block's level-L cubes; the job of a
+// level-(l+1) block: the parents it made, which lie in up to eight level-l blocks), grouped by block
+// and in key order within one, and the points they list. Returns the file's size. Throws
+// std::runtime_error naming the file when the disk refuses it.
+uint64_t write_cube_file(const std::filesystem::path& path, std::vector<CubeRecord> cubes, uint32_t level,
+                         const std::vector<BorderEntry>& border, const Frame& frame);
+
+// An opened cube file: its index read and checked; sections are read on demand.
+class CubeFile {
+public:
+    // Throws std::runtime_error naming the file when it is missing, short or damaged.
+    explicit CubeFile(std::filesystem::path path);
+
+    uint32_t level() const { return level_; }
+    // The block's cubes, in key order; none when the job made none there.
+    std::vector<CubeRecord> cubes_of(CubeKey block) const;
+    uint64_t triangles_of(CubeKey block) const;
+    // Every point the file's cubes list.
+    std::vector<BorderEntry> listings() const;
+
+private:
+    struct Section {
+        uint64_t offset = 0, size = 0, count = 0, triangles = 0;
+        uint32_t checksum = 0;
+    };
+    struct BlockSection {
+        CubeKey block;
+        Section section;
+    };
+    std::vector<uint8_t> read_section(const Section& s) const;
+    const Section* find(CubeKey block) const;
+
+    std::filesystem::path path_;
+    uint32_t level_ = 0;
+    std::vector<BlockSection> blocks_;  // in block order
+    Section listings_;
+};
+
+// Writes the payloads one job encoded, in key order. Returns the file's size.
+uint64_t write_payload_file(const std::filesystem::path& path, const std::vector<EncodedCube>& cubes);
+// Throws std::runtime_error naming the file when it is missing, short or damaged.
+std::vector<EncodedCube> read_payload_file(const std::filesystem::path& path);
+
+}  // namespace strata::build
