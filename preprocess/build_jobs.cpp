@@ -59,10 +59,12 @@ std::vector<CubeKey> producers(const BuildPlan& plan, size_t stage, CubeKey bloc
 }
 
 // Stage 0: a block's level-L cubes from its spilled triangles.
-void leaf_job(const BuildPlan& plan, const WorkPaths& work, RunSpill& spill, CubeKey block, DiskUsage& disk) {
+void leaf_job(const BuildPlan& plan, const WorkPaths& work, RunSpill& spill, CubeKey block, bool sole_runner, DiskUsage& disk) {
     LeafBlock leaves = leaf_block(spill.read(block), CornerLayout{plan.kept}, plan.frame);
     disk.add(write_cube_file(work.cube_file(0, block), std::move(leaves.cubes), plan.frame.max_level, leaves.border, plan.frame));
-    spill.release(block);
+    // The run's disk goes back at once only when no other process can be running the job again, and
+    // reading the holes as its triangles.
+    if (sole_runner) spill.release(block);
 }
 
 // Stage s ≥ 1: one block of level l simplified into level l − 1.
@@ -127,29 +129,42 @@ bool stage_finished(const BuildPlan& plan, const WorkPaths& work, size_t stage, 
 }
 
 JobStats run_jobs(const BuildPlan& plan, const WorkPaths& work, size_t stage, const std::vector<CubeKey>& blocks,
-                  unsigned threads, DiskUsage& disk, const Progress& progress) {
+                  unsigned threads, bool sole_runner, DiskUsage& disk, const Progress& progress) {
     std::vector<CubeKey> todo;
-    for (CubeKey block : blocks)
-        if (!job_finished(work, stage, block)) todo.push_back(block);
+    if (!file_exists(work.stage_marker(stage)))  // else the stage before may be gone
+        for (CubeKey block : blocks)
+            if (!job_finished(work, stage, block)) todo.push_back(block);
     std::error_code ec;
     std::filesystem::create_directories(work.stage_folder(stage), ec);
     if (ec) throw std::runtime_error(work.dir.string() + ": cannot create " + work.stage_folder(stage).filename().string() +
                                      " (" + ec.message() + ")");
     std::unique_ptr<RunSpill> spill;
     if (stage == 0 && !todo.empty()) {
-        ByteReader index{plan.spill_index, work.plan().string() + " (the spill's index)"};
-        spill = std::make_unique<RunSpill>(work.spill(), disk, index);
+        try {
+            ByteReader index{plan.spill_index, work.plan().string() + " (the spill's index)"};
+            spill = std::make_unique<RunSpill>(work.spill(), disk, index);
+        } catch (const std::runtime_error&) {
+            // Gone because other processes finished these jobs, and with them the stage?
+            if (!std::all_of(todo.begin(), todo.end(), [&](CubeKey b) { return job_finished(work, 0, b); })) throw;
+            todo.clear();
+        }
     }
     const std::string name = stage_name(plan, stage);
     std::atomic<uint64_t> done{0}, border_bytes{0};
     parallel_for(todo.size(), threads, [&](size_t j, unsigned worker) {
         progress.check();
-        if (stage == 0) {
-            leaf_job(plan, work, *spill, todo[j], disk);
-        } else {
-            const uint64_t bytes = simplify_job(plan, work, stage, todo[j], disk);
-            for (uint64_t most = border_bytes.load(); bytes > most && !border_bytes.compare_exchange_weak(most, bytes);) {
+        try {
+            if (stage == 0) {
+                leaf_job(plan, work, *spill, todo[j], sole_runner, disk);
+            } else {
+                const uint64_t bytes = simplify_job(plan, work, stage, todo[j], disk);
+                for (uint64_t most = border_bytes.load(); bytes > most && !border_bytes.compare_exchange_weak(most, bytes);) {
+                }
             }
+        } catch (const std::runtime_error&) {
+            // Another process ran the job too, finished it first and, finding its stage complete, removed
+            // the files this run was reading: the job is done all the same.
+            if (!job_finished(work, stage, todo[j])) throw;
         }
         const uint64_t finished = ++done;
         if (worker == 0) progress(name, double(finished), double(todo.size()), "blocks");

@@ -34,7 +34,8 @@ struct WorkPaths {
     std::filesystem::path payload_file(size_t stage, CubeKey block) const;
 };
 
-// A job is finished when its last file exists: its payloads (stage 0: its cubes).
+// A job is finished when its last file exists: its payloads (stage 0: its cubes). Once its stage is
+// marked finished (stage_finished), that file may have been removed.
 bool job_finished(const WorkPaths& work, size_t stage, CubeKey block);
 
 // Whether every job of the stage has finished. The first call that finds so marks the stage and
@@ -46,9 +47,11 @@ struct JobStats {
 };
 
 // Runs the unfinished jobs of `stage` among `blocks` (in the stage's order) on `threads` threads; the
-// stage before must have finished. Throws Cancelled, or std::runtime_error naming a file the disk refused.
+// stage before must have finished. `sole_runner`: no other process runs this build's jobs (it holds
+// the work folder's lock), so stage 0 may give the spill's disk back block by block. Throws Cancelled,
+// or std::runtime_error naming a file the disk refused.
 JobStats run_jobs(const BuildPlan& plan, const WorkPaths& work, size_t stage, const std::vector<CubeKey>& blocks,
-                  unsigned threads, DiskUsage& disk, const Progress& progress);
+                  unsigned threads, bool sole_runner, DiskUsage& disk, const Progress& progress);
 
 struct Assembly {
     std::vector<LevelStats> levels;  // finest first

@@ -274,8 +274,13 @@ void check_resumable(const BuildPlan& plan, const BuildSettings& settings, const
 
 uint64_t finished_jobs(const BuildPlan& plan, const WorkPaths& work) {
     uint64_t finished = 0;
-    for (size_t s = 0; s < plan.stages.size(); ++s)
+    for (size_t s = 0; s < plan.stages.size(); ++s) {
+        if (file_exists(work.stage_marker(s))) {  // its files may be gone: the next stage has read them
+            finished += plan.stages[s].blocks.size();
+            continue;
+        }
         for (CubeKey block : plan.stages[s].blocks) finished += build::job_finished(work, s, block);
+    }
     return finished;
 }
 
@@ -285,7 +290,7 @@ void run_every_job(const BuildPlan& plan, const WorkPaths& work, unsigned thread
     for (size_t s = 0; s < plan.stages.size(); ++s) {
         StageTimer timer(s == 0 ? report.partition_seconds : report.simplify_seconds);
         if (build::stage_finished(plan, work, s, disk)) continue;
-        const build::JobStats stats = build::run_jobs(plan, work, s, plan.stages[s].blocks, threads, disk, progress);
+        const build::JobStats stats = build::run_jobs(plan, work, s, plan.stages[s].blocks, threads, true, disk, progress);
         report.border_bytes = std::max(report.border_bytes, stats.border_bytes);
         if (!build::stage_finished(plan, work, s, disk)) throw std::logic_error("a stage's jobs ran but it has not finished");
     }
@@ -486,8 +491,9 @@ JobRunReport run_build_jobs(const std::filesystem::path& dir, uint64_t first, ui
         const uint64_t from = std::max(first, stage.first_job) - stage.first_job;
         const uint64_t to = std::min(last, stage.first_job + stage.blocks.size() - 1) - stage.first_job;
         const std::vector<build::CubeKey> blocks(stage.blocks.begin() + int64_t(from), stage.blocks.begin() + int64_t(to) + 1);
-        for (build::CubeKey block : blocks) report.already_finished += build::job_finished(work, s, block);
-        build::run_jobs(plan, work, s, blocks, resolve_thread_count(threads), disk, progress);
+        const bool marked = file_exists(work.stage_marker(s));
+        for (build::CubeKey block : blocks) report.already_finished += marked || build::job_finished(work, s, block);
+        build::run_jobs(plan, work, s, blocks, resolve_thread_count(threads), false, disk, progress);
         report.run += blocks.size();
         build::stage_finished(plan, work, s, disk);  // marks it when these were its last jobs
     }
