@@ -232,13 +232,15 @@ Command add_build(CLI::App& app) {
                   "sigma0, error) or an input differs. With nothing to resume it builds, or leaves a complete output");
     sub->add_option("--plan", o->plan,
                     "Instead of building: read the input into DIR (new or empty) and list the build's jobs in "
-                    "DIR/jobs.txt, for a cluster (--run-blocks, then --assemble)");
+                    "DIR/jobs.txt, for a cluster (--run-blocks, then --assemble)")
+        ->type_name("DIR");
     sub->add_option("--run-blocks", o->run_blocks,
                     "Instead of building: run jobs FIRST-LAST of the plan in DIR (jobs of one stage need the stages "
                     "before them finished); safe to run again, or twice at once")
         ->expected(2)
         ->type_name("DIR FIRST-LAST");
-    sub->add_option("--assemble", o->assemble, "Instead of building: write --output from the finished jobs in DIR, then remove DIR");
+    sub->add_option("--assemble", o->assemble, "Instead of building: write --output from the finished jobs in DIR, then remove DIR")
+        ->type_name("DIR");
     sub->add_option("--clean", o->clean,
                     "Instead of building: remove what killed or failed builds of this output left (its work folder "
                     "in --temp or beside it, temporary output files), keeping a running build's");

@@ -86,7 +86,7 @@ void check_memory_option(lua_State* L, int index, BuildJob& job) {
 BuildJob check_job(lua_State* L, int index) {
     luaL_checktype(L, index, LUA_TTABLE);
     lua::check_keys(L, index,
-                    {"input", "output", "levels", "block", "ratio", "sigma0", "error", "threads", "memory", "temp", "on_progress"});
+                    {"input", "output", "levels", "block", "ratio", "sigma0", "error", "threads", "memory", "temp", "resume", "on_progress"});
     BuildJob job;
     job.inputs = check_inputs(L, index);
     job.output = lua::opt_string(L, index, "output", "");

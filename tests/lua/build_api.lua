@@ -20,6 +20,13 @@ assert(calls > 0, "on_progress was never called")
 local model = strata.load(stats.output)
 assert(model:info().levels == 3)
 
+-- resume = true with a complete output and no killed build to go on from: the output is left as it is.
+local function read_all(path) local f = assert(io.open(path, "rb")); local s = f:read("a"); f:close(); return s end
+local before = read_all(stats.output)
+local again = strata.build{ input = scan, output = stats.output, levels = 2, threads = 1, resume = true }
+assert(again.resumed == true and read_all(stats.output) == before, "resume rebuilt a complete output")
+assert(stats.resumed == false)
+
 -- Returning false cancels: an error, and no file.
 local ok, err = pcall(strata.build, { input = scan, output = out .. "/cancelled.hlod",
                                       on_progress = function() return false end })
