@@ -12,6 +12,7 @@
 
 #include "preprocess/atomic_file.h"
 #include "preprocess/byte_packing.h"
+#include "preprocess/job_files.h"
 #include "preprocess/mesh.h"
 
 namespace strata::build {
@@ -158,10 +159,10 @@ BuildPlan load_plan(const std::filesystem::path& path) {
     uint32_t stored = 0;
     if (bytes.size() >= 4) std::memcpy(&stored, bytes.data() + bytes.size() - 4, 4);
     if (bytes.size() < 12 || crc32c(bytes.data(), bytes.size() - 4) != stored)
-        throw std::runtime_error(what + ": damaged (checksum mismatch); remove it (strata build --clean) and build again");
+        throw DamagedWork(what + ": damaged (checksum mismatch); remove it (strata build --clean) and build again");
     ByteReader in{std::span<const uint8_t>(bytes).first(bytes.size() - 4), what};
     if (in.get<uint32_t>() != kPlanMagic || in.get<uint32_t>() != kPlanVersion)
-        throw std::runtime_error(what + ": not a plan of this Strata; remove it (strata build --clean) and build again");
+        throw DamagedWork(what + ": not a plan of this Strata; remove it (strata build --clean) and build again");
     BuildPlan p;
     p.settings = get_settings(in);
     for (uint32_t n = in.get<uint32_t>(); n > 0; --n) {

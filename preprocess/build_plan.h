@@ -64,7 +64,8 @@ std::string settings_differ(const BuildSettings& planned, const BuildSettings& n
 
 // Writes `path` whole (temporary file, then rename); throws std::runtime_error naming it.
 void save_plan(const BuildPlan& plan, const std::filesystem::path& path);
-// Throws std::runtime_error naming the file when it is missing, short or damaged.
+// Throws DamagedWork naming the file when it is short or damaged, std::runtime_error when it cannot be
+// opened.
 BuildPlan load_plan(const std::filesystem::path& path);
 
 // The job list for people and schedulers: a line per stage, "stage LEVEL FIRST LAST" and what it does.

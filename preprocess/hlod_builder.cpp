@@ -6,6 +6,7 @@
 #include "preprocess/byte_size.h"
 #include "preprocess/hlod_format.h"
 #include "preprocess/input_scan.h"
+#include "preprocess/job_files.h"
 #include "preprocess/parallel.h"
 #include "preprocess/run_spill.h"
 #include "preprocess/triangle_spill.h"
@@ -435,6 +436,8 @@ BuildReport build_hlod(const OpenInput& open, const std::vector<std::filesystem:
             std::filesystem::remove_all(work.dir, ec);
         }
         throw;
+    } catch (const build::DamagedWork&) {
+        throw;  // nothing to go on from: the message says to start over
     } catch (const std::runtime_error& e) {
         if (!plan_on_disk) {
             std::error_code ec;
@@ -459,7 +462,7 @@ std::string plan_build(const OpenInput& open, const std::vector<std::filesystem:
     try {
         return build::describe_jobs(make_plan(open, files, work, settings, source_name, disk, progress));
     } catch (...) {
-        empty_folder(dir);
+        std::filesystem::remove_all(dir, ec);  // it held nothing before
         throw;
     }
 }

@@ -22,7 +22,7 @@ constexpr size_t kBlockEntryBytes = 44, kListingEntryBytes = 28;  // a cube file
 enum RecordFlags : uint8_t { kColors = 1, kUvs = 2, kNormals = 4 };
 
 [[noreturn]] void damaged(const std::filesystem::path& path, const std::string& what) {
-    throw std::runtime_error(path.string() + ": " + what +
+    throw DamagedWork(path.string() + ": " + what +
                              "; this build's temporary files are damaged: remove them (strata build --clean) and build again");
 }
 

@@ -6,6 +6,7 @@
 #pragma once
 
 #include <filesystem>
+#include <stdexcept>
 #include <vector>
 
 #include "preprocess/block_step.h"
@@ -13,6 +14,13 @@
 #include "preprocess/build_cubes.h"
 
 namespace strata::build {
+
+// A work folder's file that is not what the build wrote (cut short, a checksum that disagrees): the
+// work cannot go on from it, only start over.
+class DamagedWork : public std::runtime_error {
+public:
+    using std::runtime_error::runtime_error;
+};
 
 // Writes the level-`level` cubes one job made (a leaf job: its block's level-L cubes; the job of a
 // level-(l+1) block: the parents it made, which lie in up to eight level-l blocks), grouped by block
@@ -24,7 +32,8 @@ uint64_t write_cube_file(const std::filesystem::path& path, std::vector<CubeReco
 // An opened cube file: its index read and checked; sections are read on demand.
 class CubeFile {
 public:
-    // Throws std::runtime_error naming the file when it is missing, short or damaged.
+    // Throws DamagedWork naming the file when it is short or damaged, std::runtime_error when it cannot
+    // be opened.
     explicit CubeFile(std::filesystem::path path);
 
     uint32_t level() const { return level_; }
@@ -54,7 +63,8 @@ private:
 
 // Writes the payloads one job encoded, in key order. Returns the file's size.
 uint64_t write_payload_file(const std::filesystem::path& path, const std::vector<EncodedCube>& cubes);
-// Throws std::runtime_error naming the file when it is missing, short or damaged.
+// Throws DamagedWork naming the file when it is short or damaged, std::runtime_error when it cannot be
+// opened.
 std::vector<EncodedCube> read_payload_file(const std::filesystem::path& path);
 
 }  // namespace strata::build

@@ -163,6 +163,38 @@ TEST_F(ResumeBuild, ASettingThatChangesTheOutputIsRefusedByName) {
     EXPECT_FALSE(std::filesystem::exists(work()));
 }
 
+// Damage in the work folder is an error naming the file and saying to start over, not to resume.
+TEST_F(ResumeBuild, DamagedWorkIsAnErrorSayingToStartOver) {
+    ASSERT_TRUE(build_killed_at("simplify level 3", 1, small_settings()));
+    BuildSettings s = small_settings();
+    s.resume = true;
+    auto fails_naming = [&](const std::filesystem::path& file) {
+        try {
+            build(output(), s);
+            ADD_FAILURE() << "resumed from damaged " << file;
+        } catch (const std::runtime_error& e) {
+            EXPECT_THAT(e.what(), HasSubstr(file.string()));
+            EXPECT_THAT(e.what(), HasSubstr("strata build --clean) and build again"));
+            EXPECT_THAT(e.what(), ::testing::Not(HasSubstr("--resume to go on"))) << "resuming cannot help";
+        }
+        EXPECT_FALSE(std::filesystem::exists(output()));
+    };
+    // A finished stage-1 job's payloads, which the assembly reads.
+    std::filesystem::path payloads;
+    for (const auto& e : std::filesystem::directory_iterator(work() / "stage-1"))
+        if (e.path().extension() == ".payloads") payloads = e.path();
+    ASSERT_FALSE(payloads.empty());
+    std::filesystem::resize_file(payloads, std::filesystem::file_size(payloads) - 1);
+    fails_naming(payloads);
+    // The plan.
+    {
+        std::fstream plan(work() / "plan", std::ios::in | std::ios::out | std::ios::binary);
+        plan.seekp(40);
+        plan.put('\x7f');
+    }
+    fails_naming(work() / "plan");
+}
+
 TEST_F(ResumeBuild, WithNothingToResumeItBuildsOrLeavesTheCompleteOutput) {
     BuildSettings s = small_settings();
     s.resume = true;
