@@ -51,9 +51,10 @@ void AtomicOutputFile::seek(uint64_t offset) noexcept {
     if (::fseeko(file_, off_t(offset), SEEK_SET) != 0) record_failure(errno);
 }
 
-void AtomicOutputFile::commit() {
+void AtomicOutputFile::commit(Sync sync) {
     // stdio buffers: a full disk often shows only when the buffer is flushed, here.
-    if (!first_error_ && (std::fflush(file_) != 0 || ::fsync(::fileno(file_)) != 0)) record_failure(errno);
+    if (!first_error_ && std::fflush(file_) != 0) record_failure(errno);
+    if (!first_error_ && sync == Sync::to_disk && ::fsync(::fileno(file_)) != 0) record_failure(errno);
     const int closed = std::fclose(file_);
     file_ = nullptr;
     if (closed != 0) record_failure(errno);

@@ -28,9 +28,13 @@ public:
     void seek(uint64_t offset) noexcept;
     bool failed() const noexcept { return first_error_ != 0; }
 
-    // Flushes to disk, closes and renames over the target. Throws std::runtime_error naming the target
-    // and the cause (the first failed write's, e.g. "No space left on device").
-    void commit();
+    // How far commit() pushes the bytes before the rename: to the disk (fsync: the file survives a
+    // power cut), or to the kernel only (it survives the process being killed; the build's job files,
+    // whose checksums catch what a power cut does, skip a sync per file).
+    enum class Sync { to_disk, to_kernel };
+    // Flushes, closes and renames over the target. Throws std::runtime_error naming the target and the
+    // cause (the first failed write's, e.g. "No space left on device").
+    void commit(Sync sync = Sync::to_disk);
 
     // Throws std::runtime_error("cannot write <target>: <cause>"). A failed write's cause wins over
     // `cause`: a library that gives up after a failed write only reports the consequence.

@@ -69,7 +69,7 @@ uint64_t index_bytes(uint64_t blocks) { return 16 + blocks * kBlockEntryBytes + 
 uint64_t commit(const std::filesystem::path& path, const std::vector<uint8_t>& bytes) {
     AtomicOutputFile file(path);
     file.write(bytes.data(), bytes.size());
-    file.commit();
+    file.commit(AtomicOutputFile::Sync::to_kernel);
     return bytes.size();
 }
 
