@@ -71,6 +71,18 @@ write_grid() {
     }' >"$2"
 }
 
+# kill_when FILE CMD...: runs CMD in the background and kills it (SIGKILL) once FILE exists (or after
+# a minute without it; the caller checks what it expects to find).
+kill_when() {
+    local file=$1
+    shift
+    "$@" >"$WORK/out.txt" 2>"$WORK/err.txt" &
+    local pid=$!
+    for _ in $(seq 3000); do [ -e "$file" ] && break; sleep 0.02; done
+    kill -KILL $pid
+    wait $pid 2>/dev/null
+}
+
 finish() {
     echo "$((checks - failures)) passed, $failures failed"
     [ $failures -eq 0 ]

@@ -23,11 +23,7 @@ checks=$((checks + 1))
 
 # SIGKILL once the build has its work folder: nothing can clean up, but no grid.hlod appears, and the
 # work folder stays for --resume (tests/cli/resume.sh).
-"$STRATA" build "$WORK/grid.off" -o "$WORK/grid.hlod" -q >"$WORK/out.txt" 2>"$WORK/err.txt" &
-pid=$!
-for _ in $(seq 600); do [ -f "$WORK/grid.hlod.build/lock" ] && break; sleep 0.05; done
-kill -KILL $pid
-wait $pid 2>/dev/null
+kill_when "$WORK/grid.hlod.build/lock" "$STRATA" build "$WORK/grid.off" -o "$WORK/grid.hlod" -q
 checks=$((checks + 1))
 [ -d "$WORK/grid.hlod.build" ] || fail "a killed build should leave its work folder: $(ls "$WORK")"
 checks=$((checks + 1))

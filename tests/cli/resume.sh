@@ -8,11 +8,7 @@ write_grid 1000 "$WORK/grid.off"
 expect_success "reference build" "$STRATA" build "$WORK/grid.off" -o "$WORK/ref.hlod" -q
 
 # Killed once its plan is whole (the input read and spilled), while its jobs run.
-"$STRATA" build "$WORK/grid.off" -o "$WORK/grid.hlod" -q >"$WORK/out.txt" 2>"$WORK/err.txt" &
-pid=$!
-for _ in $(seq 1200); do [ -f "$WORK/grid.hlod.build/plan" ] && break; sleep 0.02; done
-kill -KILL $pid
-wait $pid 2>/dev/null
+kill_when "$WORK/grid.hlod.build/plan" "$STRATA" build "$WORK/grid.off" -o "$WORK/grid.hlod" -q
 checks=$((checks + 1))
 [ -f "$WORK/grid.hlod.build/plan" ] && [ ! -e "$WORK/grid.hlod" ] ||
     fail "the build was not killed between its plan and its output: $(ls "$WORK" "$WORK/grid.hlod.build" 2>&1)"

@@ -8,12 +8,15 @@
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <map>
 #include <random>
 #include <stdexcept>
 #include <string>
 #include <unistd.h>
 #include <utility>
+#include <vector>
 
 namespace strata::test {
 
@@ -99,6 +102,12 @@ inline Mesh seamed_grid(int n, int seam) {
             m.indices.insert(m.indices.end(), {at(x, y), at(x + 1, y), at(x + 1, y + 1), at(x, y), at(x + 1, y + 1), at(x, y + 1)});
         }
     return m;
+}
+
+// A file's bytes; none when it cannot be read.
+inline std::vector<uint8_t> file_bytes(const std::filesystem::path& path) {
+    std::ifstream in(path, std::ios::binary);
+    return {std::istreambuf_iterator<char>(in), {}};
 }
 
 class TempDir {

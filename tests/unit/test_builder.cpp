@@ -19,11 +19,6 @@
 namespace strata {
 namespace {
 
-std::vector<char> file_bytes(const std::filesystem::path& p) {
-    std::ifstream in(p, std::ios::binary);
-    return {std::istreambuf_iterator<char>(in), {}};
-}
-
 TEST(Builder, ClosedSphereVerifiesAndStaysWatertight) {
     test::TempDir dir;
     Mesh sphere = test::icosphere(6);  // 81 920 triangles
@@ -54,7 +49,7 @@ TEST(Builder, OutputIsByteIdenticalAtAnyThreadCount) {
     build_hlod(test::icosphere(5), dir / "one.hlod", s, "sphere");
     s.threads = 4;
     build_hlod(test::icosphere(5), dir / "four.hlod", s, "sphere");
-    EXPECT_EQ(file_bytes(dir / "one.hlod"), file_bytes(dir / "four.hlod"));
+    EXPECT_EQ(test::file_bytes(dir / "one.hlod"), test::file_bytes(dir / "four.hlod"));
 }
 
 std::vector<std::string> names_in(const std::filesystem::path& dir) {
@@ -104,7 +99,7 @@ TEST(Builder, LevelsPassThroughTheTemporaryFolderWhichIsRemovedAfter) {
     // Where the temporary files go changes nothing in the output.
     s.temp_dir.clear();
     build_hlod(test::icosphere(5), dir / "beside.hlod", s, "sphere");
-    EXPECT_EQ(file_bytes(dir / "out.hlod"), file_bytes(dir / "beside.hlod"));
+    EXPECT_EQ(test::file_bytes(dir / "out.hlod"), test::file_bytes(dir / "beside.hlod"));
 }
 
 TEST(Builder, TemporaryFolderThatCannotBeMadeIsNamedAndLeavesNothing) {
@@ -287,7 +282,7 @@ TEST(Builder, TilesOfAClosedScanWeldIntoTheWholeModel) {
     EXPECT_EQ(file.header().input_triangles, whole.triangle_count());
     const VerifyReport v = verify_hlod(file);
     EXPECT_TRUE(v.watertight) << "the tiles' borders left holes";
-    EXPECT_EQ(file_bytes(dir / "tiles.hlod"), file_bytes(dir / "whole.hlod"));
+    EXPECT_EQ(test::file_bytes(dir / "tiles.hlod"), test::file_bytes(dir / "whole.hlod"));
     // The scan's own order gives the same model up to the order of its vertices: the same counts.
     build_hlod(read_mesh(scan), dir / "scan.hlod", BuildSettings{}, "bunny.off");
     EXPECT_EQ(triangles_per_level(dir / "tiles.hlod"), triangles_per_level(dir / "scan.hlod"));

@@ -33,11 +33,6 @@ using ::testing::HasSubstr;
 
 // ---- helpers ----------------------------------------------------------------------------------------
 
-std::vector<uint8_t> read_bytes(const std::filesystem::path& p) {
-    std::ifstream in(p, std::ios::binary);
-    return {std::istreambuf_iterator<char>(in), {}};
-}
-
 void write_bytes(const std::filesystem::path& p, const std::vector<uint8_t>& bytes) {
     std::ofstream out(p, std::ios::binary | std::ios::trunc);
     out.write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
@@ -711,7 +706,7 @@ TEST(HlodFileRoundTrip, HeaderNodesAndCubesComeBack) {
 
     // File order: the root, then level 1 in (k, j, i) order, whatever order the cubes were added in.
     const std::vector<size_t> file_order = {0, 2, 1};
-    const std::vector<uint8_t> bytes = read_bytes(dir / "model.hlod");
+    const std::vector<uint8_t> bytes = test::file_bytes(dir / "model.hlod");
     const uint64_t payloads = section_offset(bytes, "PAYL");
     EXPECT_EQ(payloads % 4096, 0u);
     ASSERT_EQ(written.size(), 3u);
@@ -782,7 +777,7 @@ TEST(HlodFileRoundTrip, NoGeoreferenceSectionWithoutACrs) {
 TEST(HlodFileRoundTrip, OpeningReadsNoPayloadByte) {
     test::TempDir dir;
     SmallModel().write(dir / "model.hlod");
-    std::vector<uint8_t> bytes = read_bytes(dir / "model.hlod");
+    std::vector<uint8_t> bytes = test::file_bytes(dir / "model.hlod");
     const uint64_t payloads = section_offset(bytes, "PAYL");
     std::fill(bytes.begin() + long(payloads), bytes.end(), 0xAA);
     write_bytes(dir / "model.hlod", bytes);
@@ -825,7 +820,7 @@ TEST(HlodWriterCleanup, UnfinishedWriterLeavesNothing) {
     write_bytes(path, {1, 2, 3});
     { HlodWriter writer(path); }
     EXPECT_EQ(directory_entries(dir.path()), std::vector<std::string>{"model.hlod"});
-    EXPECT_EQ(read_bytes(path), (std::vector<uint8_t>{1, 2, 3}));
+    EXPECT_EQ(test::file_bytes(path), (std::vector<uint8_t>{1, 2, 3}));
 }
 
 TEST(HlodWriterCleanup, UnwritableDirectoryThrowsNamingThePath) {
@@ -863,7 +858,7 @@ class BadFile : public ::testing::Test {
 protected:
     void SetUp() override {
         SmallModel().write(dir / "good.hlod");
-        good = read_bytes(dir / "good.hlod");
+        good = test::file_bytes(dir / "good.hlod");
         ASSERT_GT(good.size(), 4096u);
     }
     // Opening `bytes` as a file throws std::runtime_error naming the file and containing `what`.
@@ -990,7 +985,7 @@ TEST_F(BadFile, BadMagic) {
 
 TEST_F(BadFile, VersionOneIsRefusedWithHowToRebuild) {
     const std::filesystem::path fixture = std::filesystem::path(STRATA_SOURCE_DIR) / "tests/data/octahedron_v1.hlod";
-    const std::vector<uint8_t> old = read_bytes(fixture);
+    const std::vector<uint8_t> old = test::file_bytes(fixture);
     ASSERT_GT(old.size(), 128u) << fixture;
     ASSERT_EQ(get<uint32_t>(old, 8), 1u);
     const std::string path = (dir / "bad.hlod").string();

@@ -26,11 +26,6 @@ namespace {
 
 using ::testing::HasSubstr;
 
-std::vector<char> file_bytes(const std::filesystem::path& p) {
-    std::ifstream in(p, std::ios::binary);
-    return {std::istreambuf_iterator<char>(in), {}};
-}
-
 BuildSettings small_settings() {
     BuildSettings s;
     s.levels = 4;  // five stages of jobs, dozens of blocks in the first ones
@@ -89,7 +84,7 @@ protected:
 // Every stage: the two passes over the input (scan, partition), each stage of jobs, between two
 // stages, and the assembly.
 TEST_F(ResumeBuild, KilledAnywhereItResumesToTheBytesOfAnUninterruptedBuild) {
-    const std::vector<char> want = file_bytes(reference());
+    const std::vector<uint8_t> want = test::file_bytes(reference());
     ASSERT_FALSE(want.empty());
     const std::vector<std::pair<std::string, int>> kills = {
         {"scan", 1},          {"partition", 2},          {"level cubes", 3},      {"level cubes", kStageDone},
@@ -112,7 +107,7 @@ TEST_F(ResumeBuild, KilledAnywhereItResumesToTheBytesOfAnUninterruptedBuild) {
         s.resume = true;
         s.threads = 1, s.memory = uint64_t(64) << 20;  // neither changes the output
         const BuildReport resumed = build(output(), s);
-        EXPECT_EQ(file_bytes(output()), want);
+        EXPECT_EQ(test::file_bytes(output()), want);
         EXPECT_FALSE(std::filesystem::exists(work())) << "the resumed build left its work folder";
         EXPECT_EQ(resumed.resumed, planned) << "killed before its plan was whole, a build starts over";
         if (planned) {
@@ -200,12 +195,12 @@ TEST_F(ResumeBuild, WithNothingToResumeItBuildsOrLeavesTheCompleteOutput) {
     s.resume = true;
     const BuildReport fresh = build(output(), s);
     EXPECT_FALSE(fresh.resumed);
-    EXPECT_EQ(file_bytes(output()), file_bytes(reference()));
+    EXPECT_EQ(test::file_bytes(output()), test::file_bytes(reference()));
     const auto written = std::filesystem::last_write_time(output());
     const BuildReport again = build(output(), s);
     EXPECT_TRUE(again.already_complete);
     EXPECT_EQ(std::filesystem::last_write_time(output()), written) << "a complete output was written again";
-    EXPECT_EQ(file_bytes(output()), file_bytes(reference()));
+    EXPECT_EQ(test::file_bytes(output()), test::file_bytes(reference()));
 }
 
 TEST_F(ResumeBuild, ASecondBuildOfTheSameOutputIsRefusedWhileTheFirstRuns) {
@@ -229,7 +224,7 @@ TEST_F(ResumeBuild, ASecondBuildOfTheSameOutputIsRefusedWhileTheFirstRuns) {
     EXPECT_EQ(remove_build_leftovers(output(), {}), std::vector<std::filesystem::path>{}) << "--clean removed a running build's folder";
     tried = true;
     first.join();
-    EXPECT_EQ(file_bytes(output()), file_bytes(reference()));
+    EXPECT_EQ(test::file_bytes(output()), test::file_bytes(reference()));
 }
 
 // The cluster's way: a plan, the jobs in ranges from two processes at once (each range split so that
@@ -274,7 +269,7 @@ TEST_F(ResumeBuild, PlannedJobsRunInTwoProcessesAssembleToTheSameBytes) {
     const JobRunReport again = run_build_jobs(plan, 0, stages.back().second, 2);
     EXPECT_EQ(again.run, 0u) << "finished jobs ran again";
     assemble_build(plan, output());
-    EXPECT_EQ(file_bytes(output()), file_bytes(reference()));
+    EXPECT_EQ(test::file_bytes(output()), test::file_bytes(reference()));
     EXPECT_FALSE(std::filesystem::exists(plan)) << "the assembly leaves the plan's folder";
 }
 

@@ -24,11 +24,6 @@ namespace {
 using ::testing::HasSubstr;
 using ::testing::StartsWith;
 
-std::vector<char> file_bytes(const std::filesystem::path& p) {
-    std::ifstream in(p, std::ios::binary);
-    return {std::istreambuf_iterator<char>(in), {}};
-}
-
 // Every 16th face of a bumpy sphere, in a scrambled order, so that consecutive faces use vertices far
 // apart in the file and a small vertex cache keeps replacing its pages (the vertices no face uses
 // stay in the file); with colours, so that the corners' attributes travel through the spill too.
@@ -72,18 +67,18 @@ TEST(StreamingBuild, BinaryPlyStreamsToTheBytesOfTheMeshInMemory) {
     EXPECT_EQ(estimate_build({dir / "little.ply"}, uint64_t(1) << 30).temp_bytes, 54 * mesh.triangle_count());
 
     build_hlod(read_mesh(dir / "little.ply"), dir / "in_memory.hlod", BuildSettings{}, "sphere");
-    const std::vector<char> want = file_bytes(dir / "in_memory.hlod");
+    const std::vector<uint8_t> want = test::file_bytes(dir / "in_memory.hlod");
     ASSERT_FALSE(want.empty());
     // The smallest limit and cache (four pages of 4096 vertices) against a generous one.
     const BuildReport tight = build_files({dir / "little.ply"}, dir / "tight.hlod", uint64_t(16) << 20, 1);
-    EXPECT_EQ(file_bytes(dir / "tight.hlod"), want) << "a small memory limit changed the output";
+    EXPECT_EQ(test::file_bytes(dir / "tight.hlod"), want) << "a small memory limit changed the output";
     EXPECT_LE(tight.source_memory_bytes, uint64_t(6) << 20) << "the vertex cache outgrew its four pages";
     build_files({dir / "little.ply"}, dir / "roomy.hlod", uint64_t(4) << 30, uint64_t(1) << 30);
-    EXPECT_EQ(file_bytes(dir / "roomy.hlod"), want);
+    EXPECT_EQ(test::file_bytes(dir / "roomy.hlod"), want);
     build_files({dir / "big.ply"}, dir / "big.hlod", uint64_t(16) << 20, 1);
-    EXPECT_EQ(file_bytes(dir / "big.hlod"), want) << "big-endian PLY streamed differently";
+    EXPECT_EQ(test::file_bytes(dir / "big.hlod"), want) << "big-endian PLY streamed differently";
     build_files({dir / "text.ply"}, dir / "text.hlod", uint64_t(16) << 20, 1);
-    EXPECT_EQ(file_bytes(dir / "text.hlod"), want) << "ASCII PLY, read whole, differed";
+    EXPECT_EQ(test::file_bytes(dir / "text.hlod"), want) << "ASCII PLY, read whole, differed";
 
     EXPECT_NO_THROW(verify_hlod(HlodFile(dir / "tight.hlod")));
 }
