@@ -163,7 +163,7 @@ int run_build(const BuildOptions& o) {
         std::printf("  temporary disk: about %s in %s\n", describe_bytes(estimate.temp_bytes).c_str(), temp.c_str());
     }
     check_memory(estimate, memory_limit, limit_name);
-    check_temp_disk(estimate, temp);
+    check_temp_disk(estimate, temp, settings.resume ? leftover_bytes(o.output, o.settings.temp_dir) : 0);
     const std::atomic<bool>* cancel = install_interrupt_flag();
     ProgressBar bar(!o.quiet);
     Progress progress = bar.progress(cancel);

@@ -105,10 +105,11 @@ void check_memory(const MemoryEstimate& estimate, uint64_t limit, const std::str
                      "); binary PLY streams from disk in bounded memory: convert the input to it");
 }
 
-void check_temp_disk(const MemoryEstimate& estimate, const std::filesystem::path& folder) {
+void check_temp_disk(const MemoryEstimate& estimate, const std::filesystem::path& folder, uint64_t held) {
     std::error_code ec;
     const std::filesystem::space_info space = std::filesystem::space(folder.empty() ? "." : folder, ec);
-    if (ec || space.available >= estimate.temp_bytes) return;  // a folder that does not exist fails when made
+    // A folder that does not exist fails when made; what a killed build holds there already counts.
+    if (ec || space.available + held >= estimate.temp_bytes) return;
     throw InputError((folder.empty() ? std::string(".") : folder.string()) + ": the build needs about " +
                      describe_bytes(estimate.temp_bytes) + " of temporary disk here, and only " +
                      describe_bytes(space.available) + " is free; free some or choose another folder with --temp");

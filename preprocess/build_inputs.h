@@ -40,8 +40,9 @@ MemoryEstimate estimate_build(const std::vector<std::filesystem::path>& files, u
 // <limit_name>; ...". `limit_name` says where the limit came from ("--memory 2G").
 void check_memory(const MemoryEstimate& estimate, uint64_t limit, const std::string& limit_name);
 
-// Throws InputError naming `folder` when it has less free space than the estimate's temporary disk.
-void check_temp_disk(const MemoryEstimate& estimate, const std::filesystem::path& folder);
+// Throws InputError naming `folder` when it has less free space than the estimate's temporary disk,
+// beyond the `held` bytes a resumed build's work folder already takes there.
+void check_temp_disk(const MemoryEstimate& estimate, const std::filesystem::path& folder, uint64_t held = 0);
 
 // The input the files hold, for build_hlod to open when it reads it: open_sources() with a quarter of
 // `memory` for the streamed files' vertex caches, and common_attributes(). What the readers read past

@@ -327,6 +327,10 @@ std::filesystem::path temp_folder(const std::filesystem::path& output, const std
     return folder_or_here(temp_dir.empty() ? output.parent_path() : temp_dir);
 }
 
+uint64_t leftover_bytes(const std::filesystem::path& output, const std::filesystem::path& temp_dir) {
+    return folder_bytes(work_paths(output, temp_dir).dir);
+}
+
 std::vector<std::filesystem::path> remove_build_leftovers(const std::filesystem::path& output,
                                                           const std::filesystem::path& temp_dir) {
     std::vector<std::filesystem::path> removed;

@@ -124,6 +124,9 @@ BuildReport assemble_build(const std::filesystem::path& dir, const std::filesyst
 // folder ("." for a bare file name).
 std::filesystem::path temp_folder(const std::filesystem::path& output, const std::filesystem::path& temp_dir);
 
+// The bytes the work folder of a killed or failed build of `output` takes on disk (0 when there is none).
+uint64_t leftover_bytes(const std::filesystem::path& output, const std::filesystem::path& temp_dir);
+
 // What builds of `output` that were killed or failed left behind: the work folder (in `temp_dir`, or
 // beside the output when it is empty) unless a running build holds it, and the writer's temporary
 // files of processes that are gone, beside the output. Removes them and returns their paths.

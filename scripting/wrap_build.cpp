@@ -159,7 +159,8 @@ int build(lua_State* L) {
             check_settings(settings);
             estimate = estimate_build(files, job.memory_limit);
             check_memory(estimate, job.memory_limit, job.limit_name);
-            check_temp_disk(estimate, temp_folder(job.output, job.settings.temp_dir));
+            check_temp_disk(estimate, temp_folder(job.output, job.settings.temp_dir),
+                            settings.resume ? leftover_bytes(job.output, job.settings.temp_dir) : 0);
             report = build_hlod(input_from_files(files, job.memory_limit, progress, warnings), files, job.output, settings,
                                 source_name(job.inputs, files.size()), progress);
             triangles = report.input_triangles;

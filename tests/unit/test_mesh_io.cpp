@@ -1151,6 +1151,11 @@ TEST(ByteSize, TemporaryDiskPreflightNamesTheFolder) {
         EXPECT_THAT(e.what(), StartsWith(folder.string() + ": the build needs about 4.0 EiB of temporary disk here, and only "));
         EXPECT_THAT(e.what(), HasSubstr("choose another folder with --temp"));
     }
+    // A resumed build's work folder already holds part of what it needs.
+    const std::filesystem::space_info space = std::filesystem::space(folder);
+    estimate.temp_bytes = space.available + (uint64_t(1) << 30);
+    EXPECT_THROW(check_temp_disk(estimate, folder), InputError);
+    EXPECT_NO_THROW(check_temp_disk(estimate, folder, uint64_t(2) << 30));
 }
 
 TEST(ByteSize, MemoryPreflightRefusesWhatDoesNotFit) {
