@@ -1153,9 +1153,9 @@ TEST(ByteSize, TemporaryDiskPreflightNamesTheFolder) {
     }
     // A resumed build's work folder already holds part of what it needs.
     const std::filesystem::space_info space = std::filesystem::space(folder);
-    estimate.temp_bytes = space.available + (uint64_t(1) << 30);
+    estimate.temp_bytes = space.available + (uint64_t(1) << 40);  // margins no other writer moves
     EXPECT_THROW(check_temp_disk(estimate, folder), InputError);
-    EXPECT_NO_THROW(check_temp_disk(estimate, folder, uint64_t(2) << 30));
+    EXPECT_NO_THROW(check_temp_disk(estimate, folder, uint64_t(2) << 40));
 }
 
 TEST(ByteSize, MemoryPreflightRefusesWhatDoesNotFit) {
