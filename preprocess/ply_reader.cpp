@@ -11,8 +11,13 @@
 #include <array>
 #include <bit>
 #include <cerrno>
+#include <condition_variable>
+#include <exception>
+#include <functional>
+#include <mutex>
 #include <cstring>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "preprocess/mesh_readers.h"
@@ -1118,6 +1123,17 @@ private:
     }
     void fan(const char* p, size_t n, size_t item, std::vector<uint32_t>& corners) const {
         const PlyType type = ply_.face_.properties[ply_.list_].type;
+        // Most scans: triangles of 32-bit indices in the machine's byte order, copied as they are.
+        if (n == 3 && !ply_.columns_.swap && (type == PlyType::uint32 || type == PlyType::int32)) {
+            uint32_t v[3];
+            std::memcpy(v, p, sizeof v);
+            const uint64_t count = ply_.vertex_.count;
+            const bool negative = type == PlyType::int32 && ((v[0] | v[1] | v[2]) >> 31) != 0;
+            if (!negative && v[0] < count && v[1] < count && v[2] < count) {
+                corners.insert(corners.end(), v, v + 3);
+                return;
+            }
+        }
         auto corner = [&](size_t k) {
             const double index = load_number(p + k * item, type, ply_.columns_.swap);
             if (!(index >= 0 && index < double(ply_.vertex_.count)))
@@ -1161,20 +1177,96 @@ private:
     uint64_t face_ = 0;
 };
 
+// Two batches in flight: a reader thread fills one while the caller visits the other, in order. A
+// build's passes spend about as long decoding the file as on what they do with the triangles, so the
+// two overlap on two cores. What the reader throws is rethrown to the caller after the batches before it.
+class BatchHandoff {
+public:
+    // On the reader thread: fill(batch) fills the next batch, false once there are no more.
+    void produce(const std::function<bool(TriangleBatch&)>& fill) {
+        try {
+            for (int i = 0;; i ^= 1) {
+                {
+                    std::unique_lock lock(mutex_);
+                    changed_.wait(lock, [&] { return !full_[i] || stop_; });
+                    if (stop_) return;
+                }
+                const bool more = fill(slots_[i]);  // the caller touches only full slots
+                std::lock_guard lock(mutex_);
+                (more ? full_[i] : done_) = true;
+                changed_.notify_all();
+                if (!more) return;
+            }
+        } catch (...) {
+            std::lock_guard lock(mutex_);
+            error_ = std::current_exception();
+            done_ = true;
+            changed_.notify_all();
+        }
+    }
+    // On the caller's thread: visits every batch in order.
+    void consume(const std::function<void(const TriangleBatch&)>& visit) {
+        for (int i = 0;; i ^= 1) {
+            {
+                std::unique_lock lock(mutex_);
+                changed_.wait(lock, [&] { return full_[i] || done_; });
+                if (!full_[i]) {
+                    if (error_) std::rethrow_exception(error_);
+                    return;
+                }
+            }
+            visit(slots_[i]);
+            std::lock_guard lock(mutex_);
+            full_[i] = false;
+            changed_.notify_all();
+        }
+    }
+    // Makes produce() return (the caller stopped early: cancelled, or its visit threw).
+    void stop() {
+        std::lock_guard lock(mutex_);
+        stop_ = true;
+        changed_.notify_all();
+    }
+
+private:
+    std::mutex mutex_;
+    std::condition_variable changed_;
+    TriangleBatch slots_[2];
+    bool full_[2] = {false, false};
+    bool done_ = false, stop_ = false;
+    std::exception_ptr error_;
+};
+
 void PlyStream::for_each(const std::function<void(const TriangleBatch&)>& visit, const Progress& progress) {
     constexpr size_t kBatch = 1 << 15;
     file_->check_unchanged();
     Cache cache(*this, cache_bytes_);
     Faces faces(*this);
-    TriangleBatch batch;
     std::vector<uint32_t> corners;
-    while (faces.next(corners, kBatch)) {
+    BatchHandoff handoff;
+    std::thread reader([&] {
+        handoff.produce([&](TriangleBatch& batch) {
+            if (!faces.next(corners, kBatch)) return false;
+            batch.clear();
+            for (uint32_t v : corners) cache.append(v, batch);
+            const uint64_t batch_bytes = 4 * (batch.positions.capacity() + batch.normals.capacity() + batch.uvs.capacity()) +
+                                         batch.colors.capacity();
+            memory_ = std::max(memory_, cache.memory_bytes() + Faces::kWindow + 2 * batch_bytes);  // two in flight
+            return true;
+        });
+    });
+    struct JoinOnExit {
+        BatchHandoff& handoff;
+        std::thread& reader;
+        ~JoinOnExit() {
+            handoff.stop();
+            reader.join();
+        }
+    } join{handoff, reader};
+    handoff.consume([&](const TriangleBatch& batch) {
         progress.check();
-        batch.clear();
-        for (uint32_t v : corners) cache.append(v, batch);
-        memory_ = std::max(memory_, cache.memory_bytes() + Faces::kWindow);
         visit(batch);
-    }
+    });
     file_->check_unchanged();
 }
 
@@ -1222,9 +1314,6 @@ std::unique_ptr<TriangleSource> open_ply_stream(const std::filesystem::path& pat
     warnings.insert(warnings.end(), header_warnings.begin(), header_warnings.end());
     return std::make_unique<PlyStream>(std::move(file), path, name, std::move(header), vertex_offset, face_offset, cache_bytes, origin);
 }
-
-namespace {
-}  // namespace
 
 uint64_t ply_face_count(const ReadInput& input) {
     const PlyHeader header = HeaderParser(input).parse();
