@@ -321,6 +321,35 @@ BuildReport assembled_report(const BuildPlan& plan, const build::Assembly& assem
                      " unfinished job" + (left == 1 ? "" : "s") + ", the first job " + std::to_string(first));
 }
 
+// Every unfinished job of the plan, then the assembly; the report of the whole build.
+BuildReport build_from_plan(const BuildPlan& plan, const WorkPaths& work, const std::filesystem::path& output,
+                            unsigned threads, build::DiskUsage& disk, const Progress& progress) {
+    BuildReport jobs;  // what running the jobs measured
+    jobs.jobs_resumed = finished_jobs(plan, work);
+    jobs.partition_seconds = plan.spill_seconds;
+    run_every_job(plan, work, threads, disk, progress, jobs);
+    progress.check();
+    double write_seconds = 0;
+    build::Assembly assembly;
+    {
+        StageTimer timer(write_seconds);
+        assembly = build::assemble(plan, work, output, progress);
+    }
+    BuildReport report = assembled_report(plan, assembly);
+    report.read_seconds = plan.read_seconds, report.partition_seconds = jobs.partition_seconds;
+    report.simplify_seconds = jobs.simplify_seconds, report.write_seconds = write_seconds;
+    report.border_bytes = jobs.border_bytes;
+    report.spill_memory_bytes = plan.spill_memory_bytes, report.source_memory_bytes = plan.source_memory_bytes;
+    report.temp_bytes = disk.peak();
+    report.jobs_resumed = jobs.jobs_resumed;
+    return report;
+}
+
+void remove_work_folder(const std::filesystem::path& dir) {
+    std::error_code ignored;
+    std::filesystem::remove_all(dir, ignored);
+}
+
 }  // namespace
 
 std::filesystem::path temp_folder(const std::filesystem::path& output, const std::filesystem::path& temp_dir) {
@@ -336,8 +365,7 @@ std::vector<std::filesystem::path> remove_build_leftovers(const std::filesystem:
     std::vector<std::filesystem::path> removed;
     const WorkPaths work = work_paths(output, temp_dir);
     if (file_exists(work.dir) && !WorkLock::held(work.dir)) {
-        std::error_code ec;
-        std::filesystem::remove_all(work.dir, ec);
+        remove_work_folder(work.dir);
         removed.push_back(work.dir);
     }
     remove_dead_writers(output, removed);
@@ -394,58 +422,32 @@ BuildReport build_hlod(const OpenInput& open, const std::vector<std::filesystem:
     remove_dead_writers(output, ignored);
     build::DiskUsage disk;
     disk.add(folder_bytes(work.dir));
-    BuildReport report;
     bool plan_on_disk = planned;
     try {
         BuildPlan plan;
         if (planned) {
             plan = build::load_plan(work.plan());
             check_resumable(plan, settings, files, output);
-            report.resumed = true;
-            report.jobs_resumed = finished_jobs(plan, work);
         } else {
             empty_folder(work.dir);
             plan = make_plan(open, files, work, settings, source_name, disk, progress);
             plan_on_disk = true;
         }
-        report.read_seconds = plan.read_seconds;
-        report.partition_seconds = plan.spill_seconds;
-        run_every_job(plan, work, resolve_thread_count(settings.threads), disk, progress, report);
-        progress.check();
-        double write_seconds = 0;
-        build::Assembly assembly;
-        {
-            StageTimer timer(write_seconds);
-            assembly = build::assemble(plan, work, output, progress);
-        }
-        BuildReport done = assembled_report(plan, assembly);
-        done.read_seconds = report.read_seconds, done.partition_seconds = report.partition_seconds;
-        done.simplify_seconds = report.simplify_seconds, done.write_seconds = write_seconds;
-        done.border_bytes = report.border_bytes;
-        done.spill_memory_bytes = plan.spill_memory_bytes, done.source_memory_bytes = plan.source_memory_bytes;
-        done.temp_bytes = disk.peak();
-        done.resumed = report.resumed, done.jobs_resumed = report.jobs_resumed;
-        empty_folder(work.dir);
-        std::error_code ec;
-        std::filesystem::remove_all(work.dir, ec);
-        return done;
+        BuildReport report = build_from_plan(plan, work, output, resolve_thread_count(settings.threads), disk, progress);
+        report.resumed = planned;
+        remove_work_folder(work.dir);
+        return report;
     } catch (const Cancelled&) {
-        empty_folder(work.dir);
-        std::error_code ec;
-        std::filesystem::remove_all(work.dir, ec);
+        remove_work_folder(work.dir);
         throw;
     } catch (const InputError&) {
-        if (!plan_on_disk) {
-            std::error_code ec;
-            std::filesystem::remove_all(work.dir, ec);
-        }
+        if (!plan_on_disk) remove_work_folder(work.dir);  // bad input: nothing to go on from
         throw;
     } catch (const build::DamagedWork&) {
         throw;  // nothing to go on from: the message says to start over
     } catch (const std::runtime_error& e) {
         if (!plan_on_disk) {
-            std::error_code ec;
-            std::filesystem::remove_all(work.dir, ec);
+            remove_work_folder(work.dir);
             throw;
         }
         throw std::runtime_error(std::string(e.what()) + " (the finished blocks are kept in " + work.dir.string() +
@@ -466,7 +468,7 @@ std::string plan_build(const OpenInput& open, const std::vector<std::filesystem:
     try {
         return build::describe_jobs(make_plan(open, files, work, settings, source_name, disk, progress));
     } catch (...) {
-        std::filesystem::remove_all(dir, ec);  // it held nothing before
+        remove_work_folder(dir);  // it held nothing before
         throw;
     }
 }
@@ -522,8 +524,7 @@ BuildReport assemble_build(const std::filesystem::path& dir, const std::filesyst
         StageTimer timer(report.write_seconds);
         report = assembled_report(plan, build::assemble(plan, work, output, progress));
     }
-    std::error_code ec;
-    std::filesystem::remove_all(dir, ec);
+    remove_work_folder(dir);
     return report;
 }
 
