@@ -128,12 +128,17 @@ bool stage_finished(const BuildPlan& plan, const WorkPaths& work, size_t stage, 
     return true;
 }
 
+std::vector<CubeKey> unfinished_jobs(const WorkPaths& work, size_t stage, const std::vector<CubeKey>& blocks) {
+    std::vector<CubeKey> unfinished;
+    if (file_exists(work.stage_marker(stage))) return unfinished;  // its jobs' files may be gone
+    for (CubeKey block : blocks)
+        if (!job_finished(work, stage, block)) unfinished.push_back(block);
+    return unfinished;
+}
+
 JobStats run_jobs(const BuildPlan& plan, const WorkPaths& work, size_t stage, const std::vector<CubeKey>& blocks,
                   unsigned threads, bool sole_runner, DiskUsage& disk, const Progress& progress) {
-    std::vector<CubeKey> todo;
-    if (!file_exists(work.stage_marker(stage)))  // else the stage before may be gone
-        for (CubeKey block : blocks)
-            if (!job_finished(work, stage, block)) todo.push_back(block);
+    std::vector<CubeKey> todo = unfinished_jobs(work, stage, blocks);
     std::error_code ec;
     std::filesystem::create_directories(work.stage_folder(stage), ec);
     if (ec) throw std::runtime_error(work.dir.string() + ": cannot create " + work.stage_folder(stage).filename().string() +
@@ -170,7 +175,7 @@ JobStats run_jobs(const BuildPlan& plan, const WorkPaths& work, size_t stage, co
         if (worker == 0) progress(name, double(finished), double(todo.size()), "blocks");
     });
     progress(name, double(todo.size()), double(todo.size()), "blocks");
-    return JobStats{border_bytes.load()};
+    return JobStats{border_bytes.load(), todo.size()};
 }
 
 Assembly assemble(const BuildPlan& plan, const WorkPaths& work, const std::filesystem::path& output, const Progress& progress) {

@@ -42,8 +42,13 @@ bool job_finished(const WorkPaths& work, size_t stage, CubeKey block);
 // removes what only its jobs read (stage 0: the spill; stage s: stage s − 1's cube files).
 bool stage_finished(const BuildPlan& plan, const WorkPaths& work, size_t stage, DiskUsage& disk);
 
+// The jobs of `stage` among `blocks` that have not finished, in their order: none once the stage is
+// marked finished (its jobs' files may have been removed since).
+std::vector<CubeKey> unfinished_jobs(const WorkPaths& work, size_t stage, const std::vector<CubeKey>& blocks);
+
 struct JobStats {
     uint64_t border_bytes = 0;  // the most listings one job held
+    uint64_t run = 0;           // the jobs it found unfinished and ran
 };
 
 // Runs the unfinished jobs of `stage` among `blocks` (in the stage's order) on `threads` threads; the

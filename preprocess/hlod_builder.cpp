@@ -275,13 +275,8 @@ void check_resumable(const BuildPlan& plan, const BuildSettings& settings, const
 
 uint64_t finished_jobs(const BuildPlan& plan, const WorkPaths& work) {
     uint64_t finished = 0;
-    for (size_t s = 0; s < plan.stages.size(); ++s) {
-        if (file_exists(work.stage_marker(s))) {  // its files may be gone: the next stage has read them
-            finished += plan.stages[s].blocks.size();
-            continue;
-        }
-        for (CubeKey block : plan.stages[s].blocks) finished += build::job_finished(work, s, block);
-    }
+    for (size_t s = 0; s < plan.stages.size(); ++s)
+        finished += plan.stages[s].blocks.size() - build::unfinished_jobs(work, s, plan.stages[s].blocks).size();
     return finished;
 }
 
@@ -500,13 +495,11 @@ JobRunReport run_build_jobs(const std::filesystem::path& dir, uint64_t first, ui
         const uint64_t from = std::max(first, stage.first_job) - stage.first_job;
         const uint64_t to = std::min(last, stage.first_job + stage.blocks.size() - 1) - stage.first_job;
         const std::vector<build::CubeKey> blocks(stage.blocks.begin() + int64_t(from), stage.blocks.begin() + int64_t(to) + 1);
-        const bool marked = file_exists(work.stage_marker(s));
-        for (build::CubeKey block : blocks) report.already_finished += marked || build::job_finished(work, s, block);
-        build::run_jobs(plan, work, s, blocks, resolve_thread_count(threads), false, disk, progress);
-        report.run += blocks.size();
+        const uint64_t ran = build::run_jobs(plan, work, s, blocks, resolve_thread_count(threads), false, disk, progress).run;
+        report.run += ran;
+        report.already_finished += blocks.size() - ran;
         build::stage_finished(plan, work, s, disk);  // marks it when these were its last jobs
     }
-    report.run -= report.already_finished;
     return report;
 }
 

@@ -170,18 +170,6 @@ void write_all(int fd, const uint8_t* data, size_t size, const std::filesystem::
     }
 }
 
-// Reads exactly `size` bytes at `offset`; false if the file ends first or a read fails.
-bool read_fully(int fd, uint64_t offset, uint8_t* data, size_t size) {
-    while (size > 0) {
-        errno = 0;
-        const ssize_t n = ::pread(fd, data, size, off_t(offset));
-        if (n < 0 && errno == EINTR) continue;
-        if (n <= 0) return false;
-        data += n, size -= size_t(n), offset += uint64_t(n);
-    }
-    return true;
-}
-
 // Appends `size` bytes of `from`, starting at `offset`, to `to` at its file position: inside the kernel
 // with copy_file_range (nothing passes through memory; some filesystems share the blocks), else, where
 // the kernel or filesystem cannot, through a buffer of a few MB.
@@ -229,6 +217,18 @@ int FileHandle::release() {
     const int fd = fd_;
     fd_ = -1;
     return fd >= 0 ? ::close(fd) : 0;
+}
+
+bool read_fully(int fd, uint64_t offset, void* data, size_t size) {
+    auto* bytes = static_cast<uint8_t*>(data);
+    while (size > 0) {
+        errno = 0;
+        const ssize_t n = ::pread(fd, bytes, size, off_t(offset));
+        if (n < 0 && errno == EINTR) continue;
+        if (n <= 0) return false;
+        bytes += n, size -= size_t(n), offset += uint64_t(n);
+    }
+    return true;
 }
 
 std::string describe_cube(const HlodNode& node) {
@@ -976,7 +976,7 @@ HlodFile::HlodFile(const std::filesystem::path& path)
 }
 
 void HlodFile::read_at(uint64_t offset, void* data, size_t size, const std::string& what) const {
-    if (!read_fully(file_.get(), offset, static_cast<uint8_t*>(data), size))
+    if (!read_fully(file_.get(), offset, data, size))
         throw std::runtime_error(io_error(path_, "cannot read " + what));
 }
 

@@ -147,6 +147,10 @@ private:
     int fd_ = -1;
 };
 
+// Reads exactly `size` bytes at `offset`; false if the file ends first (errno 0) or a read fails (errno
+// says why).
+bool read_fully(int fd, uint64_t offset, void* data, size_t size);
+
 // The builder adds payloads finest level first; the file stores them coarsest first. So add_cube
 // spools payloads to "<path>.tmp-<pid>.payloads", and finish() writes "<path>.tmp-<pid>" (header,
 // sections, then the payloads copied level by level from the spool), fsyncs it and renames it over

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <cstring>
+#include <initializer_list>
 #include <stdexcept>
 
 #include "preprocess/atomic_file.h"
@@ -66,22 +67,19 @@ CubeRecord get_cube(ByteReader& in) {
 // A cube file's head: 16 fixed bytes, the blocks' entries, the listings' entry, the head's CRC.
 uint64_t index_bytes(uint64_t blocks) { return 16 + blocks * kBlockEntryBytes + kListingEntryBytes + 4; }
 
-uint64_t commit(const std::filesystem::path& path, const std::vector<uint8_t>& bytes) {
+// Writes the parts one after the other as one file; returns its size.
+uint64_t commit(const std::filesystem::path& path, std::initializer_list<const std::vector<uint8_t>*> parts) {
     AtomicOutputFile file(path);
-    file.write(bytes.data(), bytes.size());
+    uint64_t size = 0;
+    for (const std::vector<uint8_t>* part : parts) file.write(part->data(), part->size()), size += part->size();
     file.commit(AtomicOutputFile::Sync::to_kernel);
-    return bytes.size();
+    return size;
 }
 
 void read_exactly(int fd, const std::filesystem::path& path, uint64_t offset, void* data, size_t size) {
-    auto* p = static_cast<uint8_t*>(data);
-    for (size_t done = 0; done < size;) {
-        const ssize_t n = ::pread(fd, p + done, size - done, off_t(offset + done));
-        if (n < 0 && errno == EINTR) continue;
-        if (n < 0) throw std::runtime_error(path.string() + ": cannot read (" + std::strerror(errno) + ")");
-        if (n == 0) damaged(path, "ends early");
-        done += size_t(n);
-    }
+    if (read_fully(fd, offset, data, size)) return;
+    if (errno) throw std::runtime_error(path.string() + ": cannot read (" + std::strerror(errno) + ")");
+    damaged(path, "ends early");
 }
 
 int open_job_file(const std::filesystem::path& path) {
@@ -130,21 +128,19 @@ uint64_t write_cube_file(const std::filesystem::path& path, std::vector<CubeReco
     head.put(head_bytes + listings_at), head.put(uint64_t(border.size() * sizeof(BorderEntry))), head.put(uint64_t(border.size()));
     head.put(crc32c(body.bytes.data() + listings_at, border.size() * sizeof(BorderEntry)));
     head.put(crc32c(head.bytes.data(), head.bytes.size()));
-    head.put_bytes(body.bytes.data(), body.bytes.size());
-    return commit(path, head.bytes);
+    return commit(path, {&head.bytes, &body.bytes});
 }
 
-CubeFile::CubeFile(std::filesystem::path path) : path_(std::move(path)) {
-    const FileHandle file(open_job_file(path_));
+CubeFile::CubeFile(std::filesystem::path path) : path_(std::move(path)), file_(open_job_file(path_)) {
     uint32_t fixed[4];
-    read_exactly(file.get(), path_, 0, fixed, sizeof(fixed));
+    read_exactly(file_.get(), path_, 0, fixed, sizeof(fixed));
     if (fixed[0] != kCubeFileMagic || fixed[1] != kJobFileVersion) damaged(path_, "not a cube file of this Strata");
     level_ = fixed[2];
     const uint64_t blocks = fixed[3];
     std::error_code ec;
     if (index_bytes(blocks) > std::filesystem::file_size(path_, ec) || ec) damaged(path_, "ends early");
     std::vector<uint8_t> head(index_bytes(blocks));
-    read_exactly(file.get(), path_, 0, head.data(), head.size());
+    read_exactly(file_.get(), path_, 0, head.data(), head.size());
     uint32_t stored;
     std::memcpy(&stored, head.data() + head.size() - 4, 4);
     if (crc32c(head.data(), head.size() - 4) != stored) damaged(path_, "index checksum mismatch");
@@ -161,9 +157,8 @@ CubeFile::CubeFile(std::filesystem::path path) : path_(std::move(path)) {
 }
 
 std::vector<uint8_t> CubeFile::read_section(const Section& s) const {
-    const FileHandle file(open_job_file(path_));
     std::vector<uint8_t> bytes(s.size);
-    read_exactly(file.get(), path_, s.offset, bytes.data(), bytes.size());
+    read_exactly(file_.get(), path_, s.offset, bytes.data(), bytes.size());
     if (crc32c(bytes.data(), bytes.size()) != s.checksum) damaged(path_, "section checksum mismatch");
     return bytes;
 }
@@ -209,7 +204,7 @@ uint64_t write_payload_file(const std::filesystem::path& path, const std::vector
         out.put_bytes(e.payload.data(), e.payload.size());
     }
     out.put(crc32c(out.bytes.data(), out.bytes.size()));
-    return commit(path, out.bytes);
+    return commit(path, {&out.bytes});
 }
 
 std::vector<EncodedCube> read_payload_file(const std::filesystem::path& path) {

@@ -12,6 +12,7 @@
 #include "preprocess/block_step.h"
 #include "preprocess/border_table.h"
 #include "preprocess/build_cubes.h"
+#include "preprocess/hlod_format.h"
 
 namespace strata::build {
 
@@ -56,6 +57,7 @@ private:
     const Section* find(CubeKey block) const;
 
     std::filesystem::path path_;
+    FileHandle file_;  // open from the index to the last section read: one open a producer
     uint32_t level_ = 0;
     std::vector<BlockSection> blocks_;  // in block order
     Section listings_;

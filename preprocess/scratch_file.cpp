@@ -48,13 +48,7 @@ void ScratchFile::write(const void* data, size_t size, uint64_t offset) {
 }
 
 void ScratchFile::read(void* data, size_t size, uint64_t offset) const {
-    auto* bytes = static_cast<char*>(data);
-    for (size_t done = 0; done < size;) {
-        const ssize_t n = ::pread(file_.get(), bytes + done, size - done, off_t(offset + done));
-        if (n < 0 && errno == EINTR) continue;
-        if (n <= 0) fail("cannot read back", n < 0 ? errno : EIO);
-        done += size_t(n);
-    }
+    if (!read_fully(file_.get(), offset, data, size)) fail("cannot read back", errno ? errno : EIO);
 }
 
 void ScratchFile::release(uint64_t offset, uint64_t size) {
