@@ -2,11 +2,13 @@
 // end by the real `strata build` (read → .hlod) in a child process, against one meshopt_simplify pass
 // of the same mesh to a quarter. Prints figures beside their targets; asserts nothing.
 //
-//   bench_build [--scan data/bunny.off] [--splits 16] [--runs 3] [--threads 0] [--no-meshopt] [--keep DIR]
+//   bench_build [--scan data/bunny.off] [--splits 16] [--runs 3] [--threads 0] [--no-meshopt] [--keep DIR] [--derive-only]
 //
 // The derived mesh is four midpoint subdivisions of the scan (each triangle split 16 ways along its
 // edges, the same points) with a small deterministic displacement along the normal, written as binary
-// PLY once and reused from DIR.
+// PLY once (streamed: memory stays that of the scan at any size) and reused from DIR; --derive-only
+// stops there.
+#include "preprocess/atomic_file.h"
 #include "preprocess/mesh_io.h"
 
 #include <meshoptimizer.h>
@@ -15,11 +17,15 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
+#include <bit>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <limits>
+#include <stdexcept>
 #include <string>
 #include <thread>
 #include <vector>
@@ -41,111 +47,170 @@ uint32_t hash32(uint64_t x) {
 
 // Splits every triangle into n² along a regular grid of its edges (n = 16: four midpoint subdivisions),
 // sharing the points on edges between neighbours so a closed scan stays closed; then moves every new
-// point along the interpolated normal by up to `bump` of the fine edge length.
-strata::Mesh subdivide(const strata::Mesh& in, int n, float bump) {
-    const size_t V = in.vertex_count(), F = in.triangle_count();
-    // Edges of the input, each with an id, found by sorting (min, max) pairs.
-    std::vector<std::pair<uint64_t, uint32_t>> half(3 * F);
-    for (size_t t = 0; t < F; ++t)
-        for (int e = 0; e < 3; ++e) {
-            uint64_t a = in.indices[3 * t + e], b = in.indices[3 * t + (e + 1) % 3];
-            half[3 * t + e] = {std::min(a, b) << 32 | std::max(a, b), uint32_t(3 * t + e)};
+// point along the interpolated normal by up to `bump` of the fine edge length. The result is written
+// as it is made: only the scan and its edge table are held, so a billion-triangle mesh needs no more
+// memory than the scan. Point ids: the scan's points, then each input edge's inner points (edges in
+// order of first use, points from the edge's smaller vertex), then each triangle's inner points.
+class Subdivision {
+public:
+    Subdivision(const strata::Mesh& in, int n, float bump) : in_(in), n_(n) {
+        const size_t F = in.triangle_count();
+        // Edges of the input, each with an id, found by sorting (min, max) pairs.
+        std::vector<std::pair<uint64_t, uint32_t>> half(3 * F);
+        for (size_t t = 0; t < F; ++t)
+            for (int e = 0; e < 3; ++e) {
+                uint64_t a = in.indices[3 * t + e], b = in.indices[3 * t + (e + 1) % 3];
+                half[3 * t + e] = {std::min(a, b) << 32 | std::max(a, b), uint32_t(3 * t + e)};
+            }
+        std::sort(half.begin(), half.end());
+        edge_of_.resize(3 * F);
+        uint32_t edges = 0;
+        for (size_t i = 0; i < half.size(); ++i) {
+            if (i > 0 && half[i].first != half[i - 1].first) ++edges;
+            edge_of_[half[i].second] = edges;
         }
-    std::sort(half.begin(), half.end());
-    std::vector<uint32_t> edge_of(3 * F);
-    uint32_t edges = 0;
-    for (size_t i = 0; i < half.size(); ++i) {
-        if (i > 0 && half[i].first != half[i - 1].first) ++edges;
-        edge_of[half[i].second] = edges;
-    }
-    ++edges;
+        ++edges;
+        // Each edge's first inner point, in order of the edge's first use.
+        edge_first_.assign(edges, ~uint64_t(0));
+        uint64_t next = in.vertex_count();
+        for (size_t h = 0; h < 3 * F; ++h)
+            if (edge_first_[edge_of_[h]] == ~uint64_t(0)) edge_first_[edge_of_[h]] = next, next += n - 1;
+        interior_first_ = next;
 
-    // Smooth input normals, for the displacement direction.
-    std::vector<float> normal(3 * V, 0.0f);
-    for (size_t t = 0; t < F; ++t) {
-        const float* p[3];
-        for (int c = 0; c < 3; ++c) p[c] = &in.positions[3 * in.indices[3 * t + c]];
-        float e1[3], e2[3];
-        for (int k = 0; k < 3; ++k) e1[k] = p[1][k] - p[0][k], e2[k] = p[2][k] - p[0][k];
-        float nx = e1[1] * e2[2] - e1[2] * e2[1], ny = e1[2] * e2[0] - e1[0] * e2[2], nz = e1[0] * e2[1] - e1[1] * e2[0];
-        for (int c = 0; c < 3; ++c) {
-            float* s = &normal[3 * in.indices[3 * t + c]];
-            s[0] += nx, s[1] += ny, s[2] += nz;
-        }
-    }
-    double edge_sum = 0;
-    for (auto& h : half) {
-        const float* a = &in.positions[3 * (h.first >> 32)];
-        const float* b = &in.positions[3 * (h.first & 0xFFFFFFFF)];
-        edge_sum += std::sqrt(double(a[0] - b[0]) * (a[0] - b[0]) + double(a[1] - b[1]) * (a[1] - b[1]) + double(a[2] - b[2]) * (a[2] - b[2]));
-    }
-    const float amplitude = float(edge_sum / half.size() / n) * bump;
-
-    strata::Mesh out;
-    const size_t per_edge = n - 1, interior = size_t(n - 1) * (n - 2) / 2;
-    out.positions.reserve(3 * (V + edges * per_edge + F * interior));
-    out.positions = in.positions;
-    auto add_point = [&](const float w[3], const uint32_t c[3]) {
-        float p[3], nrm[3];
-        for (int k = 0; k < 3; ++k) {
-            p[k] = w[0] * in.positions[3 * c[0] + k] + w[1] * in.positions[3 * c[1] + k] + w[2] * in.positions[3 * c[2] + k];
-            nrm[k] = w[0] * normal[3 * c[0] + k] + w[1] * normal[3 * c[1] + k] + w[2] * normal[3 * c[2] + k];
-        }
-        float len = std::sqrt(nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2]);
-        uint32_t id = uint32_t(out.positions.size() / 3);
-        float d = len > 0 ? amplitude * (float(hash32(id) % 2001) / 1000.0f - 1.0f) / len : 0;
-        for (int k = 0; k < 3; ++k) out.positions.push_back(p[k] + d * nrm[k]);
-        return id;
-    };
-    // Points inside each input edge, in order from its smaller to its larger vertex.
-    std::vector<uint32_t> edge_first(edges, ~0u);
-    for (size_t t = 0; t < F; ++t)
-        for (int e = 0; e < 3; ++e) {
-            uint32_t id = edge_of[3 * t + e];
-            if (edge_first[id] != ~0u) continue;
-            uint32_t a = in.indices[3 * t + e], b = in.indices[3 * t + (e + 1) % 3];
-            uint32_t lo = std::min(a, b), hi = std::max(a, b);
-            edge_first[id] = uint32_t(out.positions.size() / 3);
-            for (int s = 1; s < n; ++s) {
-                float w[3] = {1.0f - float(s) / n, float(s) / n, 0};
-                uint32_t c[3] = {lo, hi, lo};
-                add_point(w, c);
+        // Smooth input normals, for the displacement direction.
+        normal_.assign(3 * in.vertex_count(), 0.0f);
+        for (size_t t = 0; t < F; ++t) {
+            const float* p[3];
+            for (int c = 0; c < 3; ++c) p[c] = &in.positions[3 * in.indices[3 * t + c]];
+            float e1[3], e2[3];
+            for (int k = 0; k < 3; ++k) e1[k] = p[1][k] - p[0][k], e2[k] = p[2][k] - p[0][k];
+            float nx = e1[1] * e2[2] - e1[2] * e2[1], ny = e1[2] * e2[0] - e1[0] * e2[2], nz = e1[0] * e2[1] - e1[1] * e2[0];
+            for (int c = 0; c < 3; ++c) {
+                float* s = &normal_[3 * in.indices[3 * t + c]];
+                s[0] += nx, s[1] += ny, s[2] += nz;
             }
         }
-    out.indices.reserve(3 * F * n * n);
-    std::vector<uint32_t> grid(size_t(n + 1) * (n + 2) / 2);
-    for (size_t t = 0; t < F; ++t) {
-        const uint32_t c[3] = {in.indices[3 * t], in.indices[3 * t + 1], in.indices[3 * t + 2]};
+        double edge_sum = 0;
+        for (auto& h : half) {
+            const float* a = &in.positions[3 * (h.first >> 32)];
+            const float* b = &in.positions[3 * (h.first & 0xFFFFFFFF)];
+            edge_sum += std::sqrt(double(a[0] - b[0]) * (a[0] - b[0]) + double(a[1] - b[1]) * (a[1] - b[1]) + double(a[2] - b[2]) * (a[2] - b[2]));
+        }
+        amplitude_ = float(edge_sum / half.size() / n) * bump;
+    }
+
+    uint64_t point_count() const { return interior_first_ + in_.triangle_count() * interior(); }
+    uint64_t triangle_count() const { return in_.triangle_count() * uint64_t(n_) * n_; }
+
+    // emit(const float xyz[3]) for every point, in id order.
+    template <class Emit>
+    void for_each_point(Emit emit) const {
+        for (size_t v = 0; v < in_.vertex_count(); ++v) emit(&in_.positions[3 * v]);
+        uint64_t id = in_.vertex_count();
+        std::vector<bool> done(edge_first_.size(), false);
+        for (size_t h = 0; h < edge_of_.size(); ++h) {
+            if (done[edge_of_[h]]) continue;
+            done[edge_of_[h]] = true;
+            const uint32_t a = in_.indices[h], b = in_.indices[h - h % 3 + (h + 1) % 3];
+            const uint32_t c[3] = {std::min(a, b), std::max(a, b), std::min(a, b)};
+            for (int s = 1; s < n_; ++s) {
+                const float w[3] = {1.0f - float(s) / n_, float(s) / n_, 0};
+                emit(displaced(w, c, id++).data());
+            }
+        }
+        for (size_t t = 0; t < in_.triangle_count(); ++t)
+            for (int j = 1; j < n_; ++j)
+                for (int i = 1; i + j < n_; ++i) {
+                    const float w[3] = {float(n_ - i - j) / n_, float(i) / n_, float(j) / n_};
+                    emit(displaced(w, &in_.indices[3 * t], id++).data());
+                }
+    }
+
+    // emit(const uint32_t abc[3]) for every triangle.
+    template <class Emit>
+    void for_each_triangle(Emit emit) const {
+        const int n = n_;
+        std::vector<uint32_t> grid(size_t(n + 1) * (n + 2) / 2);
         // Grid point (i, j), i + j ≤ n, sits at weights ((n−i−j)/n, i/n, j/n) of corners 0, 1, 2.
         auto at = [n](int i, int j) { return size_t(j) * (n + 1) - size_t(j) * (j - 1) / 2 + i; };
-        auto edge_point = [&](int e, int s) {  // s steps from corner e towards corner e+1
-            uint32_t a = c[e], b = c[(e + 1) % 3];
-            uint32_t first = edge_first[edge_of[3 * t + e]];
-            return a < b ? first + (s - 1) : first + (n - s - 1);
-        };
-        for (int j = 0; j <= n; ++j)
-            for (int i = 0; i + j <= n; ++i) {
-                uint32_t id;
-                if (i == 0 && j == 0) id = c[0];
-                else if (i == n) id = c[1];
-                else if (j == n) id = c[2];
-                else if (j == 0) id = edge_point(0, i);
-                else if (i + j == n) id = edge_point(1, j);
-                else if (i == 0) id = edge_point(2, n - j);
-                else {
-                    float w[3] = {float(n - i - j) / n, float(i) / n, float(j) / n};
-                    id = add_point(w, c);
+        for (size_t t = 0; t < in_.triangle_count(); ++t) {
+            const uint32_t* c = &in_.indices[3 * t];
+            auto edge_point = [&](int e, int s) {  // s steps from corner e towards corner e+1
+                const uint64_t first = edge_first_[edge_of_[3 * t + e]];
+                return uint32_t(c[e] < c[(e + 1) % 3] ? first + (s - 1) : first + (n - s - 1));
+            };
+            uint64_t inner = interior_first_ + t * interior();
+            for (int j = 0; j <= n; ++j)
+                for (int i = 0; i + j <= n; ++i) {
+                    uint32_t id;
+                    if (i == 0 && j == 0) id = c[0];
+                    else if (i == n) id = c[1];
+                    else if (j == n) id = c[2];
+                    else if (j == 0) id = edge_point(0, i);
+                    else if (i + j == n) id = edge_point(1, j);
+                    else if (i == 0) id = edge_point(2, n - j);
+                    else id = uint32_t(inner++);
+                    grid[at(i, j)] = id;
                 }
-                grid[at(i, j)] = id;
-            }
-        for (int j = 0; j < n; ++j)
-            for (int i = 0; i + j < n; ++i) {
-                out.indices.insert(out.indices.end(), {grid[at(i, j)], grid[at(i + 1, j)], grid[at(i, j + 1)]});
-                if (i + j + 1 < n)
-                    out.indices.insert(out.indices.end(), {grid[at(i + 1, j)], grid[at(i + 1, j + 1)], grid[at(i, j + 1)]});
-            }
+            for (int j = 0; j < n; ++j)
+                for (int i = 0; i + j < n; ++i) {
+                    const uint32_t lower[3] = {grid[at(i, j)], grid[at(i + 1, j)], grid[at(i, j + 1)]};
+                    emit(lower);
+                    if (i + j + 1 < n) {
+                        const uint32_t upper[3] = {grid[at(i + 1, j)], grid[at(i + 1, j + 1)], grid[at(i, j + 1)]};
+                        emit(upper);
+                    }
+                }
+        }
     }
-    return out;
+
+private:
+    uint64_t interior() const { return uint64_t(n_ - 1) * (n_ - 2) / 2; }
+
+    std::array<float, 3> displaced(const float w[3], const uint32_t c[3], uint64_t id) const {
+        float p[3], nrm[3];
+        for (int k = 0; k < 3; ++k) {
+            p[k] = w[0] * in_.positions[3 * c[0] + k] + w[1] * in_.positions[3 * c[1] + k] + w[2] * in_.positions[3 * c[2] + k];
+            nrm[k] = w[0] * normal_[3 * c[0] + k] + w[1] * normal_[3 * c[1] + k] + w[2] * normal_[3 * c[2] + k];
+        }
+        float len = std::sqrt(nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2]);
+        float d = len > 0 ? amplitude_ * (float(hash32(id) % 2001) / 1000.0f - 1.0f) / len : 0;
+        return {p[0] + d * nrm[0], p[1] + d * nrm[1], p[2] + d * nrm[2]};
+    }
+
+    const strata::Mesh& in_;
+    int n_;
+    std::vector<uint32_t> edge_of_;     // per half-edge (3·triangle + corner): its edge
+    std::vector<uint64_t> edge_first_;  // per edge: its first inner point
+    uint64_t interior_first_ = 0;       // the first triangle's first inner point
+    std::vector<float> normal_;
+    float amplitude_ = 0;
+};
+
+// Binary little-endian PLY, written through a temporary file renamed into place when complete.
+void write_subdivision_ply(const std::string& path, const Subdivision& mesh) {
+    if (mesh.point_count() > std::numeric_limits<uint32_t>::max())
+        throw std::runtime_error(path + ": more points than 32-bit PLY indices hold");
+    strata::AtomicOutputFile file(path);
+    const std::string header = "ply\nformat binary_little_endian 1.0\ncomment written by strata\nelement vertex " +
+                               std::to_string(mesh.point_count()) +
+                               "\nproperty float x\nproperty float y\nproperty float z\nelement face " +
+                               std::to_string(mesh.triangle_count()) + "\nproperty list uchar uint vertex_indices\nend_header\n";
+    file.write(header.data(), header.size());
+    std::vector<char> buffer;
+    auto put = [&](const void* bytes, size_t size) {
+        buffer.insert(buffer.end(), static_cast<const char*>(bytes), static_cast<const char*>(bytes) + size);
+        if (buffer.size() >= (size_t(8) << 20)) file.write(buffer.data(), buffer.size()), buffer.clear();
+    };
+    static_assert(std::endian::native == std::endian::little);
+    mesh.for_each_point([&](const float* xyz) { put(xyz, 12); });
+    mesh.for_each_triangle([&](const uint32_t* abc) {
+        const uint8_t three = 3;
+        put(&three, 1);
+        put(abc, 12);
+    });
+    file.write(buffer.data(), buffer.size());
+    file.commit();
 }
 
 struct ChildRun {
@@ -179,7 +244,7 @@ int main(int argc, char** argv) {
     std::string scan = std::string(STRATA_SOURCE_DIR) + "/data/bunny.off";
     std::string keep = std::filesystem::temp_directory_path() / "strata-bench";
     int splits = 16, runs = 3, threads = 0;
-    bool with_meshopt = true;
+    bool with_meshopt = true, derive_only = false;
     for (int i = 1; i < argc; ++i) {
         std::string a = argv[i];
         auto value = [&] { return i + 1 < argc ? std::string(argv[++i]) : std::string(); };
@@ -189,8 +254,9 @@ int main(int argc, char** argv) {
         else if (a == "--threads") threads = std::stoi(value());
         else if (a == "--keep") keep = value();
         else if (a == "--no-meshopt") with_meshopt = false;
+        else if (a == "--derive-only") derive_only = true;
         else {
-            std::fprintf(stderr, "usage: bench_build [--scan FILE] [--splits N] [--runs N] [--threads N] [--no-meshopt] [--keep DIR]\n");
+            std::fprintf(stderr, "usage: bench_build [--scan FILE] [--splits N] [--runs N] [--threads N] [--no-meshopt] [--keep DIR] [--derive-only]\n");
             return 2;
         }
     }
@@ -201,8 +267,9 @@ int main(int argc, char** argv) {
     if (!std::filesystem::exists(ply)) {
         std::printf("deriving %s from %s (each triangle split %d ways)\n", ply.c_str(), scan.c_str(), splits * splits);
         strata::Mesh base = strata::read_mesh(scan);
-        strata::write_ply(ply, subdivide(base, splits, 0.1f));
+        write_subdivision_ply(ply, Subdivision(base, splits, 0.1f));
     }
+    if (derive_only) return 0;
     const double ply_mb = std::filesystem::file_size(ply) / 1e6;
 
     // Binary PLY read, in process: median of three.
