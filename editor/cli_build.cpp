@@ -6,6 +6,7 @@
 #include "preprocess/byte_size.h"
 #include "preprocess/hlod_builder.h"
 #include "preprocess/mesh_io.h"
+#include "preprocess/parallel.h"
 
 #include <chrono>
 #include <cstdio>
@@ -161,6 +162,9 @@ int run_build(const BuildOptions& o) {
                     estimate.guessed ? " (estimated)" : "", files.size(), files.size() == 1 ? "" : "s",
                     (unsigned long long)estimate.in_memory_triangles, describe_bytes(memory_limit).c_str());
         std::printf("  temporary disk: about %s in %s\n", describe_bytes(estimate.temp_bytes).c_str(), temp.c_str());
+        const unsigned threads = resolve_thread_count(settings.threads);
+        std::printf("  time: about %s on %u thread%s (with the cores and the disk to itself)\n",
+                    describe_duration(estimate.cpu_seconds / threads).c_str(), threads, threads == 1 ? "" : "s");
     }
     check_memory(estimate, memory_limit, limit_name);
     check_temp_disk(estimate, temp, settings.resume ? leftover_bytes(o.output, o.settings.temp_dir) : 0);
@@ -263,7 +267,7 @@ Command add_build(CLI::App& app) {
                     "default beside the output. Removed when the build succeeds, is interrupted or meets bad "
                     "input; kept after a kill or another failure, for --resume");
     sub->add_flag("-q,--quiet", o->quiet, "No progress bar and no summary");
-    sub->add_flag("-v,--verbose", o->verbose, "Also print the memory and temporary-disk estimates, each level's counts, each stage's time, and the peak temporary disk and memory");
+    sub->add_flag("-v,--verbose", o->verbose, "Also print the memory, temporary-disk and time estimates, each level's counts, each stage's time, and the peak temporary disk and memory");
     return {sub, [o] { return run_build(*o); }};
 }
 

@@ -26,6 +26,14 @@ std::string human(double value) {
 
 }  // namespace
 
+std::string describe_duration(double seconds) {
+    char text[32];
+    if (seconds < 90) std::snprintf(text, sizeof text, "%.0f s", seconds);
+    else if (seconds < 90 * 60) std::snprintf(text, sizeof text, "%.0f min", seconds / 60);
+    else std::snprintf(text, sizeof text, "%.1f h", seconds / 3600);
+    return text;
+}
+
 const std::atomic<bool>* install_interrupt_flag() {
     std::signal(SIGINT, on_interrupt);
     return &interrupted;

@@ -26,6 +26,9 @@ private:
     bool drawn_ = false;
 };
 
+// "40 s", "12 min", "2.5 h": a duration for messages, to two figures at most.
+std::string describe_duration(double seconds);
+
 // Ctrl-C raises the returned flag instead of killing the process, so long work can stop cleanly and
 // remove its partial output. A second Ctrl-C kills as usual.
 const std::atomic<bool>* install_interrupt_flag();

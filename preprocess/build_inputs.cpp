@@ -28,6 +28,10 @@ constexpr uint64_t kStreamBytesPerTriangle = 48;
 // made from them (the spill's disk is given back as they grow, and they are smaller), plus level L's
 // border listings (about 4 bytes a triangle). Measured on 328 M triangles with positions alone: 35.9.
 constexpr uint64_t kTempBytesBesideCorners = 6;
+// Input triangles a build gets through per CPU-second, all of it (reading, partition, every level,
+// writing): 0.51 M on the 19.3 M-triangle derived bunny in core and 0.33 M on 328 M triangles out of
+// core under --memory 2G (bench_build, strata build -v, on a 2-core EPYC with an SSD). Between them.
+constexpr double kTrianglesPerCpuSecond = 0.4e6;
 
 
 bool is_list(const std::string& argument) { return argument.size() > 1 && argument[0] == '@'; }
@@ -92,6 +96,7 @@ MemoryEstimate estimate_build(const std::vector<std::filesystem::path>& files, u
         const uint64_t corner = build::CornerLayout{stream ? stream->attributes() : AttributeSet{}}.bytes();
         estimate.temp_bytes += (3 * corner + kTempBytesBesideCorners) * counted.triangles;
     }
+    estimate.cpu_seconds = double(estimate.triangles) / kTrianglesPerCpuSecond;
     estimate.bytes = kPeakBytesPerTriangle * estimate.in_memory_triangles +
                      std::min(limit / 2, kStreamBytesPerTriangle * (streamed + estimate.in_memory_triangles));
     return estimate;

@@ -27,6 +27,7 @@ struct MemoryEstimate {
     uint64_t in_memory_triangles = 0;  // of the files read whole into memory (all but binary PLY)
     uint64_t bytes = 0;                // the build's expected peak memory, above its fixed overhead (≤ 150 MiB)
     uint64_t temp_bytes = 0;           // its expected peak temporary disk
+    double cpu_seconds = 0;            // its expected CPU time, all threads together
     bool guessed = false;              // some file's triangles were guessed from its size (no count in its header)
 };
 
