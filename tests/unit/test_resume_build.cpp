@@ -190,6 +190,40 @@ TEST_F(ResumeBuild, DamagedWorkIsAnErrorSayingToStartOver) {
     fails_naming(work() / "plan");
 }
 
+// A write that fails (a full disk: the error the job files throw) keeps what the plan made possible:
+// after the plan, the finished jobs stay for --resume, and the message says so; before it, nothing does.
+TEST_F(ResumeBuild, AFailedWriteKeepsTheFinishedJobsForResumeOnceThereIsAPlan) {
+    auto build_failing_at = [&](const std::string& stage) {
+        Progress progress;
+        progress.report = [&](std::string_view now, double, double, std::string_view) {
+            if (now == stage) throw std::runtime_error("cannot write the job file: No space left on device");
+        };
+        try {
+            build(output(), small_settings(), progress);
+            ADD_FAILURE() << "the build went on past a failed write in " << stage;
+            return std::string();
+        } catch (const std::runtime_error& e) {
+            EXPECT_FALSE(std::filesystem::exists(output()));
+            return std::string(e.what());
+        }
+    };
+    const std::string early = build_failing_at("partition");
+    EXPECT_THAT(early, HasSubstr("No space left on device"));
+    EXPECT_THAT(early, ::testing::Not(HasSubstr("--resume")));
+    EXPECT_FALSE(std::filesystem::exists(work())) << "a build that failed before its plan kept its work folder";
+
+    const std::string late = build_failing_at("simplify level 3");
+    EXPECT_THAT(late, HasSubstr("No space left on device"));
+    EXPECT_THAT(late, HasSubstr("the finished blocks are kept in " + work().string() +
+                                ": run the same command with --resume to go on"));
+    ASSERT_TRUE(std::filesystem::exists(work() / "plan"));
+    BuildSettings s = small_settings();
+    s.resume = true;
+    EXPECT_GT(build(output(), s).jobs_resumed, 0u);
+    EXPECT_EQ(test::file_bytes(output()), test::file_bytes(reference()));
+    EXPECT_FALSE(std::filesystem::exists(work()));
+}
+
 TEST_F(ResumeBuild, WithNothingToResumeItBuildsOrLeavesTheCompleteOutput) {
     BuildSettings s = small_settings();
     s.resume = true;
