@@ -52,6 +52,30 @@ TEST(Builder, OutputIsByteIdenticalAtAnyThreadCount) {
     EXPECT_EQ(test::file_bytes(dir / "one.hlod"), test::file_bytes(dir / "four.hlod"));
 }
 
+// A vertex no triangle of its cube uses (an "extra", FORMAT.md §9) is there only to be a child's
+// parent; it must not be carried up level after level. Four levels of blocks under one (16 cubes a side
+// at level 4): coarse cubes hold the vertices their triangles use and next to nothing else.
+TEST(Builder, CoarseCubesDoNotCarryTheExtraVerticesOfFinerLevels) {
+    test::TempDir dir;
+    BuildSettings s;
+    s.levels = 4;
+    build_hlod(test::icosphere(7), dir / "sphere.hlod", s, "sphere");  // 327 680 triangles
+    HlodFile file(dir / "sphere.hlod");
+    ASSERT_TRUE(verify_hlod(file).watertight);
+    std::vector<uint64_t> vertices(5), extras(5);
+    for (const HlodNode& n : file.nodes()) {
+        const CubeData cube = decode_cube(file.read_payload(n), n, file.header().flags);
+        std::vector<bool> used(cube.vertex_count());
+        for (uint32_t i : cube.indices) used[i] = true;
+        vertices[n.level] += cube.vertex_count();
+        extras[n.level] += uint64_t(std::count(used.begin(), used.end(), false));
+    }
+    EXPECT_EQ(extras[4], 0u) << "level L holds the input's own vertices";
+    for (uint32_t level = 0; level < 4; ++level)
+        EXPECT_LE(extras[level], vertices[level] / 50) << "level " << level << ": " << extras[level] << " extras of "
+                                                       << vertices[level] << " vertices";
+}
+
 std::vector<std::string> names_in(const std::filesystem::path& dir) {
     std::vector<std::string> names;
     for (const auto& e : std::filesystem::directory_iterator(dir)) names.push_back(e.path().filename().string());
