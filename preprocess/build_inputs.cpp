@@ -29,9 +29,9 @@ constexpr uint64_t kStreamBytesPerTriangle = 48;
 // border listings (about 4 bytes a triangle). Measured on 328 M triangles with positions alone: 35.9.
 constexpr uint64_t kTempBytesBesideCorners = 6;
 // Input triangles a build gets through per CPU-second, all of it (reading, partition, every level,
-// writing): 0.51 M on the 19.3 M-triangle derived bunny in core and 0.33 M on 328 M triangles out of
-// core under --memory 2G (bench_build, strata build -v, on a 2-core EPYC with an SSD). Between them.
-constexpr double kTrianglesPerCpuSecond = 0.4e6;
+// writing): 0.51 M on the 19.3 M-triangle derived bunny in core and 0.50 M on 1.01 G triangles out of
+// core under --memory 2G (bench_build; strata build under /usr/bin/time; a 2-core EPYC with an SSD).
+constexpr double kTrianglesPerCpuSecond = 0.5e6;
 
 
 bool is_list(const std::string& argument) { return argument.size() > 1 && argument[0] == '@'; }
