@@ -289,6 +289,7 @@ BlockOutput simplify_block_cubes(std::span<const CubeRecord* const> cubes, uint3
     SimplifyLimits limits;
     limits.target_triangles = uint32_t(std::ceil(double(block_triangles) * s.ratio));
     limits.max_travel = f.sigma0 * 0.5f;                 // σ0·s_{l+1}, in cube sizes
+    limits.min_fold = 2.0f / float(1 << kLatticeBits);  // h_{l−1}, in cube sizes
     if (s.error > 0) limits.max_error = s.error * 2.0f;  // ε_q·s_{l−1}, in cube sizes
     const SimplifyResult result = simplify_block(block_mesh(cubes, w, f, level), limits);
 

@@ -142,6 +142,7 @@ private:
     bool find_partners(uint32_t u, uint32_t w, std::vector<WedgePair>& pairs) const;
     float attribute_error(uint32_t from, uint32_t to) const;
     bool best_candidate(uint32_t u, Candidate& best);
+    bool within(uint32_t u, uint32_t w, float distance) const;  // d∞(u, w) ≤ distance
     bool within_travel(uint32_t u, uint32_t w) const;
     bool keeps_link(uint32_t u, uint32_t w);
     bool flips(uint32_t u, uint32_t w) const;
@@ -325,6 +326,11 @@ bool BlockSimplifier::find_partners(uint32_t u, uint32_t w, std::vector<WedgePai
     return true;
 }
 
+bool BlockSimplifier::within(uint32_t u, uint32_t w, float distance) const {
+    const Vec3 d = position(u) - position(w);
+    return std::fabs(d.x) <= distance && std::fabs(d.y) <= distance && std::fabs(d.z) <= distance;
+}
+
 bool BlockSimplifier::within_travel(uint32_t u, uint32_t w) const {
     const float* b = &box_[6 * u];
     const Vec3& p = position(w);
@@ -339,7 +345,9 @@ bool BlockSimplifier::best_candidate(uint32_t u, Candidate& best) {
     if (su.kind == Kind::locked) return false;
     const Quadric& q = quadrics_[u];
     const float inverse_weight = 1.0f / (q.weight > 0 ? q.weight : 1.0f);
-    bool found = false;
+    // A neighbour within min_fold ranks before every other: the two are one point once quantized, and
+    // (the fold test skipped for it) their collapse is what undoes a pocket below the lattice step.
+    bool found = false, best_near = false;
     float best_squared = 0;
     auto consider = [&](uint32_t w) {
         if (!within_travel(u, w)) return;
@@ -354,9 +362,11 @@ bool BlockSimplifier::best_candidate(uint32_t u, Candidate& best) {
             }
         }
         cost *= inverse_weight;
-        if (!found || cost < best.cost || (cost == best.cost && w < best.to)) {
+        const bool near = within(u, w, limits_.min_fold);
+        if (!found || near > best_near || (near == best_near && (cost < best.cost || (cost == best.cost && w < best.to)))) {
             best = {cost, u, w, 0};
             best_squared = squared;
+            best_near = near;
         }
         found = true;
     };
@@ -503,8 +513,8 @@ uint32_t BlockSimplifier::run_pass() {
         if (removed >= goal) break;
         if (c.cost > cost_bound && removed > goal / 10) break;
         if (state_[c.from].pass_locked || state_[c.to].pass_locked) continue;
-        if (c.geometric > limits_.max_error || !keeps_link(c.from, c.to) || flips(c.from, c.to) ||
-            !find_partners(c.from, c.to, pairs_)) {
+        if (c.geometric > limits_.max_error || !keeps_link(c.from, c.to) ||
+            (!within(c.from, c.to, limits_.min_fold) && flips(c.from, c.to)) || !find_partners(c.from, c.to, pairs_)) {
             cost_bound = bound_at(++bound_index);
             continue;
         }

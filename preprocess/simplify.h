@@ -30,6 +30,11 @@ struct SimplifyLimits {
     uint32_t target_triangles = 0;  // stop when at most this many triangles are left
     float max_error = 1e30f;        // stop before a collapse whose error (frame units) exceeds this
     float max_travel = 1e30f;       // d∞ from the target to every point merged into the collapsed one
+    // A collapse that moves a point at most this far (d∞) skips the fold test, and such a neighbour is
+    // a point's first choice of target. Below the next level's lattice step a fold is gone once
+    // positions are quantized, while a pocket that small whose every collapse folds (or meets a
+    // zero-area triangle) would otherwise outlive every level: on the lattice, two faces on one edge.
+    float min_fold = 0;
 };
 
 struct SimplifyResult {

@@ -520,5 +520,46 @@ TEST(SimplifyBlock, MaxErrorStopsCollapses) {
     for (uint32_t w = 0; w < m.wedge_count(); ++w) EXPECT_EQ(stopped.wedge_remap[w], w);
 }
 
+// A pocket smaller than a lattice step, as the root of a 1 G-triangle build held one (its two-ring,
+// positions in lattice steps): point 17 sits on the tip of a cap over the triangle 13-14-15, which
+// meets 13 and 15 at one lattice point. Every collapse of the four folds a face, or meets the link
+// condition; left alone the pocket outlives every level and, on the coarse lattice, becomes two faces
+// on one edge. Moves below the next level's lattice step skip the fold test (it is gone once
+// quantized) and come first among a point's targets: the four become one point.
+TEST(SimplifyBlock, APocketSmallerThanTheLatticeCollapsesToAPoint) {
+    const float step = 1.0f / 32768;
+    const std::vector<std::array<float, 3>> points = {
+        {29372, 18388, 39711}, {30290, 19044, 39868}, {27817, 17218, 38442}, {28162, 18175, 38315},
+        {29327, 17933, 39929}, {30208, 17804, 40543}, {30375, 17173, 40666}, {29576, 17203, 40126},
+        {29622, 16923, 40006}, {30080, 16828, 40209}, {28655, 16885, 38894}, {28134, 16748, 38249},
+        {28655, 16904, 38912}, {28646, 16940, 38938}, {28646, 16941, 38938}, {28646, 16940, 38938},
+        {28148, 17005, 38484}, {28645, 16940, 38938}};
+    BlockMesh m;
+    for (const auto& p : points)
+        for (float x : p) m.point_positions.push_back(x * step);
+    m.point_locked.assign(points.size(), 0);
+    for (uint32_t v = 0; v < points.size(); ++v) m.wedge_point.push_back(v);
+    m.triangles = {4,  1,  0,  4,  0,  3,  1,  4,  5,  6,  5,  4,  6,  4,  7,  6,  7,  8,  6,  8,
+                   9,  10, 11, 9,  10, 9,  8,  12, 8,  7,  8,  12, 10, 13, 7,  4,  7,  13, 12, 10,
+                   12, 14, 12, 13, 15, 12, 15, 14, 16, 11, 10, 16, 10, 13, 13, 10, 14, 16, 13, 4,
+                   13, 14, 17, 13, 17, 15, 16, 4,  3,  16, 3,  2,  16, 2,  11, 15, 17, 14};
+    const uint32_t pocket[] = {13, 14, 15, 17};
+    SimplifyLimits limits;
+    limits.target_triangles = 0;
+    limits.max_travel = 0.125f;
+    auto survivors = [&](const SimplifyResult& r) {
+        std::set<uint32_t> left;
+        for (uint32_t p : pocket) left.insert(r.wedge_remap[p]);
+        return left.size();
+    };
+    const SimplifyResult stuck = simplify_block(m, limits);
+    EXPECT_EQ(survivors(stuck), 4u) << "without the rule every collapse of the pocket is refused";
+
+    limits.min_fold = 2 * step;
+    const SimplifyResult r = simplify_block(m, limits);
+    ASSERT_NO_FATAL_FAILURE(expect_consistent(m, r));
+    EXPECT_EQ(survivors(r), 1u);
+}
+
 }  // namespace
 }  // namespace strata
