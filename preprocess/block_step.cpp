@@ -190,9 +190,9 @@ BlockMesh block_mesh(std::span<const CubeRecord* const> cubes, const BlockWeld& 
 
 // The parent for a child's own extra vertex (one no triangle of its cube uses, so nothing draws it and
 // no triangle degenerates onto its parent): the parent's nearest used vertex within `reach` (d∞), the
-// travel bound verify holds parents to; IndexMap::kMissing when none is that near. Without it an extra would be its
-// own parent, an extra again, level after level: the root of a billion-triangle model held 207 840
-// vertices for 3 898 triangles.
+// travel bound verify holds parents to; IndexMap::kMissing when none is that near. Without it an
+// extra would be its own parent, an extra again, level after level: the root of a billion-triangle
+// model held 207 840 vertices for 3 898 triangles.
 uint32_t nearest_used(const float* p, const std::vector<float>& used_positions, double reach) {
     uint32_t best = IndexMap::kMissing;
     double best_squared = 0;

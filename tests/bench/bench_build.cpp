@@ -70,11 +70,15 @@ public:
             edge_of_[half[i].second] = edges;
         }
         ++edges;
-        // Each edge's first inner point, in order of the edge's first use.
+        // The edges in order of first use (each by the half-edge that first uses it), and each edge's
+        // first inner point in that order.
         edge_first_.assign(edges, ~uint64_t(0));
         uint64_t next = in.vertex_count();
         for (size_t h = 0; h < 3 * F; ++h)
-            if (edge_first_[edge_of_[h]] == ~uint64_t(0)) edge_first_[edge_of_[h]] = next, next += n - 1;
+            if (edge_first_[edge_of_[h]] == ~uint64_t(0)) {
+                edge_first_[edge_of_[h]] = next, next += n - 1;
+                first_uses_.push_back(uint32_t(h));
+            }
         interior_first_ = next;
 
         // Smooth input normals, for the displacement direction.
@@ -107,10 +111,7 @@ public:
     void for_each_point(Emit emit) const {
         for (size_t v = 0; v < in_.vertex_count(); ++v) emit(&in_.positions[3 * v]);
         uint64_t id = in_.vertex_count();
-        std::vector<bool> done(edge_first_.size(), false);
-        for (size_t h = 0; h < edge_of_.size(); ++h) {
-            if (done[edge_of_[h]]) continue;
-            done[edge_of_[h]] = true;
+        for (uint32_t h : first_uses_) {
             const uint32_t a = in_.indices[h], b = in_.indices[h - h % 3 + (h + 1) % 3];
             const uint32_t c[3] = {std::min(a, b), std::max(a, b), std::min(a, b)};
             for (int s = 1; s < n_; ++s) {
@@ -182,6 +183,7 @@ private:
     int n_;
     std::vector<uint32_t> edge_of_;     // per half-edge (3·triangle + corner): its edge
     std::vector<uint64_t> edge_first_;  // per edge: its first inner point
+    std::vector<uint32_t> first_uses_;  // per edge, in order of first use: the half-edge that first uses it
     uint64_t interior_first_ = 0;       // the first triangle's first inner point
     std::vector<float> normal_;
     float amplitude_ = 0;
