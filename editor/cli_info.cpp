@@ -24,6 +24,8 @@ int run_info(const std::string& path) {
                     h.geo_origin[2]);
     std::printf("levels      %u (0 … %u), block %u³, σ0 %.4g, ε_q %.4g\n", h.max_level + 1, h.max_level, h.block_size,
                 h.sigma0, h.error_q);
+    std::printf("errors      %s\n", h.flags & kErrorsAreBounds ? "bounds (FORMAT.md §13)"
+                                                               : "estimates (built before 2026-12: rebuild for bounds)");
     std::printf("settings    ratio %.3g, error limit %s\n", h.ratio,
                 h.error_limit > 0 ? std::to_string(h.error_limit).c_str() : "none");
     std::printf("\n%5s %8s %12s %12s %12s %10s %12s\n", "level", "cubes", "vertices", "triangles", "bytes", "cube size",

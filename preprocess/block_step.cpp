@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstring>
 
+#include "preprocess/error_bound.h"
 #include "preprocess/index_map.h"
 #include "preprocess/quadric.h"
 #include "preprocess/simplify.h"
@@ -210,7 +211,7 @@ uint32_t nearest_used(const float* p, const std::vector<float>& used_positions, 
 // triangles, its vertices in payload order then the extras, and each child vertex's parent index.
 // `reach`: how far (d∞, frame units) a child's extra vertex may be from its parent.
 CubeRecord make_parent(std::span<const CubeRecord* const> cubes, std::span<const uint32_t> children, const BlockWeld& w,
-                       const SimplifyResult& result, double size, double reach, std::vector<uint32_t>& parent_vertex) {
+                       const SimplifyResult& result, double reach, std::vector<uint32_t>& parent_vertex) {
     const BlockVertices vertex(cubes, w);
     CubeRecord parent;
     parent.key = parent_key(cubes[children[0]]->key);
@@ -219,7 +220,6 @@ CubeRecord make_parent(std::span<const CubeRecord* const> cubes, std::span<const
     for (uint32_t c : children) {
         const CubeRecord& child = *cubes[c];
         uint32_t kept = 0;
-        float step = 0;
         for (size_t t = 0; t < child.triangles.size(); t += 3) {
             uint32_t corner[3], point[3];
             for (int k = 0; k < 3; ++k) {
@@ -228,7 +228,6 @@ CubeRecord make_parent(std::span<const CubeRecord* const> cubes, std::span<const
             }
             if (point[0] == point[1] || point[1] == point[2] || point[0] == point[2]) continue;
             for (int k = 0; k < 3; ++k) {
-                step = std::max(step, result.point_error[point[k]]);
                 const uint32_t local = local_of.find_or_insert(corner[k], uint32_t(wedges.size()));
                 if (local == wedges.size()) wedges.push_back(corner[k]);
                 parent.triangles.push_back(local);
@@ -236,7 +235,6 @@ CubeRecord make_parent(std::span<const CubeRecord* const> cubes, std::span<const
             ++kept;
         }
         parent.child_counts[octant(child.key)] += kept;
-        parent.error = std::max(parent.error, child.error + float(step * size));
     }
     order_for_payload(parent.triangles, parent.child_counts, wedges);
 
@@ -308,12 +306,16 @@ BlockOutput simplify_block_cubes(std::span<const CubeRecord* const> cubes, uint3
         for (j = i; j < children.size() && parent_key(cubes[children[j]]->key) == key; ++j) {
         }
         out.parents.push_back(
-            make_parent(cubes, std::span(children).subspan(i, j - i), w, result, size, f.sigma0 * 0.5 * size, parent_vertex));
+            make_parent(cubes, std::span(children).subspan(i, j - i), w, result, f.sigma0 * 0.5 * size, parent_vertex));
         list_border_points(out.parents.back(), f, level - 1, out.border);
     }
-    for (size_t c = 0; c < cubes.size(); ++c)
+    const StepBounds bounds = bound_step(cubes, out.parents, f.cube_size(level - 1));
+    for (size_t p = 0; p < out.parents.size(); ++p) out.parents[p].error = bounds.parent_forward[p];
+    for (size_t c = 0; c < cubes.size(); ++c) {
         out.encoded.push_back(encode(*cubes[c], level, w, w.first[c],
                                      std::span(parent_vertex).subspan(w.first[c], cubes[c]->vertex_count()), f, flags));
+        out.encoded.back().coverage = bounds.cube_coverage[c];
+    }
     return out;
 }
 

@@ -16,7 +16,8 @@
 namespace strata::build {
 
 struct EncodedCube {
-    HlodNode node;
+    HlodNode node;        // node.error: F, the forward part of the bound (preprocess/error_bound.h)
+    float coverage = 0;   // D: how far its triangles are from the parent level's surface
     std::vector<uint8_t> payload;
 };
 

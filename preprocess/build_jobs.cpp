@@ -1,5 +1,7 @@
 #include "preprocess/build_jobs.h"
 
+#include "preprocess/error_bound.h"
+
 #include <sys/stat.h>
 
 #include <algorithm>
@@ -9,6 +11,7 @@
 
 #include "preprocess/atomic_file.h"
 #include "preprocess/block_step.h"
+#include "preprocess/error_bound.h"
 #include "preprocess/job_files.h"
 #include "preprocess/leaf_cubes.h"
 #include "preprocess/parallel.h"
@@ -184,12 +187,13 @@ Assembly assemble(const BuildPlan& plan, const WorkPaths& work, const std::files
     Assembly result;
     for (uint32_t l = L + 1; l-- > 0;) result.levels.push_back(LevelStats{l});
     HlodWriter writer(output);
+    std::vector<CubeErrors> errors;
     auto add = [&](const EncodedCube& e) {
         writer.add_cube(e.node, e.payload);
+        errors.push_back({e.node.level, e.node.i, e.node.j, e.node.k, e.node.error, e.coverage});
         LevelStats& stats = result.levels[L - e.node.level];
         stats.cubes++, stats.vertices += e.node.vertex_count, stats.triangles += e.node.triangle_count;
         stats.bytes += e.payload.size();
-        result.error_q = std::max(result.error_q, float(e.node.error / f.cube_size(e.node.level)));
     };
     uint64_t done = 0;
     for (size_t stage = 1; stage < plan.stages.size(); ++stage)
@@ -210,6 +214,11 @@ Assembly assemble(const BuildPlan& plan, const WorkPaths& work, const std::files
     }
     if (roots.size() != 1) throw std::logic_error("the build made " + std::to_string(roots.size()) + " root cubes");
     add(encode_root(roots.front(), BorderTable(std::move(listed)), f, plan.header.flags));
+    const std::vector<float> bounds = final_bounds(errors, f);
+    for (size_t c = 0; c < bounds.size(); ++c) {
+        writer.set_error(c, bounds[c]);
+        result.error_q = std::max(result.error_q, round_up(bounds[c] / f.cube_size(errors[c].level)));
+    }
 
     HlodHeader header = plan.header;
     header.error_q = result.error_q;

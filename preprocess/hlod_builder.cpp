@@ -187,7 +187,7 @@ void choose_frame(const build::InputScan& scan, const BuildInput& input, const B
     plan.frame = f;
 
     HlodHeader& header = plan.header;
-    header.flags = (input.model.kept.colors ? kHasColors : 0u) | (input.model.kept.uvs ? kHasUvs : 0u);
+    header.flags = (input.model.kept.colors ? kHasColors : 0u) | (input.model.kept.uvs ? kHasUvs : 0u) | kErrorsAreBounds;
     const std::array<double, 3> origin = input.sources.front()->origin();
     for (int a = 0; a < 3; ++a) header.origin[a] = origin[size_t(a)] + f.origin[a];  // in double: survey coordinates
     header.root_size = f.root_size;

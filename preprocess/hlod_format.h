@@ -31,6 +31,9 @@ inline constexpr int32_t kLatticeBias = 1 << 14;
 enum HlodFlags : uint32_t {
     kHasColors = 1u << 0,
     kHasUvs = 1u << 1,
+    // Node errors are conservative bounds (FORMAT.md §4.2); models built before 2026-12 stored an
+    // estimate instead.
+    kErrorsAreBounds = 1u << 2,
 };
 
 struct HlodHeader {
@@ -169,6 +172,8 @@ public:
 
     // Spools a payload, in any order; fills node.size and node.checksum.
     void add_cube(HlodNode node, std::span<const uint8_t> payload);
+    // Before finish(): sets the error of the index-th cube added (errors are chained once all are in).
+    void set_error(size_t index, float error) { nodes_.at(index).error = error; }
     // Writes the file; header.node_count is set from the cubes added. Throws std::runtime_error naming
     // the path when a write fails.
     void finish(HlodHeader header);

@@ -7,6 +7,8 @@
 #include <tuple>
 #include <unordered_map>
 
+#include "preprocess/error_bound.h"
+
 namespace strata {
 namespace {
 
@@ -129,7 +131,11 @@ void Verifier::check_node_table() {
         const double relative = n.error / h_.cube_size(n.level);
         if (relative > h_.error_q * (1 + 1e-5) + 1e-7)
             fail(describe_cube(n) + " has error " + fmt(relative) + "·s_l, above the header's ε_q " + fmt(h_.error_q));
-        if (n.level == h_.max_level && n.error != 0) fail(describe_cube(n) + " at full resolution has nonzero error");
+        if (!(h_.flags & kErrorsAreBounds)) {
+            if (n.level == h_.max_level && n.error != 0) fail(describe_cube(n) + " at full resolution has nonzero error");
+        } else if (n.error < build::lattice_rounding(h_.root_size, h_.cube_size(n.level)) * (1 - 1e-6)) {
+            fail(describe_cube(n) + " has error " + fmt(n.error) + ", below its lattice's rounding: not a bound");
+        }
         if (!cubes_.emplace(cube_key(n.level, n.i, n.j, n.k), &n).second) fail(describe_cube(n) + " appears twice in the node table");
         levels_[n.level].push_back(&n);
     }

@@ -18,7 +18,7 @@ namespace {
 
 constexpr uint32_t kCubeFileMagic = 0x46434A53;     // "SJCF"
 constexpr uint32_t kPayloadFileMagic = 0x46504A53;  // "SJPF"
-constexpr uint32_t kJobFileVersion = 1;
+constexpr uint32_t kJobFileVersion = 2;
 constexpr size_t kBlockEntryBytes = 44, kListingEntryBytes = 28;  // a cube file's index entries
 enum RecordFlags : uint8_t { kColors = 1, kUvs = 2, kNormals = 4 };
 
@@ -199,7 +199,7 @@ uint64_t write_payload_file(const std::filesystem::path& path, const std::vector
     out.put(kPayloadFileMagic), out.put(kJobFileVersion), out.put(uint64_t(cubes.size()));
     for (const EncodedCube& e : cubes) {
         const HlodNode& n = e.node;
-        out.put(n.level), out.put(n.i), out.put(n.j), out.put(n.k), out.put(n.error);
+        out.put(n.level), out.put(n.i), out.put(n.j), out.put(n.k), out.put(n.error), out.put(e.coverage);
         out.put(n.vertex_count), out.put(n.triangle_count), out.put(uint64_t(e.payload.size()));
         out.put_bytes(e.payload.data(), e.payload.size());
     }
@@ -226,7 +226,7 @@ std::vector<EncodedCube> read_payload_file(const std::filesystem::path& path) {
         EncodedCube e;
         HlodNode& n = e.node;
         n.level = in.get<uint32_t>(), n.i = in.get<uint32_t>(), n.j = in.get<uint32_t>(), n.k = in.get<uint32_t>();
-        n.error = in.get<float>(), n.vertex_count = in.get<uint32_t>(), n.triangle_count = in.get<uint32_t>();
+        n.error = in.get<float>(), e.coverage = in.get<float>(), n.vertex_count = in.get<uint32_t>(), n.triangle_count = in.get<uint32_t>();
         const std::span<const uint8_t> payload = in.get_bytes(in.get<uint64_t>());
         e.payload.assign(payload.begin(), payload.end());
         cubes.push_back(std::move(e));

@@ -283,9 +283,13 @@ TEST_F(HlodSelection, PixelErrorBoundsTheProjectedErrorOfEveryDrawnCube) {
                 const double distance = distance_to(eye, model_->cull_box(cube.node));
                 const double projected = distance > 0 ? level_error[level] * pixels_per_unit_at_unit_distance / distance
                                                       : (level_error[level] > 0 ? INFINITY : 0.0);
-                EXPECT_LE(projected, pixels) << describe_cube(cube.node) << " for P " << pixels << " from "
-                                             << eye.x << " " << eye.y << " " << eye.z;
-                worst = std::max(worst, projected);
+                // The full resolution, drawn as close as the eye likes, is as exact as it gets: its
+                // bound (the lattice's rounding) is outside the promise.
+                if (level < h.max_level) {
+                    EXPECT_LE(projected, pixels) << describe_cube(cube.node) << " for P " << pixels << " from "
+                                                 << eye.x << " " << eye.y << " " << eye.z;
+                    worst = std::max(worst, projected);
+                }
                 if (level == 0) continue;
                 model_->morphed_positions(c, glm::vec3(eye), float(kappa0), morphed);
                 double nearest_morphing = INFINITY;

@@ -149,7 +149,7 @@ TEST_F(Verify, UntamperedRewriteVerifies) {
     EXPECT_TRUE(last_report.watertight);
     EXPECT_EQ(last_report.cubes, sphere.nodes.size());
     Model grid = *grid_;
-    ASSERT_EQ(grid.header.flags, uint32_t(kHasColors | kHasUvs));
+    ASSERT_EQ(grid.header.flags, uint32_t(kHasColors | kHasUvs | kErrorsAreBounds));
     EXPECT_EQ(verify(grid), "");
     EXPECT_FALSE(last_report.watertight);
     // The original files too, of course.
@@ -308,9 +308,16 @@ TEST_F(Verify, MissingCubes) {
 }
 
 TEST_F(Verify, ErrorsInTheNodeTable) {
-    // Level L is the full-resolution model: its error must be exactly zero.
+    // A bound is never below what the lattice's rounding alone can move a vertex.
     Model m = *sphere_;
+    ASSERT_TRUE(m.header.flags & kErrorsAreBounds);
     const size_t c = m.cube_at(2);
+    m.nodes[c].error = 0;
+    EXPECT_THAT(verify(m), HasSubstr(describe_cube(m.nodes[c]) + " has error 0, below its lattice's rounding"));
+
+    // A model from before the bound (its error an estimate) keeps the old rule: exact at level L.
+    m = *sphere_;
+    m.header.flags &= ~uint32_t(kErrorsAreBounds);
     m.nodes[c].error = 1e-9f;
     EXPECT_THAT(verify(m), HasSubstr(describe_cube(m.nodes[c]) + " at full resolution has nonzero error"));
 
@@ -325,8 +332,9 @@ TEST_F(Verify, ErrorsInTheNodeTable) {
     m = *sphere_;
     const size_t root = m.find(0, 0, 0, 0);
     ASSERT_GT(m.nodes[p].error, 0.0f);
-    m.nodes[root].error = 0;
-    EXPECT_THAT(verify(m), HasSubstr("cube (level 0, 0 0 0) has error 0, less than its child"));
+    m.nodes[root].error = m.nodes[p].error / 2;
+    EXPECT_THAT(verify(m), HasSubstr("cube (level 0, 0 0 0) has error "));
+    EXPECT_THAT(verify(m), HasSubstr(", less than its child"));
 
     // Not a number, or negative.
     m = *sphere_;
