@@ -463,10 +463,14 @@ void TriangleTree::build(uint32_t index, uint32_t begin, uint32_t end, const std
     build(node.first + 1, middle, end, centroids);
 }
 
-TriangleTree::Nearest TriangleTree::nearest(const double point[3]) const {
+TriangleTree::Nearest TriangleTree::nearest(const double point[3], uint32_t hint) const {
     Nearest best;
     if (nodes_.empty()) return best;
     const D3 p = load(point);
+    if (hint < surface_.triangle_count()) {
+        const std::array<D3, 3> c = corners(surface_, hint);
+        best = {triangle_distance(p, c[0], c[1], c[2]) + offset(hint), hint};
+    }
     struct Entry {
         uint32_t node;
         double distance;

@@ -40,7 +40,10 @@ public:
         double distance = 1e300;  // |x − y| + o(y), minimal over the surface
         uint32_t triangle = ~0u;
     };
-    Nearest nearest(const double point[3]) const;
+    // The nearest triangle to a point (+inf and ~0u when there is none). `hint`, a triangle likely
+    // near (the answer for a neighbouring point), bounds the search from the start: the same distance,
+    // found sooner.
+    Nearest nearest(const double point[3], uint32_t hint = ~0u) const;
     // Calls `visit(triangle)` for every triangle whose box meets [lo, hi].
     template <class Visit>
     void overlapping(const double lo[3], const double hi[3], Visit&& visit) const;
