@@ -99,6 +99,18 @@ public:
     glm::vec3 shader_eye(const glm::dmat4& world_from_node, const glm::dvec3& eye_world) const;
     float shader_kappa0(const Camera& camera) const;
     bool morphs_for(const Camera& camera) const;
+    // The selection's view for `camera` with the eye at `eye` in the node's frame, without culling:
+    // cull(), intersect() and measurements (tests/support/fidelity.h) select alike through it.
+    HlodView view_for(const Camera& camera, const glm::dvec3& eye) const;
+    // What the shader gets for a view, gathered once, and the positions a cube's vertices are drawn at
+    // for it (the CPU twin when it morphs, the decoded positions when not): the drawn triangles.
+    struct MorphInputs {
+        glm::vec3 eye;
+        float kappa0;
+        bool morph;
+    };
+    MorphInputs morph_inputs(const PickContext& view) const;
+    void drawn_positions(uint32_t cube, const MorphInputs& inputs, std::vector<glm::vec3>& out) const;
     // The level an orthographic camera draws: the coarsest whose error stays within the pixel error
     // (1 pixel when κ0 was set instead).
     int orthographic_level(const Camera& camera) const;
@@ -120,9 +132,6 @@ protected:
 
 private:
     HlodModel() = default;
-    // The selection's view for `camera` with the eye at `eye` in the node's frame: cull() and
-    // intersect() select alike through it.
-    HlodView view_for(const Camera& camera, const glm::dvec3& eye) const;
     // Whether the selection draws this cube rather than going down to its children.
     bool suitable(const HlodNode& node, const HlodView& view) const;
     void select_from(uint32_t cube, const HlodView& view, uint8_t mask, std::vector<uint32_t>& out) const;

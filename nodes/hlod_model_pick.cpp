@@ -19,30 +19,26 @@ struct Candidate {
     bool operator>(const Candidate& other) const { return entry > other.entry; }
 };
 
-// What the shader gets for the pick's view (HlodModel::shader_eye and friends), fed to the CPU twin.
-struct MorphInputs {
-    glm::vec3 eye;
-    float kappa0;
-    bool morph;
-};
+}  // namespace
 
-// The lattice-frame positions a cube's vertices are drawn at.
-void drawn_positions(const HlodModel& model, uint32_t c, const MorphInputs& inputs, std::vector<glm::vec3>& out) {
-    if (inputs.morph) {
-        model.morphed_positions(c, inputs.eye, inputs.kappa0, out);
-        return;
-    }
-    const HlodCube& cube = model.cubes()[c];
-    out.resize(cube.data.vertex_count());
-    for (uint32_t v = 0; v < out.size(); ++v) out[v] = model.vertex_position(cube, v);
+HlodModel::MorphInputs HlodModel::morph_inputs(const PickContext& view) const {
+    return {shader_eye(view.world_from_node, view.eye_world), shader_kappa0(view.camera), morphs_for(view.camera)};
 }
 
-}  // namespace
+void HlodModel::drawn_positions(uint32_t c, const MorphInputs& inputs, std::vector<glm::vec3>& out) const {
+    if (inputs.morph) {
+        morphed_positions(c, inputs.eye, inputs.kappa0, out);
+        return;
+    }
+    const HlodCube& cube = cubes_[c];
+    out.resize(cube.data.vertex_count());
+    for (uint32_t v = 0; v < out.size(); ++v) out[v] = vertex_position(cube, v);
+}
 
 std::optional<SurfaceHit> HlodModel::intersect(const Ray& ray, const PickContext& context) const {
     const Camera& camera = context.camera;
     const HlodView view = view_for(camera, context.local_eye());
-    const MorphInputs inputs{shader_eye(context.world_from_node, context.eye_world), shader_kappa0(camera), morphs_for(camera)};
+    const MorphInputs inputs = morph_inputs(context);
     // The lattice frame is the node's frame shifted by −O: the same parameter t names the same point.
     Ray lattice_ray = ray;
     lattice_ray.origin -= origin();
@@ -65,7 +61,7 @@ std::optional<SurfaceHit> HlodModel::intersect(const Ray& ray, const PickContext
                 if (child != kNoCube) enqueue(child);
             continue;
         }
-        drawn_positions(*this, next.cube, inputs, positions);
+        drawn_positions(next.cube, inputs, positions);
         const auto hit = nearest_triangle(lattice_ray, cube.data.indices, [&](uint32_t v) { return glm::dvec3(positions[v]); });
         if (!hit) continue;
         nearest = SurfaceHit{hit->t, hit->normal, next.cube};
