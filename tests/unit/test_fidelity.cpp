@@ -1,0 +1,179 @@
+// The fidelity check (DESIGN.md §6, §8): the bundled bunny's HLOD at 1 pixel of error against its full
+// mesh, rendered with the same cameras through the real renderer (Mesa llvmpipe through EGL), and the
+// screen-space error measured per covered pixel (tests/support/fidelity.h). Controls: the distance
+// query is exact where the answer is known, and the measurement catches a selection that is too coarse.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <numeric>
+#include <random>
+
+#include "engine/gl/context.h"
+#include "preprocess/mesh_io.h"
+#include "tests/support/bunny_model.h"
+#include "tests/support/fidelity.h"
+
+namespace strata::test {
+namespace {
+
+const std::filesystem::path kScan = std::filesystem::path(STRATA_SOURCE_DIR) / "data" / "bunny.off";
+
+// A closest point and the distance the geometry says it must have.
+void expect_closest(const glm::dvec3& p, const glm::dvec3& expected) {
+    const glm::dvec3 a(0, 0, 0), b(2, 0, 0), c(0, 2, 0);
+    const glm::dvec3 q = closest_point_on_triangle(p, a, b, c);
+    EXPECT_NEAR(glm::length(q - expected), 0.0, 1e-15) << p.x << " " << p.y << " " << p.z;
+}
+
+TEST(TriangleDistance, ClosestPointsInEveryRegionOfATriangle) {
+    expect_closest({0.5, 0.5, 3}, {0.5, 0.5, 0});   // over the face
+    expect_closest({-1, -1, 1}, {0, 0, 0});         // corner regions
+    expect_closest({3, -1, -1}, {2, 0, 0});
+    expect_closest({-0.5, 3, 2}, {0, 2, 0});
+    expect_closest({1, -2, 1}, {1, 0, 0});          // edge regions
+    expect_closest({-3, 1, 0}, {0, 1, 0});
+    expect_closest({2, 2, 5}, {1, 1, 0});
+    // Degenerate: three collinear corners are their longest edge.
+    EXPECT_EQ(closest_point_on_triangle({1, 5, 0}, {0, 0, 0}, {1, 0, 0}, {3, 0, 0}), glm::dvec3(1, 0, 0));
+    EXPECT_EQ(closest_point_on_triangle({7, 1, 0}, {2, 0, 0}, {2, 0, 0}, {2, 0, 0}), glm::dvec3(2, 0, 0));
+}
+
+// The distance to the surface of a box is known in closed form, inside and out.
+TEST(TriangleDistance, DistanceToACubesSurfaceIsExact) {
+    std::vector<glm::dvec3> corners;
+    for (int k = 0; k < 8; ++k) corners.push_back({double(k & 1), double(k >> 1 & 1), double(k >> 2 & 1)});
+    // Two triangles per face, each face as four corners in order around it.
+    const int faces[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4}, {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
+    std::vector<uint32_t> indices;
+    for (const auto& f : faces) indices.insert(indices.end(), {uint32_t(f[0]), uint32_t(f[1]), uint32_t(f[2]),
+                                                               uint32_t(f[0]), uint32_t(f[2]), uint32_t(f[3])});
+    const TriangleDistance cube(corners, indices);
+    std::mt19937 rng(3);
+    std::uniform_real_distribution<double> coordinate(-1.5, 2.5);
+    for (int i = 0; i < 2000; ++i) {
+        const glm::dvec3 p(coordinate(rng), coordinate(rng), coordinate(rng));
+        const glm::dvec3 from_centre = glm::abs(p - 0.5);
+        const glm::dvec3 outside = glm::max(from_centre - 0.5, 0.0);
+        const double expected = glm::length(outside) > 0 ? glm::length(outside)
+                                                         : 0.5 - std::max({from_centre.x, from_centre.y, from_centre.z});
+        ASSERT_NEAR(cube.nearest(p).distance, expected, 1e-14) << p.x << " " << p.y << " " << p.z;
+    }
+}
+
+// The hierarchy's pruning loses nothing: on the real scan it finds what testing every triangle finds.
+TEST(TriangleDistance, TheHierarchyFindsWhatBruteForceFinds) {
+    if (!std::filesystem::exists(kScan)) GTEST_SKIP() << "data/bunny.off missing: run scripts/setup.sh";
+    const Mesh mesh = read_mesh(kScan);
+    std::vector<glm::dvec3> positions;
+    for (size_t v = 0; v < mesh.vertex_count(); ++v) positions.push_back({mesh.positions[3 * v], mesh.positions[3 * v + 1], mesh.positions[3 * v + 2]});
+    const TriangleDistance bunny(positions, mesh.indices);
+    std::mt19937 rng(5);
+    std::uniform_int_distribution<size_t> vertex(0, positions.size() - 1);
+    std::normal_distribution<double> offset(0.0, 0.002);
+    for (int i = 0; i < 200; ++i) {
+        // Near the surface, where the measurement asks, and some far from it.
+        const double spread = i % 4 == 0 ? 50.0 : 1.0;
+        const glm::dvec3 p = positions[vertex(rng)] + spread * glm::dvec3(offset(rng), offset(rng), offset(rng));
+        const NearestPoint slow = bunny.nearest_by_brute_force(p);
+        // With or without a first guess, however far off it is.
+        for (const uint32_t hint : {~0u, slow.triangle, uint32_t(i * 97 % mesh.triangle_count())}) {
+            const NearestPoint fast = bunny.nearest(p, hint);
+            ASSERT_EQ(fast.distance, slow.distance);
+            ASSERT_EQ(fast.triangle, slow.triangle);
+        }
+    }
+}
+
+class Fidelity : public ::testing::Test {
+protected:
+    static void SetUpTestSuite() {
+        if (bunny_hlod().empty()) return;
+        context_ = gl::create_headless_context();
+        mesh_ = std::make_unique<Mesh>(read_mesh(kScan));
+        model_ = HlodModel::load(bunny_hlod());
+        meter_ = std::make_unique<FidelityMeter>(model_, *mesh_);
+    }
+    static void TearDownTestSuite() {
+        meter_.reset();
+        model_.reset();
+        mesh_.reset();
+        context_.reset();
+    }
+    void SetUp() override {
+        if (!meter_) GTEST_SKIP() << "data/bunny.off missing: run scripts/setup.sh";
+    }
+
+    static std::vector<std::unique_ptr<Camera>> views(int count) { return fidelity_views(model_->bound(), *mesh_, count, 320, 240, 11); }
+
+    static inline std::unique_ptr<gl::Context> context_;
+    static inline std::unique_ptr<Mesh> mesh_;
+    static inline std::shared_ptr<HlodModel> model_;
+    static inline std::unique_ptr<FidelityMeter> meter_;
+};
+
+// --pixel-error 1 is kept where it counts, on the screen: over 50 views, at least 99.9 % of the pixels
+// the HLOD covers lie within 1 pixel of the full mesh. The reconstruction's own error is far below.
+TEST_F(Fidelity, AtOnePixelOfErrorTheHlodStaysWithinOnePixelOfTheFullMesh) {
+    model_->set_pixel_error(1.0);
+    size_t forward_pixels = 0, forward_within = 0, backward_pixels = 0, backward_within = 0;
+    double forward_max = 0, backward_max = 0, noise_max = 0, noise_p999 = 0;
+    std::vector<uint32_t> levels(model_->header().max_level + 1, 0);
+    for (const auto& camera : views(50)) {
+        const FidelityReport r = meter_->measure(*camera, 1.0);
+        ASSERT_GT(r.forward.pixels, 0u) << "a view that sees nothing measures nothing";
+        forward_pixels += r.forward.pixels;
+        forward_within += r.forward.within;
+        backward_pixels += r.backward.pixels;
+        backward_within += r.backward.within;
+        forward_max = std::max(forward_max, r.forward.max);
+        backward_max = std::max(backward_max, r.backward.max);
+        noise_max = std::max(noise_max, r.noise.max);
+        noise_p999 = std::max(noise_p999, r.noise.p999);
+        uint64_t cubes = 0;
+        for (size_t l = 0; l < levels.size(); ++l) {
+            levels[l] += r.cubes_per_level[l];
+            cubes += r.cubes_per_level[l];
+        }
+        EXPECT_EQ(cubes, r.hlod_cubes) << "the measured selection is the one drawn";
+    }
+    std::printf("forward: %zu pixels, %.4f %% within 1 px, max %.3f px; backward: %zu pixels, %.4f %% within, max %.3f px; "
+                "noise p99.9 %.1e max %.1e px; cubes per level",
+                forward_pixels, 100.0 * forward_within / forward_pixels, forward_max, backward_pixels,
+                100.0 * backward_within / backward_pixels, backward_max, noise_p999, noise_max);
+    for (uint32_t n : levels) std::printf(" %u", n);
+    std::printf("\n");
+    EXPECT_GE(double(forward_within) / double(forward_pixels), 0.999) << "max " << forward_max << " px";
+    // The bound is two-sided (DESIGN.md §8): the full mesh's pixels lie as close to what the HLOD draws.
+    EXPECT_GE(double(backward_within) / double(backward_pixels), 0.999) << "max " << backward_max << " px";
+    // Coarse levels are drawn, and where their error shows: the views put the bound to the test.
+    EXPECT_GT(std::accumulate(levels.begin(), levels.end() - 1, 0u), 0u);
+    EXPECT_GT(forward_max, 0.1);
+    // The full mesh measured against itself: float depth (reversed Z) gives about 1e-5 px, the
+    // rasterizer's subpixel snapping of triangles seen edge-on a few hundredths at some silhouettes.
+    // Not the maximum: llvmpipe extrapolates the depth plane of a sliver far smaller than a pixel past
+    // its corners (1 pixel in 18 M at 1280×720 came out 1.9 px off the mesh it was drawn from).
+    EXPECT_LT(noise_p999, 5e-3);
+}
+
+// The control: a selection made for 64 pixels (κ0 then at its minimum, 1 + 3σ0 + 0.25, the coarsest cut
+// the morph allows), held to 1 pixel, fails the measurement.
+TEST_F(Fidelity, ATooCoarseSelectionIsCaught) {
+    model_->set_pixel_error(64.0);
+    size_t pixels = 0, within = 0;
+    double worst = 0;
+    for (const auto& camera : views(10)) {
+        const FidelityReport r = meter_->measure(*camera, 1.0);
+        pixels += r.forward.pixels;
+        within += r.forward.within;
+        worst = std::max(worst, r.forward.max);
+    }
+    model_->set_pixel_error(1.0);
+    std::printf("at 64 px: %.2f %% within 1 px, max %.1f px\n", 100.0 * within / pixels, worst);
+    EXPECT_LT(double(within) / double(pixels), 0.99);
+    EXPECT_GT(worst, 2.0);
+}
+
+}  // namespace
+}  // namespace strata::test
