@@ -21,13 +21,9 @@ double milliseconds_since(Clock::time_point start) {
     return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
 }
 
-// The full mesh's vertices in the model's lattice frame (scan coordinates less the model's origin O).
-std::vector<glm::dvec3> lattice_positions(const Mesh& mesh, const glm::dvec3& lattice_origin) {
-    const glm::dvec3 shift = glm::dvec3(mesh.origin[0], mesh.origin[1], mesh.origin[2]) - lattice_origin;
-    std::vector<glm::dvec3> out(mesh.vertex_count());
-    for (size_t v = 0; v < out.size(); ++v)
-        out[v] = glm::dvec3(mesh.positions[3 * v], mesh.positions[3 * v + 1], mesh.positions[3 * v + 2]) + shift;
-    return out;
+// Where a mesh's frame (its float positions' zero) lies in the model's lattice frame.
+glm::dvec3 frame_in_lattice(const Mesh& mesh, const glm::dvec3& lattice_origin) {
+    return glm::dvec3(mesh.origin[0], mesh.origin[1], mesh.origin[2]) - lattice_origin;
 }
 
 // The eye as the renderer derives it from the view matrix.
@@ -129,9 +125,20 @@ std::vector<std::unique_ptr<Camera>> fidelity_views(const Box& bounds, const Mes
     return out;
 }
 
+MeasuredSurface::MeasuredSurface(std::vector<float> positions, std::vector<uint32_t> indices, const glm::dvec3& origin)
+    : positions_(std::move(positions)), indices_(std::move(indices)), origin_(origin),
+      tree_(SurfaceView{positions_, indices_}, {}) {}
+
+TriangleTree::Nearest MeasuredSurface::nearest(const glm::dvec3& point, uint32_t hint) const {
+    // In the surface's own frame, in double: the float positions are not rounded again by a shift.
+    const glm::dvec3 local = point - origin_;
+    const double p[3] = {local.x, local.y, local.z};
+    return tree_.nearest(p, hint);
+}
+
 FidelityMeter::FidelityMeter(std::shared_ptr<HlodModel> model, const Mesh& full, unsigned threads)
     : model_(std::move(model)),
-      full_distance_(lattice_positions(full, model_->origin()), full.indices),
+      full_surface_(full.positions, full.indices, frame_in_lattice(full, model_->origin())),
       threads_(resolve_thread_count(int(threads))) {
     hlod_scene_.add(model_);
     full_scene_.add(Geometry::from_mesh(full));
@@ -147,21 +154,21 @@ Image FidelityMeter::render(Node& scene, const Camera& camera, FrameStats& stats
     return renderer_.read_image(*target_);
 }
 
-TriangleDistance FidelityMeter::drawn_triangles(const Camera& camera) const {
+MeasuredSurface FidelityMeter::drawn_surface(const Camera& camera) const {
     const glm::dvec3 eye = eye_of(camera);
     std::vector<uint32_t> cubes;
     model_->select(model_->view_for(camera, eye), cubes);
     const HlodModel::MorphInputs inputs = model_->morph_inputs(PickContext{camera, glm::dmat4(1.0), eye});
-    std::vector<glm::dvec3> positions;
+    std::vector<float> positions;
     std::vector<uint32_t> indices;
     std::vector<glm::vec3> drawn;
     for (const uint32_t c : cubes) {
         model_->drawn_positions(c, inputs, drawn);
-        const uint32_t base = uint32_t(positions.size());
-        positions.insert(positions.end(), drawn.begin(), drawn.end());
+        const uint32_t base = uint32_t(positions.size() / 3);
+        for (const glm::vec3& x : drawn) positions.insert(positions.end(), {x.x, x.y, x.z});
         for (const uint32_t i : model_->cubes()[c].data.indices) indices.push_back(base + i);
     }
-    return TriangleDistance(std::move(positions), indices);
+    return MeasuredSurface(std::move(positions), std::move(indices), glm::dvec3(0.0));
 }
 
 std::vector<uint32_t> FidelityMeter::cubes_per_level(const Camera& camera) const {
@@ -178,14 +185,14 @@ std::vector<uint32_t> FidelityMeter::cubes_per_level(const Camera& camera) const
     return per_level;
 }
 
-std::vector<double> FidelityMeter::pixel_errors(const std::vector<CoveredPoint>& points, const TriangleDistance& surface) const {
+std::vector<double> FidelityMeter::pixel_errors(const std::vector<CoveredPoint>& points, const MeasuredSurface& surface) const {
     std::vector<double> errors(points.size());
     constexpr size_t kChunk = 1024;
     parallel_for((points.size() + kChunk - 1) / kChunk, threads_, [&](size_t chunk, unsigned) {
         // Points come in image order: the previous pixel's nearest triangle is a close first guess.
         uint32_t previous = ~0u;
         for (size_t i = chunk * kChunk; i < std::min(points.size(), (chunk + 1) * kChunk); ++i) {
-            const NearestPoint nearest = surface.nearest(points[i].point, previous);
+            const TriangleTree::Nearest nearest = surface.nearest(points[i].point, previous);
             errors[i] = nearest.distance * points[i].pixels_per_unit;
             previous = nearest.triangle;
         }
@@ -206,9 +213,9 @@ FidelityReport FidelityMeter::measure(const Camera& camera, double tolerance_pix
     report.cubes_per_level = cubes_per_level(camera);
     const std::vector<CoveredPoint> on_hlod = covered_points(hlod, camera, model_->origin());
     const std::vector<CoveredPoint> on_full = covered_points(full, camera, model_->origin());
-    report.forward = summarize(pixel_errors(on_hlod, full_distance_), tolerance_pixels);
-    report.backward = summarize(pixel_errors(on_full, drawn_triangles(camera)), tolerance_pixels);
-    report.noise = summarize(pixel_errors(on_full, full_distance_), tolerance_pixels);
+    report.forward = summarize(pixel_errors(on_hlod, full_surface_), tolerance_pixels);
+    report.backward = summarize(pixel_errors(on_full, drawn_surface(camera)), tolerance_pixels);
+    report.noise = summarize(pixel_errors(on_full, full_surface_), tolerance_pixels);
     report.measure_ms = milliseconds_since(start);
     return report;
 }

@@ -27,7 +27,7 @@
 #include "engine/scene/node.h"
 #include "nodes/hlod_model.h"
 #include "preprocess/mesh.h"
-#include "tests/support/triangle_distance.h"
+#include "preprocess/surface_distance.h"
 
 namespace strata::test {
 
@@ -68,10 +68,29 @@ std::vector<CoveredPoint> covered_points(const Image& image, const Camera& camer
 // (Cameras are nodes, which do not copy.)
 std::vector<std::unique_ptr<Camera>> fidelity_views(const Box& bounds, const Mesh& mesh, int count, int width, int height, uint32_t seed);
 
+// A surface the measurement finds distances to: float positions, as the meshes hold them, in a frame
+// whose origin lies at `origin` in the model's lattice frame, and the tree over its triangles. It owns
+// the vectors the tree views, so it is neither copied nor moved (a function returns it as a prvalue).
+class MeasuredSurface {
+public:
+    MeasuredSurface(std::vector<float> positions, std::vector<uint32_t> indices, const glm::dvec3& origin);
+    MeasuredSurface(const MeasuredSurface&) = delete;
+    MeasuredSurface& operator=(const MeasuredSurface&) = delete;
+
+    // The nearest triangle to a point of the lattice frame; `hint` as TriangleTree::nearest takes it.
+    TriangleTree::Nearest nearest(const glm::dvec3& point, uint32_t hint = ~0u) const;
+
+private:
+    std::vector<float> positions_;
+    std::vector<uint32_t> indices_;
+    glm::dvec3 origin_;
+    TriangleTree tree_;  // declared after the vectors it views, so built after them
+};
+
 class FidelityMeter {
 public:
     // `model` with its pixel error (or κ0) set, at the origin of the world; `full` the mesh it was
-    // built from. Builds the full mesh's distance structure. Needs a current GL context, as measure()
+    // built from. Copies the full mesh's triangles and builds their tree. Needs a current GL context, as measure()
     // does.
     // Distances are found on `threads` threads (0: one per core).
     FidelityMeter(std::shared_ptr<HlodModel> model, const Mesh& full, unsigned threads = 0);
@@ -79,19 +98,17 @@ public:
     // Renders both with `camera` (one sample per pixel: depth at the pixel centre) and measures.
     FidelityReport measure(const Camera& camera, double tolerance_pixels);
 
-    const TriangleDistance& full_distance() const { return full_distance_; }
-
 private:
     // The triangles the model draws for `camera` with culling off (culling only drops cubes wholly
     // outside the view, which could otherwise hold the nearest drawn surface of a pixel at the border).
-    TriangleDistance drawn_triangles(const Camera& camera) const;
+    MeasuredSurface drawn_surface(const Camera& camera) const;
     std::vector<uint32_t> cubes_per_level(const Camera& camera) const;
     // Renders `scene` into the target, timed to glFinish(), and reads its depth back.
     Image render(Node& scene, const Camera& camera, FrameStats& stats, double& frame_ms);
-    std::vector<double> pixel_errors(const std::vector<CoveredPoint>& points, const TriangleDistance& surface) const;
+    std::vector<double> pixel_errors(const std::vector<CoveredPoint>& points, const MeasuredSurface& surface) const;
 
     std::shared_ptr<HlodModel> model_;
-    TriangleDistance full_distance_;
+    MeasuredSurface full_surface_;
     Group hlod_scene_, full_scene_;
     Renderer renderer_;
     std::unique_ptr<gl::Framebuffer> target_;

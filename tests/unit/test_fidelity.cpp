@@ -1,12 +1,14 @@
 // The fidelity check (DESIGN.md §6, §8): the bundled bunny's HLOD at 1 pixel of error against its full
 // mesh, rendered with the same cameras through the real renderer (Mesa llvmpipe through EGL), and the
 // screen-space error measured per covered pixel (tests/support/fidelity.h). Controls: the distance
-// query is exact where the answer is known, and the measurement catches a selection that is too coarse.
+// query (strata::TriangleTree) is exact where the answer is known and equals brute force on the scan,
+// and the measurement catches a selection that is too coarse.
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <numeric>
 #include <random>
 
@@ -20,36 +22,17 @@ namespace {
 
 const std::filesystem::path kScan = std::filesystem::path(STRATA_SOURCE_DIR) / "data" / "bunny.off";
 
-// A closest point and the distance the geometry says it must have.
-void expect_closest(const glm::dvec3& p, const glm::dvec3& expected) {
-    const glm::dvec3 a(0, 0, 0), b(2, 0, 0), c(0, 2, 0);
-    const glm::dvec3 q = closest_point_on_triangle(p, a, b, c);
-    EXPECT_NEAR(glm::length(q - expected), 0.0, 1e-15) << p.x << " " << p.y << " " << p.z;
-}
-
-TEST(TriangleDistance, ClosestPointsInEveryRegionOfATriangle) {
-    expect_closest({0.5, 0.5, 3}, {0.5, 0.5, 0});   // over the face
-    expect_closest({-1, -1, 1}, {0, 0, 0});         // corner regions
-    expect_closest({3, -1, -1}, {2, 0, 0});
-    expect_closest({-0.5, 3, 2}, {0, 2, 0});
-    expect_closest({1, -2, 1}, {1, 0, 0});          // edge regions
-    expect_closest({-3, 1, 0}, {0, 1, 0});
-    expect_closest({2, 2, 5}, {1, 1, 0});
-    // Degenerate: three collinear corners are their longest edge.
-    EXPECT_EQ(closest_point_on_triangle({1, 5, 0}, {0, 0, 0}, {1, 0, 0}, {3, 0, 0}), glm::dvec3(1, 0, 0));
-    EXPECT_EQ(closest_point_on_triangle({7, 1, 0}, {2, 0, 0}, {2, 0, 0}, {2, 0, 0}), glm::dvec3(2, 0, 0));
-}
-
-// The distance to the surface of a box is known in closed form, inside and out.
-TEST(TriangleDistance, DistanceToACubesSurfaceIsExact) {
-    std::vector<glm::dvec3> corners;
-    for (int k = 0; k < 8; ++k) corners.push_back({double(k & 1), double(k >> 1 & 1), double(k >> 2 & 1)});
+// The distance to the surface of a box is known in closed form, inside and out: the tree's nearest()
+// is exact where the measurement leans on it (points on and near a closed surface, on either side).
+TEST(FidelityDistance, DistanceToACubesSurfaceIsExact) {
+    std::vector<float> corners;
+    for (int k = 0; k < 8; ++k) corners.insert(corners.end(), {float(k & 1), float(k >> 1 & 1), float(k >> 2 & 1)});
     // Two triangles per face, each face as four corners in order around it.
     const int faces[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4}, {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
     std::vector<uint32_t> indices;
     for (const auto& f : faces) indices.insert(indices.end(), {uint32_t(f[0]), uint32_t(f[1]), uint32_t(f[2]),
                                                                uint32_t(f[0]), uint32_t(f[2]), uint32_t(f[3])});
-    const TriangleDistance cube(corners, indices);
+    const MeasuredSurface cube(corners, indices, glm::dvec3(0.0));
     std::mt19937 rng(3);
     std::uniform_real_distribution<double> coordinate(-1.5, 2.5);
     for (int i = 0; i < 2000; ++i) {
@@ -62,26 +45,44 @@ TEST(TriangleDistance, DistanceToACubesSurfaceIsExact) {
     }
 }
 
-// The hierarchy's pruning loses nothing: on the real scan it finds what testing every triangle finds.
-TEST(TriangleDistance, TheHierarchyFindsWhatBruteForceFinds) {
+// The distance from p to triangle t of a mesh, by the same exact closest point the tree uses.
+double distance_to_triangle(const Mesh& mesh, uint32_t t, const glm::dvec3& p) {
+    double corner[3][3];
+    for (int k = 0; k < 3; ++k)
+        for (int a = 0; a < 3; ++a) corner[k][a] = mesh.positions[3 * size_t(mesh.indices[3 * size_t(t) + k]) + a];
+    const double q[3] = {p.x, p.y, p.z};
+    return point_triangle_distance(q, corner[0], corner[1], corner[2]);
+}
+
+// The tree's pruning loses nothing, and neither does a first guess that bounds it (the measurement
+// passes the previous pixel's triangle): on the real scan nearest() finds what testing every triangle
+// finds, to the bit. Where several triangles are as near (a vertex or an edge nearest) any of them is
+// a right answer, so the triangle is checked to be at that distance, not to be one of them in particular.
+TEST(FidelityDistance, TheTreeFindsWhatBruteForceFindsWithAndWithoutAHint) {
     if (!std::filesystem::exists(kScan)) GTEST_SKIP() << "data/bunny.off missing: run scripts/setup.sh";
     const Mesh mesh = read_mesh(kScan);
-    std::vector<glm::dvec3> positions;
-    for (size_t v = 0; v < mesh.vertex_count(); ++v) positions.push_back({mesh.positions[3 * v], mesh.positions[3 * v + 1], mesh.positions[3 * v + 2]});
-    const TriangleDistance bunny(positions, mesh.indices);
+    const MeasuredSurface bunny(mesh.positions, mesh.indices, glm::dvec3(0.0));
     std::mt19937 rng(5);
-    std::uniform_int_distribution<size_t> vertex(0, positions.size() - 1);
+    std::uniform_int_distribution<size_t> vertex(0, mesh.vertex_count() - 1);
     std::normal_distribution<double> offset(0.0, 0.002);
     for (int i = 0; i < 200; ++i) {
         // Near the surface, where the measurement asks, and some far from it.
         const double spread = i % 4 == 0 ? 50.0 : 1.0;
-        const glm::dvec3 p = positions[vertex(rng)] + spread * glm::dvec3(offset(rng), offset(rng), offset(rng));
-        const NearestPoint slow = bunny.nearest_by_brute_force(p);
-        // With or without a first guess, however far off it is.
-        for (const uint32_t hint : {~0u, slow.triangle, uint32_t(i * 97 % mesh.triangle_count())}) {
-            const NearestPoint fast = bunny.nearest(p, hint);
-            ASSERT_EQ(fast.distance, slow.distance);
-            ASSERT_EQ(fast.triangle, slow.triangle);
+        const size_t v = vertex(rng);
+        const glm::dvec3 p = glm::dvec3(mesh.positions[3 * v], mesh.positions[3 * v + 1], mesh.positions[3 * v + 2]) +
+                             spread * glm::dvec3(offset(rng), offset(rng), offset(rng));
+        double brute_force = std::numeric_limits<double>::infinity();
+        uint32_t nearest_triangle = ~0u;
+        for (uint32_t t = 0; t < mesh.triangle_count(); ++t) {
+            const double d = distance_to_triangle(mesh, t, p);
+            if (d < brute_force) brute_force = d, nearest_triangle = t;
+        }
+        // With no first guess, the right one, and one however far off.
+        for (const uint32_t hint : {~0u, nearest_triangle, uint32_t(i * 97 % mesh.triangle_count())}) {
+            const TriangleTree::Nearest fast = bunny.nearest(p, hint);
+            ASSERT_EQ(fast.distance, brute_force) << "point " << i << ", hint " << hint;
+            ASSERT_LT(fast.triangle, mesh.triangle_count());
+            ASSERT_EQ(distance_to_triangle(mesh, fast.triangle, p), brute_force) << "point " << i << ", hint " << hint;
         }
     }
 }
