@@ -47,3 +47,22 @@ if [ ! -s "$sample" ]; then
   mkdir -p data
   mv "$tmp/data/meshes/bunny00.off" "$sample.tmp" && mv "$sample.tmp" "$sample"
 fi
+
+# The sample terrain: a real DEM, NCL's trinidad.nc as shipped in Debian's libncarg-data (3 arc-second
+# elevations in feet over 37-38°N, 104-106°W: the San Luis Valley and the Sangre de Cristo range), read
+# by tests/support/dem_grid.h. Only the .deb is downloaded and that one file taken out of its data
+# archive, so the package is not installed. Not committed: the package's copyright file
+# (usr/share/doc/libncarg-data/copyright) puts all of it under "Files: *": Copyright 2013 University
+# Corporation for Atmospheric Research, License BSD-4-clause (NCL's redistribution terms).
+dem=data/trinidad.nc
+if [ ! -s "$dem" ]; then
+  echo "setup: fetching the sample terrain (trinidad.nc, from Debian's libncarg-data)"
+  dem_tmp=$(mktemp -d)
+  trap 'rm -rf "${tmp:-}" "$dem_tmp"' EXIT
+  (cd "$dem_tmp" && apt-get download libncarg-data >/dev/null 2>&1) || {
+    as_root apt-get update -qq && (cd "$dem_tmp" && apt-get download libncarg-data >/dev/null); }
+  dpkg-deb --fsys-tarfile "$dem_tmp"/libncarg-data_*.deb |
+    tar -x -C "$dem_tmp" ./usr/share/ncarg/data/cdf/trinidad.nc
+  mkdir -p data
+  mv "$dem_tmp/usr/share/ncarg/data/cdf/trinidad.nc" "$dem.tmp" && mv "$dem.tmp" "$dem"
+fi

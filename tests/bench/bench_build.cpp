@@ -3,13 +3,17 @@
 // of the same mesh to a quarter. Prints figures beside their targets; asserts nothing.
 //
 //   bench_build [--scan data/bunny.off] [--splits 16] [--runs 3] [--threads 0] [--no-meshopt] [--keep DIR] [--derive-only]
+//   bench_build --dem data/trinidad.nc[:STRIDE] [--dem-unit feet|metres] [--runs 3] ...
 //
 // The derived mesh is four midpoint subdivisions of the scan (each triangle split 16 ways along its
 // edges, the same points) with a small deterministic displacement along the normal, written as binary
 // PLY once (streamed: memory stays that of the scan at any size) and reused from DIR; --derive-only
-// stops there.
+// stops there. With --dem the mesh is instead a real terrain: the netCDF DEM's grid (every STRIDE-th
+// sample, default 1) as tests/support/dem_grid.h reads it, its elevations in the unit --dem-unit names
+// (default: its units attribute; trinidad.nc's feet are not marked), written as binary PLY once.
 #include "preprocess/atomic_file.h"
 #include "preprocess/mesh_io.h"
+#include "tests/support/dem_grid.h"
 
 #include <meshoptimizer.h>
 #include <sys/resource.h>
@@ -240,6 +244,23 @@ ChildRun run_child(const std::vector<std::string>& args) {
             WIFEXITED(status) ? WEXITSTATUS(status) : -1};
 }
 
+// --dem's FILE[:STRIDE]: the file, and the window of the whole grid at that stride.
+std::pair<std::string, strata::test::DemWindow> dem_argument(const std::string& argument) {
+    const size_t colon = argument.rfind(':');
+    const std::string stride = colon == std::string::npos ? "" : argument.substr(colon + 1);
+    if (stride.empty() || stride.find_first_not_of("0123456789") != std::string::npos) return {argument, {}};
+    return {argument.substr(0, colon), {.stride = std::stoul(stride)}};
+}
+
+// The PLY the terrain is written to: a name per file, stride and unit, so a cached one is never another's.
+std::string dem_ply_name(const std::string& argument, strata::test::ElevationUnit unit) {
+    const auto [file, window] = dem_argument(argument);
+    const char* unit_name = unit == strata::test::ElevationUnit::feet     ? "_feet"
+                            : unit == strata::test::ElevationUnit::metres ? "_metres"
+                                                                          : "";
+    return std::filesystem::path(file).stem().string() + "_dem_s" + std::to_string(window.stride) + unit_name + ".ply";
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -247,6 +268,8 @@ int main(int argc, char** argv) {
     std::string keep = std::filesystem::temp_directory_path() / "strata-bench";
     int splits = 16, runs = 3, threads = 0;
     bool with_meshopt = true, derive_only = false;
+    std::string dem;  // FILE[:STRIDE], or empty: derive from the scan
+    strata::test::ElevationUnit dem_unit = strata::test::ElevationUnit::from_units_attribute;
     for (int i = 1; i < argc; ++i) {
         std::string a = argv[i];
         auto value = [&] { return i + 1 < argc ? std::string(argv[++i]) : std::string(); };
@@ -257,16 +280,24 @@ int main(int argc, char** argv) {
         else if (a == "--keep") keep = value();
         else if (a == "--no-meshopt") with_meshopt = false;
         else if (a == "--derive-only") derive_only = true;
+        else if (a == "--dem") dem = value();
+        else if (const std::string unit = a == "--dem-unit" ? value() : ""; unit == "feet" || unit == "metres")
+            dem_unit = unit == "feet" ? strata::test::ElevationUnit::feet : strata::test::ElevationUnit::metres;
         else {
-            std::fprintf(stderr, "usage: bench_build [--scan FILE] [--splits N] [--runs N] [--threads N] [--no-meshopt] [--keep DIR] [--derive-only]\n");
+            std::fprintf(stderr, "usage: bench_build [--scan FILE | --dem FILE[:STRIDE] [--dem-unit feet|metres]] [--splits N] [--runs N] [--threads N] [--no-meshopt] [--keep DIR] [--derive-only]\n");
             return 2;
         }
     }
     std::filesystem::create_directories(keep);
-    const std::string ply = keep + "/" + std::filesystem::path(scan).stem().string() + "_x" + std::to_string(splits * splits) + ".ply";
+    const std::string ply = dem.empty() ? keep + "/" + std::filesystem::path(scan).stem().string() + "_x" + std::to_string(splits * splits) + ".ply"
+                                        : keep + "/" + dem_ply_name(dem, dem_unit);
     const std::string hlod = keep + "/bench.hlod";
 
-    if (!std::filesystem::exists(ply)) {
+    if (!dem.empty() && !std::filesystem::exists(ply)) {
+        const auto [file, window] = dem_argument(dem);
+        std::printf("making %s from the terrain %s (stride %zu)\n", ply.c_str(), file.c_str(), window.stride);
+        strata::write_ply(ply, strata::test::read_dem_grid(file, window, {.variable = "", .unit = dem_unit}));
+    } else if (!std::filesystem::exists(ply)) {
         std::printf("deriving %s from %s (each triangle split %d ways)\n", ply.c_str(), scan.c_str(), splits * splits);
         strata::Mesh base = strata::read_mesh(scan);
         write_subdivision_ply(ply, Subdivision(base, splits, 0.1f));
