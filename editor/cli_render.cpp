@@ -114,7 +114,7 @@ Command add_render(CLI::App& app) {
     sub->add_option("--up", o->up, "Up direction x,y,z")->delimiter(',')->expected(3)->capture_default_str();
     sub->add_option("--fov", o->fov, "Vertical field of view, degrees")->check(CLI::Range(1.0, 170.0))->capture_default_str();
     sub->add_flag("--ortho", o->orthographic, "Orthographic projection (elevations, orthophotos): framed to the scene");
-    sub->add_option("--pixel-error", o->scene.pixel_error, "Screen-space error the HLOD models may show, in pixels")
+    sub->add_option("--pixel-error", o->scene.pixel_error, "Pixels an HLOD cube's error bound may span at its nearest point (the finest level is exempt)")
         ->check(positive_number())->capture_default_str();
     sub->add_option("--channels", o->channels, "EXR channels: RGBA, Z (eye-space depth), N (world normals), level, id")
         ->capture_default_str();

@@ -105,7 +105,7 @@ Command add_view(CLI::App& app) {
     sub->add_option("files", o->files, "A scene script (.lua, sets the global `scene`), or .hlod models and meshes (PLY, OBJ, OFF, STL)")
         ->required();
     sub->add_option("--size", o->size, "Window size, WIDTHxHEIGHT")->capture_default_str();
-    sub->add_option("--pixel-error", o->scene.pixel_error, "Screen-space error the HLOD models may show, in pixels")
+    sub->add_option("--pixel-error", o->scene.pixel_error, "Pixels an HLOD cube's error bound may span at its nearest point (the finest level is exempt)")
         ->check(positive_number())->capture_default_str();
     sub->add_option("--script", o->script, "A Lua script run once the window is open, with the global `editor`");
     sub->add_option("--frames", o->frames, "Quit after this many frames (for scripts and tests)")->check(positive_number());

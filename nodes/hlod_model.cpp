@@ -36,6 +36,7 @@ std::shared_ptr<HlodModel> HlodModel::load(const std::filesystem::path& path) {
     model->path_ = path;
     model->header_ = file.header();
     model->set_name(path.stem().string());
+    model->set_kappa0(2.0);  // the default, raised to what this model's σ0 needs for its morph
     const auto& nodes = file.nodes();
     if (nodes.empty()) throw std::runtime_error(path.string() + ": the model has no cubes");
 
@@ -71,6 +72,11 @@ std::shared_ptr<HlodModel> HlodModel::load(const std::filesystem::path& path) {
             n.level == 0 ? cube.data : model->cubes_[index.at({n.level - 1, n.i / 2, n.j / 2, n.k / 2})].data;
         resolve_parents(cube.data, parent.vertices, path.string() + ": " + describe_cube(n));
     }
+    model->level_error_.assign(model->header_.max_level + 1, 0.0);
+    for (const HlodNode& n : nodes) {
+        double& worst = model->level_error_[n.level];
+        worst = std::max(worst, double(n.error) / model->header_.cube_size(n.level));
+    }
     for (HlodCube& cube : model->cubes_) {
         for (uint32_t v = 0; v < cube.data.vertex_count(); ++v) {
             const glm::vec3 p = model->vertex_position(cube, v);
@@ -91,11 +97,29 @@ void HlodModel::set_pixel_error(double pixels) {
     pixel_error_ = pixels;
 }
 
-double HlodModel::kappa0_for(int width, double tan_half_fov_x) const {
-    if (pixel_error_ <= 0 || tan_half_fov_x <= 0) return kappa0_;
-    // Eq. 4.5 solved for κ0: ε_SSE ≲ ε_q·S_w/(κ0·tan(θ/2)).
-    const double kappa0 = header_.error_q * width / (pixel_error_ * tan_half_fov_x);
-    return std::max(kappa0, min_kappa0());
+LevelKappas HlodModel::kappas_for(const Camera& camera) const {
+    if (pixel_error_ <= 0 || camera.projection != ProjectionKind::perspective) return LevelKappas(kappa0_);
+    // Pixels per unit of error at unit distance, over P, at the image's corner: the projection's
+    // largest magnification at a point r away and θ off the axis is (f/r)/cos²θ, and inside the image
+    // 1/cos²θ ≤ 1 + tan²(θx/2) + tan²(θy/2).
+    const double tx = camera.tan_half_fov_x(), ty = std::tan(glm::radians(camera.fov_y_degrees) / 2);
+    const double focal = camera.width / (2 * tx);
+    const double gain = 1 + focal * (1 + tx * tx + ty * ty) / pixel_error_;  // the 1: the error's own extent
+    const double sigma0 = header_.sigma0;
+    LevelKappas kappa;
+    for (uint32_t l = 0; l <= header_.max_level; ++l) {
+        // A cube draws within 1.5·σ0·s_l of its cell (the vertices' overhang, then the morph's travel),
+        // so its nearest drawn point is (κ_l − 1.5σ0)·s_l away; where its vertices morph, farther than
+        // (1 + κ_l + σ0)·s_l, the parent level's bound (2ε_{l−1}·s_l) must hold too.
+        double need = 1.5 * sigma0 + level_error_[l] * gain;
+        if (l > 0) need = std::max(need, 2 * level_error_[l - 1] * gain - 1 - sigma0);
+        kappa.value[l] = std::max(need, min_kappa0());
+    }
+    // Nesting (nodes/README.md): κ_l ≤ 2κ_{l−1} − 1 − 3σ0 − 0.25 keeps each morph band a quarter cube
+    // wide and neighbours within a level; raising a coarser κ keeps its promise.
+    for (uint32_t l = header_.max_level; l > 0; --l)
+        kappa.value[l - 1] = std::max(kappa.value[l - 1], (kappa.value[l] + 1.25 + 3 * sigma0) / 2);
+    return kappa;
 }
 
 glm::dmat4 HlodModel::lattice_to_node() const { return glm::translate(glm::dmat4(1.0), origin()); }
@@ -113,7 +137,7 @@ Box HlodModel::cull_box(const HlodNode& node) const {
 }
 
 HlodView HlodModel::view_for(const Camera& camera, const glm::dvec3& eye) const {
-    HlodView view{eye - origin(), kappa0_for(camera.width, camera.tan_half_fov_x())};
+    HlodView view{eye - origin(), kappas_for(camera)};
     if (camera.projection == ProjectionKind::orthographic) view.fixed_level = orthographic_level(camera);
     return view;
 }
@@ -121,7 +145,7 @@ HlodView HlodModel::view_for(const Camera& camera, const glm::dvec3& eye) const 
 bool HlodModel::suitable(const HlodNode& node, const HlodView& view) const {
     if (node.level == header_.max_level) return true;
     if (view.fixed_level >= 0) return int(node.level) >= view.fixed_level;
-    return box_distance(view.eye, cell(node)) >= view.kappa0 * header_.cube_size(node.level);
+    return box_distance(view.eye, cell(node)) >= view.kappa[node.level] * header_.cube_size(node.level);
 }
 
 void HlodModel::select(const HlodView& view, std::vector<uint32_t>& out) const {
@@ -162,15 +186,16 @@ glm::vec3 HlodModel::parent_position(const HlodCube& cube, uint32_t p) const {
             lattice_coordinate(header_, level, n.k / 2, q[2])};
 }
 
-HlodModel::MorphBand HlodModel::morph_band(uint32_t level, float kappa0) const {
+HlodModel::MorphBand HlodModel::morph_band(uint32_t level, const LevelKappas& kappa) const {
     const double s = header_.cube_size(level), sigma0 = header_.sigma0;
-    const float start = float((1.0 + kappa0 + sigma0) * s), end = float((kappa0 - sigma0) * 2.0 * s);
+    const double parent_kappa = kappa[level == 0 ? 0 : level - 1];  // the root morphs onto itself
+    const float start = float((1.0 + kappa[level] + sigma0) * s), end = float((parent_kappa - sigma0) * 2.0 * s);
     return {start, end, 1.0f / (end - start)};
 }
 
-void HlodModel::morphed_positions(uint32_t c, const glm::vec3& eye, float kappa0, std::vector<glm::vec3>& out) const {
+void HlodModel::morphed_positions(uint32_t c, const glm::vec3& eye, const LevelKappas& kappa, std::vector<glm::vec3>& out) const {
     const HlodCube& cube = cubes_[c];
-    const MorphBand band = morph_band(cube.node.level, kappa0);
+    const MorphBand band = morph_band(cube.node.level, kappa);
     out.resize(cube.data.vertex_count());
     for (uint32_t v = 0; v < out.size(); ++v) {
         const glm::vec3 w = vertex_position(cube, v);
@@ -191,10 +216,6 @@ glm::vec3 HlodModel::shader_eye(const glm::dmat4& world_from_node, const glm::dv
     return glm::vec3(glm::inverse(world_from_node * lattice_to_node()) * glm::dvec4(eye_world, 1.0));
 }
 
-float HlodModel::shader_kappa0(const Camera& camera) const {
-    return float(kappa0_for(camera.width, camera.tan_half_fov_x()));
-}
-
 bool HlodModel::morphs_for(const Camera& camera) const {
     return morph_ && camera.projection == ProjectionKind::perspective;
 }
@@ -203,7 +224,7 @@ int HlodModel::orthographic_level(const Camera& camera) const {
     const double pixel = camera.ortho_height / camera.height;  // model units per pixel
     const double allowed = (pixel_error_ > 0 ? pixel_error_ : 1.0) * pixel;
     int level = 0;
-    while (level < int(header_.max_level) && header_.error_q * header_.cube_size(level) > allowed) ++level;
+    while (level < int(header_.max_level) && level_error_[size_t(level)] * header_.cube_size(level) > allowed) ++level;
     return level;
 }
 

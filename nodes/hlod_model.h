@@ -29,11 +29,21 @@ struct HlodCube {
 };
 
 inline constexpr uint32_t kNoCube = ~0u;
+inline constexpr uint32_t kMaxHlodLevels = 16;  // the format allows levels 0 … 15
+
+// κ_l, the selection's distance factor per level: a cube of level l is suitable when d∞(eye, cell) ≥
+// κ_l·s_l (nodes/README.md, "Selection"). A single number stands for the same κ at every level.
+struct LevelKappas {
+    std::array<double, kMaxHlodLevels> value{};
+    LevelKappas() = default;
+    LevelKappas(double uniform) { value.fill(uniform); }  // NOLINT: a number is a uniform κ
+    double operator[](uint32_t level) const { return value[level]; }
+};
 
 // Where and how one selection looks, in the model's lattice frame (model units, origin at O).
 struct HlodView {
     glm::dvec3 eye;
-    double kappa0;
+    LevelKappas kappa;
     const Frustum* frustum = nullptr;  // nullptr: no culling
     uint8_t plane_mask = kAllPlanes;
     // ≥ 0: every cube of this level (or the finest there is) instead of the distance rule: what an
@@ -51,15 +61,18 @@ public:
     uint32_t root() const { return root_; }
     const std::filesystem::path& path() const { return path_; }
 
-    // κ0, the distance factor of the selection, or a target screen-space error in pixels (which sets
-    // κ0 per view through Eq. 4.5). Either is clamped to κ0 ≥ 1 + 3σ0 + 0.25 (DESIGN.md §3).
+    // One κ0 for every level, or a target screen-space error in pixels, which sets κ_l per level and
+    // per view from the levels' error bounds (nodes/README.md, "Selection"). Either keeps every
+    // κ_l ≥ 1 + 3σ0 + 0.25 (DESIGN.md §3).
     void set_kappa0(double kappa0);
     void set_pixel_error(double pixels);
     double pixel_error() const { return pixel_error_; }  // 0 when κ0 was set instead
     double kappa0() const { return kappa0_; }             // as set (and clamped) by set_kappa0
-    // κ0 for an image `width` pixels wide with horizontal half-angle tangent `tan_half_fov_x`.
-    double kappa0_for(int width, double tan_half_fov_x) const;
+    // κ_l for a camera: the uniform κ0, or what the pixel error needs for its image and field of view.
+    LevelKappas kappas_for(const Camera& camera) const;
     double min_kappa0() const { return 1.0 + 3.0 * header_.sigma0 + 0.25; }
+    // ε_l: the largest error bound of level l's cubes over their size.
+    double level_error(uint32_t level) const { return level_error_[level]; }
 
     bool morph() const { return morph_; }
     void set_morph(bool on) { morph_ = on; }
@@ -82,8 +95,8 @@ public:
     Box cull_box(const HlodNode& node) const;
 
     // The CPU twin of the morph shader: the positions a cube's vertices are drawn at in a perspective
-    // view, for shader_eye() and shader_kappa0(), bit-identical to the shader's arithmetic.
-    void morphed_positions(uint32_t cube, const glm::vec3& eye, float kappa0, std::vector<glm::vec3>& out) const;
+    // view, for shader_eye() and kappas_for(), bit-identical to the shader's arithmetic.
+    void morphed_positions(uint32_t cube, const glm::vec3& eye, const LevelKappas& kappa, std::vector<glm::vec3>& out) const;
     // Decoded, unmorphed lattice-frame positions of a cube's vertices, and of its parent table.
     glm::vec3 vertex_position(const HlodCube& cube, uint32_t v) const;
     glm::vec3 parent_position(const HlodCube& cube, uint32_t p) const;
@@ -92,12 +105,12 @@ public:
     struct MorphBand {
         float start, end, inverse_span;
     };
-    MorphBand morph_band(uint32_t level, float kappa0) const;
+    // Level l's band runs from (1 + κ_l + σ0)·s_l to (κ_{l−1} − σ0)·s_{l−1}.
+    MorphBand morph_band(uint32_t level, const LevelKappas& kappa) const;
     // What the shader gets for a view, so that the CPU twin can be fed exactly the same: the eye in
-    // the lattice frame as a float, κ0 as a float, and whether it morphs at all (an orthographic view
-    // draws one level everywhere: nothing to morph).
+    // the lattice frame as a float (the bands come from morph_band), and whether it morphs at all (an
+    // orthographic view draws one level everywhere: nothing to morph).
     glm::vec3 shader_eye(const glm::dmat4& world_from_node, const glm::dvec3& eye_world) const;
-    float shader_kappa0(const Camera& camera) const;
     bool morphs_for(const Camera& camera) const;
     // The selection's view for `camera` with the eye at `eye` in the node's frame, without culling:
     // cull(), intersect() and measurements (tests/support/fidelity.h) select alike through it.
@@ -106,7 +119,7 @@ public:
     // for it (the CPU twin when it morphs, the decoded positions when not): the drawn triangles.
     struct MorphInputs {
         glm::vec3 eye;
-        float kappa0;
+        LevelKappas kappa;
         bool morph;
     };
     MorphInputs morph_inputs(const PickContext& view) const;
@@ -141,6 +154,7 @@ private:
     std::vector<HlodCube> cubes_;
     uint32_t root_ = 0;
     Box bound_;  // of every level's vertices, in the node's frame
+    std::vector<double> level_error_;  // ε_l
     double kappa0_ = 2.0;
     double pixel_error_ = 0;  // > 0: κ0 follows from it per view
     bool morph_ = true;

@@ -17,7 +17,7 @@ namespace strata {
 
 namespace {
 
-constexpr int kMaxLevels = 16;  // the uniform arrays' size: the format allows levels 0 … 15
+constexpr int kMaxLevels = int(kMaxHlodLevels);  // the uniform arrays' size
 
 // Colour-by-level, for the levels view and the cube boxes (linear).
 const char* const kLevelPaletteGlsl = R"(
@@ -271,13 +271,13 @@ void set_view_uniforms(const HlodModel& model, const gl::Program& program, const
     program.set("clip_from_lattice", glm::mat4(context.projection * context.view * world_from_lattice));
     program.set("world_from_lattice_normal", glm::mat3(glm::transpose(glm::inverse(glm::dmat3(world_from_lattice)))));
     program.set("eye", model.shader_eye(item.model, context.eye));
-    const float kappa0 = model.shader_kappa0(context.camera);
+    const LevelKappas kappa = model.kappas_for(context.camera);
     const HlodHeader& h = model.header();
     std::array<float, kMaxLevels> step{}, parent_step{}, end{}, inverse_span{};
     for (uint32_t l = 0; l <= h.max_level; ++l) {
         step[l] = h.lattice_step(l);
         parent_step[l] = h.lattice_step(l == 0 ? 0 : l - 1);
-        const auto band = model.morph_band(l, kappa0);
+        const auto band = model.morph_band(l, kappa);
         end[l] = band.end;
         inverse_span[l] = band.inverse_span;
     }

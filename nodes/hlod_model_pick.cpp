@@ -22,12 +22,12 @@ struct Candidate {
 }  // namespace
 
 HlodModel::MorphInputs HlodModel::morph_inputs(const PickContext& view) const {
-    return {shader_eye(view.world_from_node, view.eye_world), shader_kappa0(view.camera), morphs_for(view.camera)};
+    return {shader_eye(view.world_from_node, view.eye_world), kappas_for(view.camera), morphs_for(view.camera)};
 }
 
 void HlodModel::drawn_positions(uint32_t c, const MorphInputs& inputs, std::vector<glm::vec3>& out) const {
     if (inputs.morph) {
-        morphed_positions(c, inputs.eye, inputs.kappa0, out);
+        morphed_positions(c, inputs.eye, inputs.kappa, out);
         return;
     }
     const HlodCube& cube = cubes_[c];

@@ -28,10 +28,11 @@ constexpr uint64_t kStreamBytesPerTriangle = 48;
 // made from them (the spill's disk is given back as they grow, and they are smaller), plus level L's
 // border listings (about 4 bytes a triangle). Measured on 328 M triangles with positions alone: 35.9.
 constexpr uint64_t kTempBytesBesideCorners = 6;
-// Input triangles a build gets through per CPU-second, all of it (reading, partition, every level,
-// writing): 0.51 M on the 19.3 M-triangle derived bunny in core and 0.50 M on 1.01 G triangles out of
-// core under --memory 2G (bench_build; strata build under /usr/bin/time; a 2-core EPYC with an SSD).
-constexpr double kTrianglesPerCpuSecond = 0.5e6;
+// Input triangles a build gets through per CPU-second, all of it (reading, partition, every level and
+// its error bound, writing): 0.10 M on the 19.3 M-triangle derived bunny, on the 5.76 M-triangle
+// trinidad.nc terrain and on bunny.off (bench_build; a 2-core EPYC with an SSD). The error bound takes
+// about four fifths of it; before it, 0.5 M.
+constexpr double kTrianglesPerCpuSecond = 0.1e6;
 
 
 bool is_list(const std::string& argument) { return argument.size() > 1 && argument[0] == '@'; }

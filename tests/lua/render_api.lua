@@ -29,8 +29,9 @@ local w, h = frame:size()
 assert(w == 200 and h == 150)
 -- The middle of the frame is the model: opaque, drawn (its depth is checked against a pick in
 -- pick_api.lua), with the model's id; a corner is empty.
+-- Opaque: llvmpipe's 4-sample resolve leaves some covered pixels' alpha one half-float step below 1.
 local r, g, bl, a, depth, id = frame:pixel(100, 75)
-assert(a == 1 and depth < math.huge and id > 0, ("centre: a=%g depth=%g id=%d"):format(a, depth, id))
+assert(a >= 1 - 2 ^ -11 and depth < math.huge and id > 0, ("centre: a=%g depth=%g id=%d"):format(a, depth, id))
 local _, _, _, a0, depth0, id0 = frame:pixel(0, 0)
 assert(a0 == 0 and depth0 == math.huge and id0 == 0, "corner should be background")
 local stats = frame:stats()

@@ -40,11 +40,11 @@ protected:
     }
 
     // The drawn triangles of a view as morphed positions, degenerate ones dropped.
-    std::vector<std::array<Position, 3>> drawn(const std::vector<uint32_t>& cubes, const glm::dvec3& eye, double kappa0) {
+    std::vector<std::array<Position, 3>> drawn(const std::vector<uint32_t>& cubes, const glm::dvec3& eye, const LevelKappas& kappa) {
         std::vector<std::array<Position, 3>> triangles;
         std::vector<glm::vec3> positions;
         for (uint32_t c : cubes) {
-            model_->morphed_positions(c, glm::vec3(eye), float(kappa0), positions);
+            model_->morphed_positions(c, glm::vec3(eye), kappa, positions);
             const auto& indices = model_->cubes()[c].data.indices;
             for (size_t t = 0; t < indices.size(); t += 3) {
                 std::array<Position, 3> tri{bits(positions[indices[t]]), bits(positions[indices[t + 1]]),
@@ -69,13 +69,27 @@ protected:
         }
         return odd;
     }
+    // The κ the checks run with: one κ0 for every level, and per level as pixel errors set them for
+    // a 1920-pixel-wide 60° view (nodes/README.md, "Selection").
+    static std::vector<LevelKappas> kappa_sets() {
+        std::vector<LevelKappas> sets{LevelKappas(std::max(2.0, model_->min_kappa0()))};
+        Camera camera;
+        camera.width = 1920, camera.height = 1080, camera.fov_y_degrees = 60;
+        for (double pixels : {16.0, 64.0}) {
+            model_->set_pixel_error(pixels);
+            sets.push_back(model_->kappas_for(camera));
+        }
+        model_->set_kappa0(2.0);
+        return sets;
+    }
     uint32_t level_spread(const std::vector<uint32_t>& cubes) const {
         uint32_t lo = ~0u, hi = 0;
         for (uint32_t c : cubes) lo = std::min(lo, model_->cubes()[c].node.level), hi = std::max(hi, model_->cubes()[c].node.level);
         return hi - lo;
     }
     // Random eyes: half around the model, half inside its bounds just off the surface.
-    std::vector<glm::dvec3> eyes(int count) const {
+    // `reach` scales how far out the eyes around the model go (for larger κ, which switch farther).
+    std::vector<glm::dvec3> eyes(int count, double reach = 1) const {
         std::mt19937 rng(2026);
         std::uniform_real_distribution<double> unit(-1, 1), share(0, 1);
         const double size = model_->header().root_size;
@@ -85,14 +99,14 @@ protected:
         for (int i = 0; i < count; ++i) {
             if (i % 2 == 0) {
                 glm::dvec3 dir{unit(rng), unit(rng), unit(rng)};
-                out.push_back(centre + glm::normalize(dir) * size * (0.3 + 1.2 * share(rng)));
+                out.push_back(centre + glm::normalize(dir) * size * (0.3 + 1.2 * reach * share(rng)));
                 continue;
             }
             const HlodCube* cube;
             do cube = &finest[size_t(share(rng) * finest.size()) % finest.size()];
             while (cube->node.level != model_->header().max_level || cube->data.vertex_count() == 0);
             const glm::vec3 p = model_->vertex_position(*cube, uint32_t(share(rng) * cube->data.vertex_count()) % cube->data.vertex_count());
-            out.push_back(glm::dvec3(p) + glm::dvec3(unit(rng), unit(rng), unit(rng)) * (0.01 * size));
+            out.push_back(glm::dvec3(p) + glm::dvec3(unit(rng), unit(rng), unit(rng)) * (0.01 * reach * size));
         }
         return out;
     }
@@ -113,30 +127,53 @@ TEST_F(HlodSelection, TheModelLoadsWithItsOctree) {
 }
 
 TEST_F(HlodSelection, WatertightFromEveryViewWithTheMorphAndCrackedWithout) {
-    const double kappa0 = std::max(2.0, model_->min_kappa0());
-    std::vector<uint32_t> cubes;
-    int mixed_views = 0, cracked_without_morph = 0;
-    for (const glm::dvec3& eye : eyes(102)) {
-        model_->select({eye, kappa0}, cubes);
-        ASSERT_FALSE(cubes.empty());
+    for (const LevelKappas& kappa : kappa_sets()) {
+        std::vector<uint32_t> cubes;
+        int mixed_views = 0, cracked_without_morph = 0;
+        for (const glm::dvec3& eye : eyes(102, kappa[1] / 2)) {
+            model_->select({eye, kappa}, cubes);
+            ASSERT_FALSE(cubes.empty());
+            model_->set_morph(true);
+            ASSERT_EQ(odd_edges(drawn(cubes, eye, kappa)), 0u)
+                << "crack seen from " << eye.x << " " << eye.y << " " << eye.z << ", κ_0 " << kappa[0];
+            if (level_spread(cubes) == 0) continue;
+            ++mixed_views;
+            model_->set_morph(false);
+            cracked_without_morph += odd_edges(drawn(cubes, eye, kappa)) > 0;
+        }
         model_->set_morph(true);
-        ASSERT_EQ(odd_edges(drawn(cubes, eye, kappa0)), 0u) << "crack seen from " << eye.x << " " << eye.y << " " << eye.z;
-        if (level_spread(cubes) == 0) continue;
-        ++mixed_views;
-        model_->set_morph(false);
-        cracked_without_morph += odd_edges(drawn(cubes, eye, kappa0)) > 0;
+        // The check can fail: views that mix levels exist and, without the morph, show cracks.
+        EXPECT_GT(mixed_views, 15) << "κ_0 " << kappa[0];
+        EXPECT_GT(cracked_without_morph, mixed_views / 2) << "κ_0 " << kappa[0];
     }
-    model_->set_morph(true);
-    // The check can fail: views that mix levels exist and, without the morph, show cracks.
-    EXPECT_GT(mixed_views, 50);
-    EXPECT_GT(cracked_without_morph, mixed_views / 2);
+}
+
+TEST_F(HlodSelection, PerLevelKappasNest) {
+    // However the levels' errors differ, κ_l ≤ 2κ_{l−1} − 1 − 3σ0 − 0.25 (each morph band a quarter cube
+    // wide, neighbours within a level) and κ_l ≥ 1 + 3σ0 + 0.25, for any view and target.
+    const HlodHeader& h = model_->header();
+    Camera camera;
+    for (double fov : {20.0, 50.0, 120.0})
+        for (int width : {320, 1920, 7680})
+            for (double pixels : {0.1, 1.0, 16.0, 1e6}) {
+                camera.fov_y_degrees = fov, camera.width = width, camera.height = width / 2;
+                model_->set_pixel_error(pixels);
+                const LevelKappas kappa = model_->kappas_for(camera);
+                for (uint32_t l = 0; l <= h.max_level; ++l) {
+                    EXPECT_GE(kappa[l], model_->min_kappa0());
+                    if (l > 0) {
+                        EXPECT_LE(kappa[l], 2 * kappa[l - 1] - 1.25 - 3 * h.sigma0 + 1e-12) << "level " << l;
+                    }
+                }
+            }
+    model_->set_kappa0(2.0);
 }
 
 TEST_F(HlodSelection, NeighbouringCubesDifferByAtMostOneLevel) {
-    const double kappa0 = std::max(2.0, model_->min_kappa0());
+    for (const LevelKappas& kappa : kappa_sets()) {
     std::vector<uint32_t> cubes;
     for (const glm::dvec3& eye : eyes(40)) {
-        model_->select({eye, kappa0}, cubes);
+        model_->select({eye, kappa}, cubes);
         for (uint32_t a : cubes)
             for (uint32_t b : cubes) {
                 const Box ca = model_->cell(model_->cubes()[a].node), cb = model_->cell(model_->cubes()[b].node);
@@ -146,12 +183,13 @@ TEST_F(HlodSelection, NeighbouringCubesDifferByAtMostOneLevel) {
                 EXPECT_LE(std::abs(la - lb), 1);
             }
     }
+    }
 }
 
 // Lemma 2: with the eye where a cube just stops being suitable, its children's morphed triangles are
 // exactly its own (each child vertex at its parent, the parent's vertices unmoved): no pop.
 TEST_F(HlodSelection, ChildrenAtTheSwitchDrawTheParentsTriangles) {
-    const double kappa0 = std::max(2.0, model_->min_kappa0());
+    for (const LevelKappas& kappa : kappa_sets()) {
     int checked = 0;
     for (uint32_t c = 0; c < model_->cubes().size() && checked < 20; ++c) {
         const HlodCube& cube = model_->cubes()[c];
@@ -161,7 +199,7 @@ TEST_F(HlodSelection, ChildrenAtTheSwitchDrawTheParentsTriangles) {
         // Straight out from the cell's top face, at the switch distance: just outside it the cube is
         // drawn, just inside its children are.
         const glm::dvec3 top{cell.center().x, cell.center().y, cell.hi.z};
-        const double switch_distance = kappa0 * s;
+        const double switch_distance = kappa[cube.node.level] * s;
         const glm::dvec3 before = top + glm::dvec3(0, 0, switch_distance * (1 + 1e-6));
         const glm::dvec3 after = top + glm::dvec3(0, 0, switch_distance * (1 - 1e-6));
         std::vector<uint32_t> parent{c}, children;
@@ -173,12 +211,13 @@ TEST_F(HlodSelection, ChildrenAtTheSwitchDrawTheParentsTriangles) {
             std::sort(tris.begin(), tris.end());
             return tris;
         };
-        const auto drawn_before = canonical(drawn(parent, before, kappa0));
-        const auto drawn_after = canonical(drawn(children, after, kappa0));
-        EXPECT_EQ(drawn_before, drawn_after) << describe_cube(cube.node);
+        const auto drawn_before = canonical(drawn(parent, before, kappa));
+        const auto drawn_after = canonical(drawn(children, after, kappa));
+        EXPECT_EQ(drawn_before, drawn_after) << describe_cube(cube.node) << ", κ_l " << kappa[cube.node.level];
         ++checked;
     }
     EXPECT_EQ(checked, 20);
+    }
 }
 
 TEST_F(HlodSelection, CubesOutsideTheFrustumAreNotSelected) {
@@ -216,8 +255,8 @@ TEST_F(HlodSelection, TheNodeSelectsInItsOwnFrameUnderATransform) {
     root->add(far);
     Camera camera;
     const glm::dvec3 centre = near->bound().center();
-    camera.look_at(centre + glm::dvec3(0.1, 0.2, 0.9) * size, centre + glm::dvec3(size, 0, 0));
-    const double kappa0 = model_->kappa0_for(camera.width, camera.tan_half_fov_x());
+    camera.look_at(centre + glm::dvec3(0.18, 0.36, 1.6) * size, centre);
+    const LevelKappas kappa = model_->kappas_for(camera);
     auto [near_plane, far_plane] = camera.clip_planes_for(root->bound());
     RenderList list;
     CullVisitor cull(camera, camera.view_matrix(), camera.projection_matrix(near_plane, far_plane), list);
@@ -229,7 +268,7 @@ TEST_F(HlodSelection, TheNodeSelectsInItsOwnFrameUnderATransform) {
         std::vector<uint32_t> cubes(list.item_data.begin() + item.first, list.item_data.begin() + item.first + item.count);
         const glm::dvec3 eye = glm::dvec3(glm::inverse(item.model) * glm::dvec4(camera.position, 1.0)) - model_->origin();
         std::vector<uint32_t> expected;
-        model_->select({eye, kappa0}, expected);
+        model_->select({eye, kappa}, expected);
         EXPECT_EQ(cubes, expected);
         drawn.push_back(cubes);
     }
@@ -239,16 +278,19 @@ TEST_F(HlodSelection, TheNodeSelectsInItsOwnFrameUnderATransform) {
     far->remove(model_.get());
 }
 
-// The promise of --pixel-error P (DESIGN.md §3, §8), checked from the geometry, not from Eq. 4.5: with
-// κ0 = kappa0_for(width, tan) every drawn cube's level error ε_l (the largest error stored for a cube of
-// its level), seen from the eye at the nearest point the cube can draw anything (its cull box), spans
-// at most P pixels; and where a vertex morphs toward its parent, the parent level's error does too at
-// that vertex's distance. Eyes from just off the surface to far away, so every level gets drawn.
+// The promise of --pixel-error P (DESIGN.md §8, nodes/README.md), checked from the geometry, not from
+// the κ formulas: with the κ_l kappas_for() gives a camera, every drawn cube's error bound, seen from
+// the eye at the nearest point the cube can draw anything (its cull box) and magnified as the image's
+// corner magnifies (f/r·(1 + tan²(θx/2) + tan²(θy/2))), spans at most P pixels; and where a vertex
+// morphs toward its parent, the parent level's largest bound does too at that vertex. The full
+// resolution is as exact as it gets, drawn as close as the eye likes: outside the promise. Eyes from
+// just off the surface to far away, so every level gets drawn.
 TEST_F(HlodSelection, PixelErrorBoundsTheProjectedErrorOfEveryDrawnCube) {
     const HlodHeader& h = model_->header();
-    const int width = 1920;
-    const double tan_half_fov = std::tan(glm::radians(30.0));
-    const double pixels_per_unit_at_unit_distance = width / (2 * tan_half_fov);
+    Camera camera;
+    camera.width = 1920, camera.height = 1080, camera.fov_y_degrees = 60;
+    const double tx = camera.tan_half_fov_x(), ty = std::tan(glm::radians(30.0));
+    const double magnification = camera.width / (2 * tx) * (1 + tx * tx + ty * ty);  // pixels per unit at unit distance
     std::vector<double> level_error(h.max_level + 1, 0.0);
     for (const HlodCube& c : model_->cubes()) level_error[c.node.level] = std::max(level_error[c.node.level], double(c.node.error));
     ASSERT_GT(level_error[0], 0.0);
@@ -268,36 +310,34 @@ TEST_F(HlodSelection, PixelErrorBoundsTheProjectedErrorOfEveryDrawnCube) {
     std::set<uint32_t> levels_drawn;
     for (const double pixels : {1.0, 4.0, 16.0}) {
         model_->set_pixel_error(pixels);
-        const double kappa0 = model_->kappa0_for(width, tan_half_fov);
+        const LevelKappas kappa = model_->kappas_for(camera);
         uint64_t triangles = 0;
         double worst = 0;
         std::vector<uint32_t> cubes;
         std::vector<glm::vec3> morphed;
         for (const glm::dvec3& eye : views) {
-            model_->select({eye, kappa0}, cubes);
+            model_->select({eye, kappa}, cubes);
             for (uint32_t c : cubes) {
                 const HlodCube& cube = model_->cubes()[c];
                 const uint32_t level = cube.node.level;
                 levels_drawn.insert(level);
                 triangles += cube.data.triangle_count();
-                const double distance = distance_to(eye, model_->cull_box(cube.node));
-                const double projected = distance > 0 ? level_error[level] * pixels_per_unit_at_unit_distance / distance
-                                                      : (level_error[level] > 0 ? INFINITY : 0.0);
-                // The full resolution, drawn as close as the eye likes, is as exact as it gets: its
-                // bound (the lattice's rounding) is outside the promise.
                 if (level < h.max_level) {
+                    const double error = cube.node.error, distance = distance_to(eye, model_->cull_box(cube.node));
+                    const double projected = distance > error ? error * magnification / (distance - error) : INFINITY;
                     EXPECT_LE(projected, pixels) << describe_cube(cube.node) << " for P " << pixels << " from "
                                                  << eye.x << " " << eye.y << " " << eye.z;
                     worst = std::max(worst, projected);
                 }
                 if (level == 0) continue;
-                model_->morphed_positions(c, glm::vec3(eye), float(kappa0), morphed);
+                model_->morphed_positions(c, glm::vec3(eye), kappa, morphed);
                 double nearest_morphing = INFINITY;
                 for (uint32_t v = 0; v < cube.data.vertex_count(); ++v) {
                     const glm::vec3 own = model_->vertex_position(cube, v);
                     if (morphed[v] != own) nearest_morphing = std::min(nearest_morphing, glm::length(eye - glm::dvec3(own)));
                 }
-                EXPECT_LE(level_error[level - 1] * pixels_per_unit_at_unit_distance / nearest_morphing, pixels)
+                const double parent_error = level_error[level - 1];
+                EXPECT_LE(parent_error * magnification / (nearest_morphing - parent_error), pixels)
                     << describe_cube(cube.node) << " morphing toward its parent, P " << pixels;
             }
         }
@@ -310,13 +350,13 @@ TEST_F(HlodSelection, PixelErrorBoundsTheProjectedErrorOfEveryDrawnCube) {
     EXPECT_GT(triangles_per_target[0], triangles_per_target[1]);
     EXPECT_GT(triangles_per_target[1], triangles_per_target[2]);
 
-    // However coarse the target, κ0 stays where the morph works: κ0 ≥ 1 + 3σ0 + 0.25 (DESIGN.md §3).
+    // However coarse the target, κ stays where the morph works: κ ≥ 1 + 3σ0 + 0.25 (DESIGN.md §3).
     const double morph_minimum = 1.0 + 3.0 * double(h.sigma0) + 0.25;
     model_->set_pixel_error(1e6);
-    EXPECT_DOUBLE_EQ(model_->kappa0_for(width, tan_half_fov), morph_minimum);
+    for (uint32_t l = 0; l <= h.max_level; ++l) EXPECT_DOUBLE_EQ(model_->kappas_for(camera)[l], morph_minimum);
     model_->set_kappa0(0.5);
     EXPECT_DOUBLE_EQ(model_->kappa0(), morph_minimum);
-    EXPECT_DOUBLE_EQ(model_->kappa0_for(width, tan_half_fov), morph_minimum);
+    EXPECT_DOUBLE_EQ(model_->kappas_for(camera)[h.max_level], morph_minimum);
     EXPECT_THROW(model_->set_pixel_error(-1), std::invalid_argument);
     model_->set_kappa0(2.0);
 }

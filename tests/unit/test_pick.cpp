@@ -197,7 +197,7 @@ TEST_F(PickHlod, TheSearchAlongTheRayFindsWhatTheWholeSelectionGives) {
             const glm::dvec3 eye_world(glm::inverse(camera.view_matrix())[3]);
             const glm::vec3 eye = model->shader_eye(world_from_node, eye_world);
             const glm::dvec3 local_eye(glm::inverse(world_from_node) * glm::dvec4(eye_world, 1.0));
-            HlodView view{local_eye - model->origin(), model->kappa0_for(camera.width, camera.tan_half_fov_x())};
+            HlodView view{local_eye - model->origin(), model->kappas_for(camera)};
             if (kind == ProjectionKind::orthographic) view.fixed_level = model->orthographic_level(camera);
             std::vector<uint32_t> selection;
             model->select(view, selection);
@@ -207,7 +207,7 @@ TEST_F(PickHlod, TheSearchAlongTheRayFindsWhatTheWholeSelectionGives) {
                 std::vector<glm::vec3> positions;
                 for (const uint32_t c : selection) {
                     const HlodCube& cube = model->cubes()[c];
-                    model->morphed_positions(c, eye, model->shader_kappa0(camera), positions);
+                    model->morphed_positions(c, eye, model->kappas_for(camera), positions);
                     if (!morphed)
                         for (uint32_t v = 0; v < positions.size(); ++v) positions[v] = model->vertex_position(cube, v);
                     const auto hit = nearest_triangle(lattice_ray, cube.data.indices, [&](uint32_t v) { return glm::dvec3(positions[v]); });
