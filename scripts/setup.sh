@@ -32,20 +32,34 @@ if [ ${#missing[@]} -gt 0 ]; then
   as_root apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
 fi
 
+# Takes a file out of a Debian package without installing it: downloads the .deb into the scratch
+# folder (removed on exit) and unpacks MEMBER (a path in its data archive) there; prints where it lies.
+scratch=$(mktemp -d)
+trap 'rm -rf "$scratch"' EXIT
+deb_member() {  # PACKAGE MEMBER
+  local dir="$scratch/$1"
+  mkdir -p "$dir"
+  (cd "$dir" && apt-get download "$1" >/dev/null 2>&1) || {
+    as_root apt-get update -qq && (cd "$dir" && apt-get download "$1" >/dev/null); }
+  dpkg-deb --fsys-tarfile "$dir/$1"_*.deb | tar -x -C "$dir" "./$2"
+  echo "$dir/$2"
+}
+
+# Moves a fetched file into data/ in one step, so that a half-written file is never taken for the data.
+install_data() {  # FROM TO
+  mkdir -p data
+  mv "$1" "$2.tmp" && mv "$2.tmp" "$2"
+}
+
 # The sample: the Stanford bunny as shipped in CGAL's demo data (Debian's libcgal-demo). Only the .deb is
 # downloaded and one file taken out of it, so CGAL and Boost are not installed. Not committed: it is
 # Stanford's scan, fetched here under its own terms.
 sample=data/bunny.off
 if [ ! -s "$sample" ]; then
   echo "setup: fetching the sample scan (Stanford bunny, from Debian's libcgal-demo)"
-  tmp=$(mktemp -d)
-  trap 'rm -rf "$tmp"' EXIT
-  (cd "$tmp" && apt-get download libcgal-demo >/dev/null 2>&1) || {
-    as_root apt-get update -qq && (cd "$tmp" && apt-get download libcgal-demo >/dev/null); }
-  dpkg-deb -x "$tmp"/libcgal-demo_*.deb "$tmp/deb"
-  tar -xzf "$tmp/deb/usr/share/doc/libcgal-dev/data.tar.gz" -C "$tmp" data/meshes/bunny00.off
-  mkdir -p data
-  mv "$tmp/data/meshes/bunny00.off" "$sample.tmp" && mv "$sample.tmp" "$sample"
+  meshes=$(deb_member libcgal-demo usr/share/doc/libcgal-dev/data.tar.gz)
+  tar -xzf "$meshes" -C "$(dirname "$meshes")" data/meshes/bunny00.off
+  install_data "$(dirname "$meshes")/data/meshes/bunny00.off" "$sample"
 fi
 
 # The sample terrain: a real DEM, NCL's trinidad.nc as shipped in Debian's libncarg-data (3 arc-second
@@ -57,12 +71,5 @@ fi
 dem=data/trinidad.nc
 if [ ! -s "$dem" ]; then
   echo "setup: fetching the sample terrain (trinidad.nc, from Debian's libncarg-data)"
-  dem_tmp=$(mktemp -d)
-  trap 'rm -rf "${tmp:-}" "$dem_tmp"' EXIT
-  (cd "$dem_tmp" && apt-get download libncarg-data >/dev/null 2>&1) || {
-    as_root apt-get update -qq && (cd "$dem_tmp" && apt-get download libncarg-data >/dev/null); }
-  dpkg-deb --fsys-tarfile "$dem_tmp"/libncarg-data_*.deb |
-    tar -x -C "$dem_tmp" ./usr/share/ncarg/data/cdf/trinidad.nc
-  mkdir -p data
-  mv "$dem_tmp/usr/share/ncarg/data/cdf/trinidad.nc" "$dem.tmp" && mv "$dem.tmp" "$dem"
+  install_data "$(deb_member libncarg-data usr/share/ncarg/data/cdf/trinidad.nc)" "$dem"
 fi
