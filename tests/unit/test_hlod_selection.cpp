@@ -7,6 +7,7 @@
 #include <array>
 #include <cmath>
 #include <cstring>
+#include <map>
 #include <random>
 #include <set>
 
@@ -17,6 +18,7 @@
 #include "nodes/hlod_model.h"
 #include "preprocess/hlod_builder.h"
 #include "tests/support/bunny_model.h"
+#include "tests/support/dem_grid.h"
 
 namespace strata {
 namespace {
@@ -29,6 +31,88 @@ Position bits(const glm::vec3& p) {
     return out;
 }
 
+// The drawn triangles of a view as morphed positions, degenerate ones dropped.
+std::vector<std::array<Position, 3>> drawn_triangles(const HlodModel& model, const std::vector<uint32_t>& cubes,
+                                                     const glm::dvec3& eye, const LevelKappas& kappa) {
+    std::vector<std::array<Position, 3>> triangles;
+    std::vector<glm::vec3> positions;
+    for (uint32_t c : cubes) {
+        model.morphed_positions(c, glm::vec3(eye), kappa, positions);
+        const auto& indices = model.cubes()[c].data.indices;
+        for (size_t t = 0; t < indices.size(); t += 3) {
+            std::array<Position, 3> tri{bits(positions[indices[t]]), bits(positions[indices[t + 1]]),
+                                        bits(positions[indices[t + 2]])};
+            if (tri[0] == tri[1] || tri[1] == tri[2] || tri[0] == tri[2]) continue;
+            triangles.push_back(tri);
+        }
+    }
+    return triangles;
+}
+
+// Edges (undirected, welded by position) used an odd number of times: cracks in a closed surface.
+std::vector<std::pair<Position, Position>> odd_edge_list(const std::vector<std::array<Position, 3>>& triangles) {
+    std::vector<std::pair<Position, Position>> edges, odd;
+    for (const auto& t : triangles)
+        for (int e = 0; e < 3; ++e) edges.push_back(std::minmax(t[e], t[(e + 1) % 3]));
+    std::sort(edges.begin(), edges.end());
+    for (size_t i = 0, j; i < edges.size(); i = j) {
+        for (j = i; j < edges.size() && edges[j] == edges[i]; ++j) {
+        }
+        if ((j - i) % 2) odd.push_back(edges[i]);
+    }
+    return odd;
+}
+size_t odd_edges(const std::vector<std::array<Position, 3>>& triangles) { return odd_edge_list(triangles).size(); }
+
+// How many separate loops the odd edges of an open surface form: its outline is one, and each crack
+// away from the outline is another.
+size_t boundary_loops(const std::vector<std::array<Position, 3>>& triangles) {
+    const auto odd = odd_edge_list(triangles);
+    std::map<Position, Position> parent;
+    auto root = [&](Position p) {
+        while (parent.at(p) != p) p = parent[p] = parent[parent[p]];
+        return p;
+    };
+    for (const auto& [a, b] : odd) parent.emplace(a, a), parent.emplace(b, b);
+    for (const auto& [a, b] : odd) parent[root(a)] = root(b);
+    size_t loops = 0;
+    for (const auto& [p, up] : parent) loops += p == up;
+    return loops;
+}
+
+// Lemma 2 for `checked` cubes: with the eye where a cube just stops being suitable, its children's
+// morphed triangles are exactly its own (each child vertex at its parent, the parent's vertices
+// unmoved): no pop.
+void expect_no_pop(const HlodModel& model, const LevelKappas& kappa, int wanted) {
+    int checked = 0;
+    for (uint32_t c = 0; c < model.cubes().size() && checked < wanted; ++c) {
+        const HlodCube& cube = model.cubes()[c];
+        if (cube.node.level == model.header().max_level || cube.node.level == 0) continue;
+        const Box cell = model.cell(cube.node);
+        const double s = model.header().cube_size(cube.node.level);
+        // Straight out from the cell's top face, at the switch distance: just outside it the cube is
+        // drawn, just inside its children are.
+        const glm::dvec3 top{cell.center().x, cell.center().y, cell.hi.z};
+        const double switch_distance = kappa[cube.node.level] * s;
+        const glm::dvec3 before = top + glm::dvec3(0, 0, switch_distance * (1 + 1e-6));
+        const glm::dvec3 after = top + glm::dvec3(0, 0, switch_distance * (1 - 1e-6));
+        std::vector<uint32_t> parent{c}, children;
+        for (uint32_t child : cube.children)
+            if (child != kNoCube) children.push_back(child);
+        auto canonical = [](std::vector<std::array<Position, 3>> tris) {
+            for (auto& t : tris)
+                while (t[0] > t[1] || t[0] > t[2]) t = {t[1], t[2], t[0]};  // cyclic: orientation kept
+            std::sort(tris.begin(), tris.end());
+            return tris;
+        };
+        const auto drawn_before = canonical(drawn_triangles(model, parent, before, kappa));
+        const auto drawn_after = canonical(drawn_triangles(model, children, after, kappa));
+        EXPECT_EQ(drawn_before, drawn_after) << describe_cube(cube.node) << ", κ_l " << kappa[cube.node.level];
+        ++checked;
+    }
+    EXPECT_EQ(checked, wanted);
+}
+
 class HlodSelection : public ::testing::Test {
 protected:
     static void SetUpTestSuite() {
@@ -39,35 +123,8 @@ protected:
         if (!model_) GTEST_SKIP() << "data/bunny.off missing: run scripts/setup.sh";
     }
 
-    // The drawn triangles of a view as morphed positions, degenerate ones dropped.
     std::vector<std::array<Position, 3>> drawn(const std::vector<uint32_t>& cubes, const glm::dvec3& eye, const LevelKappas& kappa) {
-        std::vector<std::array<Position, 3>> triangles;
-        std::vector<glm::vec3> positions;
-        for (uint32_t c : cubes) {
-            model_->morphed_positions(c, glm::vec3(eye), kappa, positions);
-            const auto& indices = model_->cubes()[c].data.indices;
-            for (size_t t = 0; t < indices.size(); t += 3) {
-                std::array<Position, 3> tri{bits(positions[indices[t]]), bits(positions[indices[t + 1]]),
-                                            bits(positions[indices[t + 2]])};
-                if (tri[0] == tri[1] || tri[1] == tri[2] || tri[0] == tri[2]) continue;
-                triangles.push_back(tri);
-            }
-        }
-        return triangles;
-    }
-    // Edges (undirected, welded by position) used an odd number of times: cracks in a closed surface.
-    static size_t odd_edges(const std::vector<std::array<Position, 3>>& triangles) {
-        std::vector<std::pair<Position, Position>> edges;
-        for (const auto& t : triangles)
-            for (int e = 0; e < 3; ++e) edges.push_back(std::minmax(t[e], t[(e + 1) % 3]));
-        std::sort(edges.begin(), edges.end());
-        size_t odd = 0;
-        for (size_t i = 0, j; i < edges.size(); i = j) {
-            for (j = i; j < edges.size() && edges[j] == edges[i]; ++j) {
-            }
-            odd += (j - i) % 2;
-        }
-        return odd;
+        return drawn_triangles(*model_, cubes, eye, kappa);
     }
     // The κ the checks run with: one κ0 for every level, and per level as pixel errors set them for
     // a 1920-pixel-wide 60° view (nodes/README.md, "Selection").
@@ -189,35 +246,7 @@ TEST_F(HlodSelection, NeighbouringCubesDifferByAtMostOneLevel) {
 // Lemma 2: with the eye where a cube just stops being suitable, its children's morphed triangles are
 // exactly its own (each child vertex at its parent, the parent's vertices unmoved): no pop.
 TEST_F(HlodSelection, ChildrenAtTheSwitchDrawTheParentsTriangles) {
-    for (const LevelKappas& kappa : kappa_sets()) {
-    int checked = 0;
-    for (uint32_t c = 0; c < model_->cubes().size() && checked < 20; ++c) {
-        const HlodCube& cube = model_->cubes()[c];
-        if (cube.node.level == model_->header().max_level || cube.node.level == 0) continue;
-        const Box cell = model_->cell(cube.node);
-        const double s = model_->header().cube_size(cube.node.level);
-        // Straight out from the cell's top face, at the switch distance: just outside it the cube is
-        // drawn, just inside its children are.
-        const glm::dvec3 top{cell.center().x, cell.center().y, cell.hi.z};
-        const double switch_distance = kappa[cube.node.level] * s;
-        const glm::dvec3 before = top + glm::dvec3(0, 0, switch_distance * (1 + 1e-6));
-        const glm::dvec3 after = top + glm::dvec3(0, 0, switch_distance * (1 - 1e-6));
-        std::vector<uint32_t> parent{c}, children;
-        for (uint32_t child : cube.children)
-            if (child != kNoCube) children.push_back(child);
-        auto canonical = [](std::vector<std::array<Position, 3>> tris) {
-            for (auto& t : tris)
-                while (t[0] > t[1] || t[0] > t[2]) t = {t[1], t[2], t[0]};  // cyclic: orientation kept
-            std::sort(tris.begin(), tris.end());
-            return tris;
-        };
-        const auto drawn_before = canonical(drawn(parent, before, kappa));
-        const auto drawn_after = canonical(drawn(children, after, kappa));
-        EXPECT_EQ(drawn_before, drawn_after) << describe_cube(cube.node) << ", κ_l " << kappa[cube.node.level];
-        ++checked;
-    }
-    EXPECT_EQ(checked, 20);
-    }
+    for (const LevelKappas& kappa : kappa_sets()) expect_no_pop(*model_, kappa, 20);
 }
 
 TEST_F(HlodSelection, CubesOutsideTheFrustumAreNotSelected) {
@@ -382,6 +411,72 @@ TEST(HlodLoad, ACorruptFileIsRefusedNamingIt) {
         EXPECT_NE(std::string(e.what()).find("s.hlod"), std::string::npos) << e.what();
     }
     EXPECT_THROW(HlodModel::load(dir / "missing.hlod"), std::runtime_error);
+}
+
+// The same checks on a real terrain, an open surface: 128 × 128 samples of trinidad.nc (the Sangre de
+// Cristo range). Its edges used once must make one loop, its outline (which simplification moves
+// inwards at coarse levels); a crack away from it is a loop of its own.
+class TerrainSelection : public ::testing::Test {
+protected:
+    static void SetUpTestSuite() {
+        const auto dem = std::filesystem::path(STRATA_SOURCE_DIR) / "data" / "trinidad.nc";
+        if (!std::filesystem::exists(dem)) return;
+        test::TempDir dir;
+        BuildSettings settings;
+        settings.levels = 3;
+        build_hlod(test::read_dem_grid(dem, {.first_column = 620, .first_row = 600, .columns = 128, .rows = 128},
+                                       {.variable = "", .unit = test::ElevationUnit::feet}),
+                   dir / "terrain.hlod", settings, "trinidad.nc");
+        model_ = HlodModel::load(dir / "terrain.hlod");
+    }
+    static void TearDownTestSuite() { model_.reset(); }
+    void SetUp() override {
+        if (!model_) GTEST_SKIP() << "data/trinidad.nc missing: run scripts/setup.sh";
+    }
+    // Eyes over the terrain and beyond its edges, from just above the ground to far above it.
+    static std::vector<glm::dvec3> eyes(int count, double reach) {
+        std::mt19937 rng(2027);
+        std::uniform_real_distribution<double> share(0, 1);
+        const double size = model_->header().root_size;
+        std::vector<glm::dvec3> out;
+        for (int i = 0; i < count; ++i) {
+            const glm::dvec3 extent = model_->bound().hi - model_->bound().lo;
+            const double x = (share(rng) * 1.6 - 0.3) * extent.x, y = (share(rng) * 1.6 - 0.3) * extent.y;
+            out.push_back({x, y, model_->bound().hi.z - model_->origin().z + size * reach * std::pow(share(rng), 2)});
+        }
+        return out;
+    }
+
+    static inline std::shared_ptr<HlodModel> model_;
+};
+
+TEST_F(TerrainSelection, WatertightInsideItsOutlineWithTheMorphAndCrackedWithout) {
+    Camera camera;
+    camera.width = 1920, camera.height = 1080, camera.fov_y_degrees = 60;
+    for (double pixels : {0.0, 64.0, 256.0}) {
+        if (pixels > 0) model_->set_pixel_error(pixels);
+        const LevelKappas kappa = model_->kappas_for(camera);
+        std::vector<uint32_t> cubes;
+        int mixed_views = 0, cracked_without_morph = 0;
+        for (const glm::dvec3& eye : eyes(60, kappa[1] / 2)) {
+            model_->select({eye, kappa}, cubes);
+            ASSERT_FALSE(cubes.empty());
+            model_->set_morph(true);
+            ASSERT_EQ(boundary_loops(drawn_triangles(*model_, cubes, eye, kappa)), 1u)
+                << "crack seen from " << eye.x << " " << eye.y << " " << eye.z << ", P " << pixels;
+            uint32_t lo = ~0u, hi = 0;
+            for (uint32_t c : cubes) lo = std::min(lo, model_->cubes()[c].node.level), hi = std::max(hi, model_->cubes()[c].node.level);
+            if (lo == hi) continue;
+            ++mixed_views;
+            model_->set_morph(false);
+            cracked_without_morph += boundary_loops(drawn_triangles(*model_, cubes, eye, kappa)) > 1;
+        }
+        model_->set_morph(true);
+        EXPECT_GT(mixed_views, 15) << "P " << pixels;
+        EXPECT_GT(cracked_without_morph, mixed_views / 2) << "P " << pixels;
+        expect_no_pop(*model_, kappa, 20);
+    }
+    model_->set_kappa0(2.0);
 }
 
 }  // namespace
