@@ -1,7 +1,5 @@
 #include "preprocess/build_jobs.h"
 
-#include "preprocess/error_bound.h"
-
 #include <sys/stat.h>
 
 #include <algorithm>

@@ -80,6 +80,35 @@ size_t boundary_loops(const std::vector<std::array<Position, 3>>& triangles) {
     return loops;
 }
 
+uint32_t level_spread(const HlodModel& model, const std::vector<uint32_t>& cubes) {
+    uint32_t lo = ~0u, hi = 0;
+    for (uint32_t c : cubes) lo = std::min(lo, model.cubes()[c].node.level), hi = std::max(hi, model.cubes()[c].node.level);
+    return hi - lo;
+}
+
+// The crack check: from every eye the drawn cut has no crack (`cracks` of its triangles is 0), and it can
+// fail: at least `min_mixed` views mix levels and, without the morph, most of them show cracks.
+template <class Cracks>
+void expect_watertight(HlodModel& model, const LevelKappas& kappa, const std::vector<glm::dvec3>& eyes, int min_mixed,
+                       Cracks&& cracks) {
+    std::vector<uint32_t> cubes;
+    int mixed_views = 0, cracked_without_morph = 0;
+    for (const glm::dvec3& eye : eyes) {
+        model.select({eye, kappa}, cubes);
+        ASSERT_FALSE(cubes.empty());
+        model.set_morph(true);
+        ASSERT_EQ(cracks(drawn_triangles(model, cubes, eye, kappa)), 0u)
+            << "crack seen from " << eye.x << " " << eye.y << " " << eye.z << ", κ_0 " << kappa[0];
+        if (level_spread(model, cubes) == 0) continue;
+        ++mixed_views;
+        model.set_morph(false);
+        cracked_without_morph += cracks(drawn_triangles(model, cubes, eye, kappa)) > 0;
+        model.set_morph(true);
+    }
+    EXPECT_GT(mixed_views, min_mixed) << "κ_0 " << kappa[0];
+    EXPECT_GT(cracked_without_morph, mixed_views / 2) << "κ_0 " << kappa[0];
+}
+
 // Lemma 2 for `checked` cubes: with the eye where a cube just stops being suitable, its children's
 // morphed triangles are exactly its own (each child vertex at its parent, the parent's vertices
 // unmoved): no pop.
@@ -123,9 +152,6 @@ protected:
         if (!model_) GTEST_SKIP() << "data/bunny.off missing: run scripts/setup.sh";
     }
 
-    std::vector<std::array<Position, 3>> drawn(const std::vector<uint32_t>& cubes, const glm::dvec3& eye, const LevelKappas& kappa) {
-        return drawn_triangles(*model_, cubes, eye, kappa);
-    }
     // The κ the checks run with: one κ0 for every level, and per level as pixel errors set them for
     // a 1920-pixel-wide 60° view (nodes/README.md, "Selection").
     static std::vector<LevelKappas> kappa_sets() {
@@ -138,11 +164,6 @@ protected:
         }
         model_->set_kappa0(2.0);
         return sets;
-    }
-    uint32_t level_spread(const std::vector<uint32_t>& cubes) const {
-        uint32_t lo = ~0u, hi = 0;
-        for (uint32_t c : cubes) lo = std::min(lo, model_->cubes()[c].node.level), hi = std::max(hi, model_->cubes()[c].node.level);
-        return hi - lo;
     }
     // Random eyes: half around the model, half inside its bounds just off the surface.
     // `reach` scales how far out the eyes around the model go (for larger κ, which switch farther).
@@ -184,25 +205,8 @@ TEST_F(HlodSelection, TheModelLoadsWithItsOctree) {
 }
 
 TEST_F(HlodSelection, WatertightFromEveryViewWithTheMorphAndCrackedWithout) {
-    for (const LevelKappas& kappa : kappa_sets()) {
-        std::vector<uint32_t> cubes;
-        int mixed_views = 0, cracked_without_morph = 0;
-        for (const glm::dvec3& eye : eyes(102, kappa[1] / 2)) {
-            model_->select({eye, kappa}, cubes);
-            ASSERT_FALSE(cubes.empty());
-            model_->set_morph(true);
-            ASSERT_EQ(odd_edges(drawn(cubes, eye, kappa)), 0u)
-                << "crack seen from " << eye.x << " " << eye.y << " " << eye.z << ", κ_0 " << kappa[0];
-            if (level_spread(cubes) == 0) continue;
-            ++mixed_views;
-            model_->set_morph(false);
-            cracked_without_morph += odd_edges(drawn(cubes, eye, kappa)) > 0;
-        }
-        model_->set_morph(true);
-        // The check can fail: views that mix levels exist and, without the morph, show cracks.
-        EXPECT_GT(mixed_views, 15) << "κ_0 " << kappa[0];
-        EXPECT_GT(cracked_without_morph, mixed_views / 2) << "κ_0 " << kappa[0];
-    }
+    for (const LevelKappas& kappa : kappa_sets())
+        expect_watertight(*model_, kappa, eyes(102, kappa[1] / 2), 15, [](const auto& triangles) { return odd_edges(triangles); });
 }
 
 TEST_F(HlodSelection, PerLevelKappasNest) {
@@ -302,7 +306,7 @@ TEST_F(HlodSelection, TheNodeSelectsInItsOwnFrameUnderATransform) {
         drawn.push_back(cubes);
     }
     EXPECT_NE(drawn[0], drawn[1]);
-    EXPECT_GT(level_spread(drawn[0]), 0u) << "the near copy, seen from close by, mixes levels";
+    EXPECT_GT(level_spread(*model_, drawn[0]), 0u) << "the near copy, seen from close by, mixes levels";
     near->remove(model_.get());
     far->remove(model_.get());
 }
@@ -456,24 +460,9 @@ TEST_F(TerrainSelection, WatertightInsideItsOutlineWithTheMorphAndCrackedWithout
     for (double pixels : {0.0, 64.0, 256.0}) {
         if (pixels > 0) model_->set_pixel_error(pixels);
         const LevelKappas kappa = model_->kappas_for(camera);
-        std::vector<uint32_t> cubes;
-        int mixed_views = 0, cracked_without_morph = 0;
-        for (const glm::dvec3& eye : eyes(60, kappa[1] / 2)) {
-            model_->select({eye, kappa}, cubes);
-            ASSERT_FALSE(cubes.empty());
-            model_->set_morph(true);
-            ASSERT_EQ(boundary_loops(drawn_triangles(*model_, cubes, eye, kappa)), 1u)
-                << "crack seen from " << eye.x << " " << eye.y << " " << eye.z << ", P " << pixels;
-            uint32_t lo = ~0u, hi = 0;
-            for (uint32_t c : cubes) lo = std::min(lo, model_->cubes()[c].node.level), hi = std::max(hi, model_->cubes()[c].node.level);
-            if (lo == hi) continue;
-            ++mixed_views;
-            model_->set_morph(false);
-            cracked_without_morph += boundary_loops(drawn_triangles(*model_, cubes, eye, kappa)) > 1;
-        }
-        model_->set_morph(true);
-        EXPECT_GT(mixed_views, 15) << "P " << pixels;
-        EXPECT_GT(cracked_without_morph, mixed_views / 2) << "P " << pixels;
+        // Loops beyond the outline's one.
+        expect_watertight(*model_, kappa, eyes(60, kappa[1] / 2), 15,
+                          [](const auto& triangles) { return boundary_loops(triangles) - 1; });
         expect_no_pop(*model_, kappa, 20);
     }
     model_->set_kappa0(2.0);
