@@ -2,7 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
-#include <map>
+#include <unordered_map>
 #include <stdexcept>
 
 #include <glm/gtc/matrix_transform.hpp>
@@ -40,25 +40,37 @@ std::shared_ptr<HlodModel> HlodModel::load(const std::filesystem::path& path) {
     const auto& nodes = file.nodes();
     if (nodes.empty()) throw std::runtime_error(path.string() + ": the model has no cubes");
 
-    // Octree links: each cube finds its children by (level, i, j, k).
-    std::map<std::array<uint32_t, 4>, uint32_t> index;
+    // Octree links: each cube finds its parent, children and neighbours by (level, i, j, k).
+    std::unordered_map<uint64_t, uint32_t> index;
+    auto key = [](uint32_t level, uint32_t i, uint32_t j, uint32_t k) {
+        return uint64_t(level) << 48 | uint64_t(i) << 32 | uint64_t(j) << 16 | uint64_t(k);
+    };
+    auto find = [&](uint32_t level, int64_t i, int64_t j, int64_t k) {
+        if (i < 0 || j < 0 || k < 0) return kNoCube;
+        const auto it = index.find(key(level, uint32_t(i), uint32_t(j), uint32_t(k)));
+        return it == index.end() ? kNoCube : it->second;
+    };
     model->cubes_.resize(nodes.size());
     for (uint32_t c = 0; c < nodes.size(); ++c) {
         HlodCube& cube = model->cubes_[c];
         cube.node = nodes[c];
         cube.children.fill(kNoCube);
-        index[{nodes[c].level, nodes[c].i, nodes[c].j, nodes[c].k}] = c;
+        index[key(nodes[c].level, nodes[c].i, nodes[c].j, nodes[c].k)] = c;
     }
-    if (!index.count({0, 0, 0, 0})) throw std::runtime_error(path.string() + ": the model has no root cube");
+    if (find(0, 0, 0, 0) == kNoCube) throw std::runtime_error(path.string() + ": the model has no root cube");
+    model->parent_.assign(nodes.size(), kNoCube);
+    model->neighbours_.resize(nodes.size());
     for (uint32_t c = 0; c < nodes.size(); ++c) {
         const HlodNode& n = nodes[c];
+        for (int d = 0; d < 27; ++d)
+            model->neighbours_[c][d] = find(n.level, int64_t(n.i) + d % 3 - 1, int64_t(n.j) + d / 3 % 3 - 1, int64_t(n.k) + d / 9 - 1);
         if (n.level == 0) continue;
-        auto parent = index.find({n.level - 1, n.i / 2, n.j / 2, n.k / 2});
-        if (parent == index.end())
-            throw std::runtime_error(path.string() + ": " + describe_cube(n) + " has no parent cube");
-        model->cubes_[parent->second].children[octant_of(n)] = c;
+        const uint32_t parent = find(n.level - 1, n.i / 2, n.j / 2, n.k / 2);
+        if (parent == kNoCube) throw std::runtime_error(path.string() + ": " + describe_cube(n) + " has no parent cube");
+        model->cubes_[parent].children[octant_of(n)] = c;
+        model->parent_[c] = parent;
     }
-    model->root_ = index[{0, 0, 0, 0}];
+    model->root_ = find(0, 0, 0, 0);
 
     // Coarse to fine, so each cube finds its parents' vertices already decoded.
     std::vector<uint32_t> order(nodes.size());
@@ -67,11 +79,11 @@ std::shared_ptr<HlodModel> HlodModel::load(const std::filesystem::path& path) {
     for (uint32_t c : order) {
         HlodCube& cube = model->cubes_[c];
         cube.data = file.read_cube(cube.node);
-        const HlodNode& n = cube.node;
-        const CubeData& parent =
-            n.level == 0 ? cube.data : model->cubes_[index.at({n.level - 1, n.i / 2, n.j / 2, n.k / 2})].data;
-        resolve_parents(cube.data, parent.vertices, path.string() + ": " + describe_cube(n));
+        const uint32_t parent = model->parent_[c];
+        resolve_parents(cube.data, parent == kNoCube ? cube.data.vertices : model->cubes_[parent].data.vertices,
+                        path.string() + ": " + describe_cube(cube.node));
     }
+    model->finest_first_.assign(order.rbegin(), order.rend());
     model->level_error_.assign(model->header_.max_level + 1, 0.0);
     for (const HlodNode& n : nodes) {
         double& worst = model->level_error_[n.level];
@@ -97,29 +109,63 @@ void HlodModel::set_pixel_error(double pixels) {
     pixel_error_ = pixels;
 }
 
-LevelKappas HlodModel::kappas_for(const Camera& camera) const {
-    if (pixel_error_ <= 0 || camera.projection != ProjectionKind::perspective) return LevelKappas(kappa0_);
+Kappas HlodModel::kappas_for(const Camera& camera) const {
+    if (pixel_error_ <= 0 || camera.projection != ProjectionKind::perspective) return uniform_kappas(kappa0_);
     // Pixels per unit of error at unit distance, over P, at the image's corner: the projection's
     // largest magnification at a point r away and θ off the axis is (f/r)/cos²θ, and inside the image
     // 1/cos²θ ≤ 1 + tan²(θx/2) + tan²(θy/2).
     const double tx = camera.tan_half_fov_x(), ty = std::tan(glm::radians(camera.fov_y_degrees) / 2);
     const double focal = camera.width / (2 * tx);
     const double gain = 1 + focal * (1 + tx * tx + ty * ty) / pixel_error_;  // the 1: the error's own extent
+    const std::lock_guard lock(kappas_mutex_);
+    if (cached_kappas_ && cached_key_ == gain) return cached_kappas_;
+    cached_key_ = gain;
+    return cached_kappas_ = make_kappas(kappas_for_gain(gain));
+}
+
+Kappas HlodModel::uniform_kappas(double kappa) const {
+    const std::lock_guard lock(kappas_mutex_);
+    if (cached_kappas_ && cached_key_ == -kappa) return cached_kappas_;
+    cached_key_ = -kappa;
+    return cached_kappas_ = make_kappas(std::vector<double>(cubes_.size(), kappa));
+}
+
+std::vector<double> HlodModel::kappas_for_gain(double gain) const {
     const double sigma0 = header_.sigma0;
-    LevelKappas kappa;
-    for (uint32_t l = 0; l <= header_.max_level; ++l) {
+    std::vector<double> kappa(cubes_.size());
+    for (uint32_t c = 0; c < cubes_.size(); ++c) {
         // A cube draws within 1.5·σ0·s_l of its cell (the vertices' overhang, then the morph's travel),
-        // so its nearest drawn point is (κ_l − 1.5σ0)·s_l away; where its vertices morph, farther than
-        // (1 + κ_l + σ0)·s_l, the parent level's bound (2ε_{l−1}·s_l) must hold too.
-        double need = 1.5 * sigma0 + level_error_[l] * gain;
-        if (l > 0) need = std::max(need, 2 * level_error_[l - 1] * gain - 1 - sigma0);
-        kappa.value[l] = std::max(need, min_kappa0());
+        // so its nearest drawn point is (κ − 1.5σ0)·s_l away; where its vertices morph, farther than
+        // (1 + κ + σ0)·s_l, its parent's bound must hold too.
+        const HlodNode& node = cubes_[c].node;
+        const double s = header_.cube_size(node.level);
+        double need = 1.5 * sigma0 + node.error / s * gain;
+        if (parent_[c] != kNoCube) need = std::max(need, cubes_[parent_[c]].node.error / s * gain - 1 - sigma0);
+        kappa[c] = std::max(need, min_kappa0());
     }
-    // Nesting (nodes/README.md): κ_l ≤ 2κ_{l−1} − 1 − 3σ0 − 0.25 keeps each morph band a quarter cube
-    // wide and neighbours within a level; raising a coarser κ keeps its promise.
-    for (uint32_t l = header_.max_level; l > 0; --l)
-        kappa.value[l - 1] = std::max(kappa.value[l - 1], (kappa.value[l] + 1.25 + 3 * sigma0) / 2);
+    // Nesting (nodes/README.md): a cube's κ is at most 2κ − 1 − 3σ0 − 0.25 of its parent and of its
+    // parent's neighbours, which keeps each vertex's morph band a quarter cube wide and neighbouring
+    // drawn cubes within a level; raising a coarser κ keeps its promise. Finest first, so each cube
+    // is final before it raises the level above.
+    for (const uint32_t c : finest_first_) {
+        if (parent_[c] == kNoCube) continue;
+        const double least = (kappa[c] + 1.25 + 3 * sigma0) / 2;
+        for (const uint32_t n : neighbours_[parent_[c]])
+            if (n != kNoCube) kappa[n] = std::max(kappa[n], least);
+    }
     return kappa;
+}
+
+Kappas HlodModel::make_kappas(std::vector<double> kappa) const {
+    auto out = std::make_shared<CubeKappas>();
+    out->band_ends.resize(kappa.size());
+    const double sigma0 = header_.sigma0;
+    for (uint32_t c = 0; c < kappa.size(); ++c) {
+        const double s = header_.cube_size(cubes_[c].node.level);
+        out->band_ends[c] = {float((1.0 + kappa[c] + sigma0) * s), float((kappa[c] - sigma0) * s)};
+    }
+    out->kappa = std::move(kappa);
+    return out;
 }
 
 glm::dmat4 HlodModel::lattice_to_node() const { return glm::translate(glm::dmat4(1.0), origin()); }
@@ -142,10 +188,11 @@ HlodView HlodModel::view_for(const Camera& camera, const glm::dvec3& eye) const 
     return view;
 }
 
-bool HlodModel::suitable(const HlodNode& node, const HlodView& view) const {
+bool HlodModel::suitable(uint32_t cube, const HlodView& view) const {
+    const HlodNode& node = cubes_[cube].node;
     if (node.level == header_.max_level) return true;
     if (view.fixed_level >= 0) return int(node.level) >= view.fixed_level;
-    return box_distance(view.eye, cell(node)) >= view.kappa[node.level] * header_.cube_size(node.level);
+    return box_distance(view.eye, cell(node)) >= (*view.kappa)[cube] * header_.cube_size(node.level);
 }
 
 void HlodModel::select(const HlodView& view, std::vector<uint32_t>& out) const {
@@ -156,7 +203,7 @@ void HlodModel::select(const HlodView& view, std::vector<uint32_t>& out) const {
 void HlodModel::select_from(uint32_t c, const HlodView& view, uint8_t mask, std::vector<uint32_t>& out) const {
     const HlodCube& cube = cubes_[c];
     if (view.frustum && mask && !intersects(*view.frustum, cull_box(cube.node), mask)) return;
-    if (suitable(cube.node, view)) {
+    if (suitable(c, view)) {
         out.push_back(c);
         return;
     }
@@ -168,6 +215,13 @@ void HlodModel::select_from(uint32_t c, const HlodView& view, uint8_t mask, std:
         const uint32_t child = cube.children[near ^ k];
         if (child != kNoCube) select_from(child, view, mask, out);
     }
+}
+
+glm::ivec3 HlodModel::lattice_steps(const HlodCube& cube, uint32_t v) const {
+    const uint16_t* q = &cube.data.vertices.positions[3 * size_t(v)];
+    const HlodNode& n = cube.node;
+    return glm::ivec3(q[0], q[1], q[2]) + glm::ivec3(int32_t(n.i << kLatticeBits), int32_t(n.j << kLatticeBits), int32_t(n.k << kLatticeBits)) -
+           kLatticeBias;
 }
 
 glm::vec3 HlodModel::vertex_position(const HlodCube& cube, uint32_t v) const {
@@ -186,16 +240,54 @@ glm::vec3 HlodModel::parent_position(const HlodCube& cube, uint32_t p) const {
             lattice_coordinate(header_, level, n.k / 2, q[2])};
 }
 
-HlodModel::MorphBand HlodModel::morph_band(uint32_t level, const LevelKappas& kappa) const {
-    const double s = header_.cube_size(level), sigma0 = header_.sigma0;
-    const double parent_kappa = kappa[level == 0 ? 0 : level - 1];  // the root morphs onto itself
-    const float start = float((1.0 + kappa[level] + sigma0) * s), end = float((parent_kappa - sigma0) * 2.0 * s);
-    return {start, end, 1.0f / (end - start)};
+int32_t HlodModel::overhang_steps() const {
+    return int32_t(std::ceil(double(header_.sigma0) * double(1 << kLatticeBits)));
 }
 
-void HlodModel::morphed_positions(uint32_t c, const glm::vec3& eye, const LevelKappas& kappa, std::vector<glm::vec3>& out) const {
+namespace {
+
+// Each cell of a level whose box grown by `reach` lattice steps holds the point at steps q, as its
+// neighbour slot around `home` (a cell of that level, 2^shift steps wide): offsets clamped to ±1,
+// which a vertex within its overhang never needs (2·reach < 2^shift).
+template <class Visit>
+void for_each_cell_holding(const glm::ivec3& q, int32_t reach, int shift, const glm::ivec3& home, Visit&& visit) {
+    const glm::ivec3 lo = (q - reach) >> shift, hi = (q + reach) >> shift;
+    for (int z = lo.z; z <= hi.z; ++z)
+        for (int y = lo.y; y <= hi.y; ++y)
+            for (int x = lo.x; x <= hi.x; ++x) {
+                const glm::ivec3 slot = glm::clamp(glm::ivec3(x, y, z) - home, -1, 1) + 1;
+                visit(slot.x + 3 * slot.y + 9 * slot.z);
+            }
+}
+
+}  // namespace
+
+HlodModel::MorphBand HlodModel::morph_band(uint32_t c, const glm::ivec3& q, const CubeKappas& kappa) const {
+    const HlodNode& n = cubes_[c].node;
+    const uint32_t parent = parent_[c];
+    if (parent == kNoCube) return {kappa.band_ends[c][0], INFINITY};  // the root: nothing to morph toward
+    // The vertex's own cube and its parent always hold it; their neighbours may too.
+    MorphBand band{kappa.band_ends[c][0], kappa.band_ends[parent][1]};
+    const glm::ivec3 cell(n.i, n.j, n.k);
+    for_each_cell_holding(q, overhang_steps(), kLatticeBits, cell, [&](int slot) {
+        if (const uint32_t m = neighbours_[c][size_t(slot)]; m != kNoCube) band.start = std::max(band.start, kappa.band_ends[m][0]);
+    });
+    for_each_cell_holding(q, overhang_steps(), kLatticeBits + 1, cell >> 1, [&](int slot) {
+        if (const uint32_t m = neighbours_[parent][size_t(slot)]; m != kNoCube) band.end = std::min(band.end, kappa.band_ends[m][1]);
+    });
+    return band;
+}
+
+float HlodModel::morph_lambda(uint32_t c, const glm::ivec3& q, float d, const CubeKappas& kappa) const {
+    if (parent_[c] == kNoCube) return 1.0f;
+    const MorphBand band = morph_band(c, q, kappa);
+    int exponent = 0;
+    std::frexp(band.end - band.start, &exponent);  // span = m·2^exponent, m in [0.5, 1)
+    return std::clamp((band.end - d) * std::ldexp(1.0f, 1 - exponent), 0.0f, 1.0f);  // as the shader
+}
+
+void HlodModel::morphed_positions(uint32_t c, const glm::vec3& eye, const CubeKappas& kappa, std::vector<glm::vec3>& out) const {
     const HlodCube& cube = cubes_[c];
-    const MorphBand band = morph_band(cube.node.level, kappa);
     out.resize(cube.data.vertex_count());
     for (uint32_t v = 0; v < out.size(); ++v) {
         const glm::vec3 w = vertex_position(cube, v);
@@ -206,7 +298,7 @@ void HlodModel::morphed_positions(uint32_t c, const glm::vec3& eye, const LevelK
         const glm::vec3 parent = parent_position(cube, cube.data.parent_of[v]);
         const glm::vec3 offset = glm::abs(w - eye);
         const float d = std::max(std::max(offset.x, offset.y), offset.z);
-        const float lambda = std::clamp((band.end - d) * band.inverse_span, 0.0f, 1.0f);  // as the shader
+        const float lambda = morph_lambda(c, lattice_steps(cube, v), d, kappa);
         // The ends exactly (Lemma 2 needs λ = 0 to give P(w) and λ = 1 to give w), GLSL's mix between.
         out[v] = lambda >= 1.0f ? w : lambda <= 0.0f ? parent : parent * (1.0f - lambda) + w * lambda;
     }

@@ -7,6 +7,7 @@
 #include <array>
 #include <filesystem>
 #include <memory>
+#include <mutex>
 #include <unordered_map>
 #include <vector>
 
@@ -31,19 +32,22 @@ struct HlodCube {
 inline constexpr uint32_t kNoCube = ~0u;
 inline constexpr uint32_t kMaxHlodLevels = 16;  // the format allows levels 0 … 15
 
-// κ_l, the selection's distance factor per level: a cube of level l is suitable when d∞(eye, cell) ≥
-// κ_l·s_l (nodes/README.md, "Selection"). A single number stands for the same κ at every level.
-struct LevelKappas {
-    std::array<double, kMaxHlodLevels> value{};
-    LevelKappas() = default;
-    LevelKappas(double uniform) { value.fill(uniform); }  // NOLINT: a number is a uniform κ
-    double operator[](uint32_t level) const { return value[level]; }
+// κ for one view, one per cube (nodes/README.md, "Selection"): a cube c of level l is suitable when
+// d∞(eye, cell_c) ≥ κ_c·s_l. Each cube also lends its κ to the morph bands of the vertices near it:
+// `band_ends[c]` holds where vertices of its level may start to morph, (1 + κ_c + σ0)·s_l, and where
+// vertices of its children's level must have reached their parents, (κ_c − σ0)·s_l, as the floats the
+// shader reads.
+struct CubeKappas {
+    std::vector<double> kappa;
+    std::vector<std::array<float, 2>> band_ends;
+    double operator[](uint32_t cube) const { return kappa[cube]; }
 };
+using Kappas = std::shared_ptr<const CubeKappas>;
 
 // Where and how one selection looks, in the model's lattice frame (model units, origin at O).
 struct HlodView {
     glm::dvec3 eye;
-    LevelKappas kappa;
+    Kappas kappa;
     const Frustum* frustum = nullptr;  // nullptr: no culling
     uint8_t plane_mask = kAllPlanes;
     // ≥ 0: every cube of this level (or the finest there is) instead of the distance rule: what an
@@ -61,18 +65,25 @@ public:
     uint32_t root() const { return root_; }
     const std::filesystem::path& path() const { return path_; }
 
-    // One κ0 for every level, or a target screen-space error in pixels, which sets κ_l per level and
-    // per view from the levels' error bounds (nodes/README.md, "Selection"). Either keeps every
-    // κ_l ≥ 1 + 3σ0 + 0.25 (DESIGN.md §3).
+    // One κ0 for every cube, or a target screen-space error in pixels, which sets κ per cube and per
+    // view from the cubes' error bounds (nodes/README.md, "Selection"). Either keeps every
+    // κ ≥ 1 + 3σ0 + 0.25 (DESIGN.md §3).
     void set_kappa0(double kappa0);
     void set_pixel_error(double pixels);
     double pixel_error() const { return pixel_error_; }  // 0 when κ0 was set instead
     double kappa0() const { return kappa0_; }             // as set (and clamped) by set_kappa0
-    // κ_l for a camera: the uniform κ0, or what the pixel error needs for its image and field of view.
-    LevelKappas kappas_for(const Camera& camera) const;
+    // κ for a camera: the uniform κ0, or what the pixel error needs for its image and field of view
+    // (computed once per image size, field of view and pixel error, then shared).
+    Kappas kappas_for(const Camera& camera) const;
+    // The same κ for every cube, as set_kappa0 gives (without its clamp).
+    Kappas uniform_kappas(double kappa) const;
     double min_kappa0() const { return 1.0 + 3.0 * header_.sigma0 + 0.25; }
     // ε_l: the largest error bound of level l's cubes over their size.
     double level_error(uint32_t level) const { return level_error_[level]; }
+    // The cube's neighbours of its own level, the 3 × 3 × 3 around it (itself in the middle) at
+    // (di + 1) + 3(dj + 1) + 9(dk + 1), kNoCube where there is none; and its parent (kNoCube: the root).
+    const std::array<uint32_t, 27>& neighbours(uint32_t cube) const { return neighbours_[cube]; }
+    uint32_t parent(uint32_t cube) const { return parent_[cube]; }
 
     bool morph() const { return morph_; }
     void set_morph(bool on) { morph_ = on; }
@@ -96,17 +107,26 @@ public:
 
     // The CPU twin of the morph shader: the positions a cube's vertices are drawn at in a perspective
     // view, for shader_eye() and kappas_for(), bit-identical to the shader's arithmetic.
-    void morphed_positions(uint32_t cube, const glm::vec3& eye, const LevelKappas& kappa, std::vector<glm::vec3>& out) const;
+    void morphed_positions(uint32_t cube, const glm::vec3& eye, const CubeKappas& kappa, std::vector<glm::vec3>& out) const;
     // Decoded, unmorphed lattice-frame positions of a cube's vertices, and of its parent table.
     glm::vec3 vertex_position(const HlodCube& cube, uint32_t v) const;
     glm::vec3 parent_position(const HlodCube& cube, uint32_t p) const;
-    // The morph band of a level: λ = clamp((end − d)·inverse_span, 0, 1), inverse_span = 1/(end − start).
-    // A multiplication by the reciprocal, because GLSL's division is not correctly rounded.
+    // A vertex's coordinates on its level's lattice, counted from O in steps h_l (DESIGN.md §2).
+    glm::ivec3 lattice_steps(const HlodCube& cube, uint32_t v) const;
+    // The morph band of a vertex of `cube` at lattice steps `q` (nodes/README.md, "Selection"): from the
+    // largest start of the cubes of its level whose cell, grown by σ0·s_l, holds it, to the smallest end
+    // of such cubes of the parent level. A function of the vertex's position alone, so that every cube
+    // sharing the vertex morphs it alike.
     struct MorphBand {
-        float start, end, inverse_span;
+        float start, end;
     };
-    // Level l's band runs from (1 + κ_l + σ0)·s_l to (κ_{l−1} − σ0)·s_{l−1}.
-    MorphBand morph_band(uint32_t level, const LevelKappas& kappa) const;
+    MorphBand morph_band(uint32_t cube, const glm::ivec3& q, const CubeKappas& kappa) const;
+    // λ at d∞ distance d from the eye: clamp((end − d)·2^−k, 0, 1), 2^k the largest power of two within
+    // the band's span, so that the product is exact on CPU and GPU alike (GLSL's division is not
+    // correctly rounded). 1 at the root, which has no parent.
+    float morph_lambda(uint32_t cube, const glm::ivec3& q, float d, const CubeKappas& kappa) const;
+    // ⌈σ0·2^15⌉: how far a vertex may lie outside its cell, in steps of its level's lattice.
+    int32_t overhang_steps() const;
     // What the shader gets for a view, so that the CPU twin can be fed exactly the same: the eye in
     // the lattice frame as a float (the bands come from morph_band), and whether it morphs at all (an
     // orthographic view draws one level everywhere: nothing to morph).
@@ -119,7 +139,7 @@ public:
     // for it (the CPU twin when it morphs, the decoded positions when not): the drawn triangles.
     struct MorphInputs {
         glm::vec3 eye;
-        LevelKappas kappa;
+        Kappas kappa;
         bool morph;
     };
     MorphInputs morph_inputs(const PickContext& view) const;
@@ -146,7 +166,10 @@ protected:
 private:
     HlodModel() = default;
     // Whether the selection draws this cube rather than going down to its children.
-    bool suitable(const HlodNode& node, const HlodView& view) const;
+    bool suitable(uint32_t cube, const HlodView& view) const;
+    // κ per cube from a pixel error's gain (pixels per unit of error at unit distance), nested.
+    std::vector<double> kappas_for_gain(double gain) const;
+    Kappas make_kappas(std::vector<double> kappa) const;
     void select_from(uint32_t cube, const HlodView& view, uint8_t mask, std::vector<uint32_t>& out) const;
 
     std::filesystem::path path_;
@@ -155,6 +178,13 @@ private:
     uint32_t root_ = 0;
     Box bound_;  // of every level's vertices, in the node's frame
     std::vector<double> level_error_;  // ε_l
+    std::vector<std::array<uint32_t, 27>> neighbours_;  // per cube
+    std::vector<uint32_t> parent_;                      // per cube
+    std::vector<uint32_t> finest_first_;                // cube indices, finest level first
+    // The last κ computed, with what it was computed from (a gain, or −κ0 for a uniform κ).
+    mutable std::mutex kappas_mutex_;
+    mutable double cached_key_ = 0;
+    mutable Kappas cached_kappas_;
     double kappa0_ = 2.0;
     double pixel_error_ = 0;  // > 0: κ0 follows from it per view
     bool morph_ = true;

@@ -35,14 +35,18 @@ layout(std430, binding = 3) readonly buffer Parents { uvec4 parents[]; };
 layout(std430, binding = 4) readonly buffer VertexColors { uint vertex_colors[]; };
 layout(std430, binding = 5) readonly buffer ParentColors { uint parent_colors[]; };
 layout(std430, binding = 7) writeonly buffer Capture { vec4 captured[]; };  // HlodModel::set_capture_morph
+// Per cube: its 27 neighbours of its level (HlodModel::neighbours), then its parent; 0xffffffff: none.
+layout(std430, binding = 8) readonly buffer Links { uint links[]; };
+// Per cube: where its level's vertices may start to morph, and where its children's must have ended
+// (CubeKappas::band_ends).
+layout(std430, binding = 9) readonly buffer BandEnds { vec2 band_ends[]; };
 
 uniform mat4 clip_from_lattice;
 uniform mat3 world_from_lattice_normal;
 uniform vec3 eye;  // lattice frame
 uniform float lattice_step[16];
 uniform float parent_step[16];
-uniform float morph_end[16];
-uniform float morph_inverse_span[16];
+uniform int overhang;  // HlodModel::overhang_steps
 uniform bool morph;
 uniform bool has_colors;
 uniform bool color_by_level;
@@ -53,10 +57,42 @@ out vec3 v_normal;
 out vec4 v_color;
 flat out float v_level;
 
-vec3 lattice_position(uvec4 record, uvec3 cell, float step) {
+ivec3 lattice_steps(uvec4 record, uvec3 cell) {
     ivec3 stored = ivec3(record.x & 0xffffu, record.x >> 16, record.y & 0xffffu);
-    ivec3 q = stored + ivec3(cell << 15) - 16384;
-    return vec3(q) * step;
+    return stored + ivec3(cell << 15) - 16384;
+}
+
+const uint no_cube = 0xffffffffu;
+
+// HlodModel::morph_band and morph_lambda, in the same operations: a vertex's band from the cubes whose
+// cells, grown by the overhang, hold it (shift 15: its own level's cells; 16: its parent level's).
+uint slot(ivec3 cell, ivec3 home) {
+    ivec3 o = clamp(cell - home, -1, 1) + 1;
+    return uint(o.x + 3 * o.y + 9 * o.z);
+}
+
+float morph_lambda(uint cube, uvec3 cell, ivec3 q, float d) {
+    uint parent = links[cube * 28u + 27u];
+    if (parent == no_cube) return 1.0;
+    float start = band_ends[cube].x, end = band_ends[parent].y;
+    ivec3 home = ivec3(cell), lo = (q - overhang) >> 15, hi = (q + overhang) >> 15;
+    for (int z = lo.z; z <= hi.z; ++z)
+        for (int y = lo.y; y <= hi.y; ++y)
+            for (int x = lo.x; x <= hi.x; ++x) {
+                uint m = links[cube * 28u + slot(ivec3(x, y, z), home)];
+                if (m != no_cube) start = max(start, band_ends[m].x);
+            }
+    home = ivec3(cell >> 1), lo = (q - overhang) >> 16, hi = (q + overhang) >> 16;
+    for (int z = lo.z; z <= hi.z; ++z)
+        for (int y = lo.y; y <= hi.y; ++y)
+            for (int x = lo.x; x <= hi.x; ++x) {
+                uint m = links[parent * 28u + slot(ivec3(x, y, z), home)];
+                if (m != no_cube) end = min(end, band_ends[m].y);
+            }
+    int exponent;
+    frexp(end - start, exponent);
+    precise float lambda = clamp((end - d) * ldexp(1.0, 1 - exponent), 0.0, 1.0);
+    return lambda;
 }
 
 vec3 octahedral_normal(uint bits) {
@@ -74,15 +110,17 @@ vec3 octahedral_normal(uint bits) {
 
 
 void main() {
-    uvec4 cube = cubes[gl_BaseInstanceARB];
+    uint index = uint(gl_BaseInstanceARB);
+    uvec4 cube = cubes[index];
     uint level = cube.x;
     uvec4 own = vertices[gl_VertexID];
     uvec4 parent = parents[own.w];
-    precise vec3 w = lattice_position(own, cube.yzw, lattice_step[level]);
-    precise vec3 p = lattice_position(parent, cube.yzw >> 1, parent_step[level]);
+    ivec3 q = lattice_steps(own, cube.yzw);
+    precise vec3 w = vec3(q) * lattice_step[level];
+    precise vec3 p = vec3(lattice_steps(parent, cube.yzw >> 1)) * parent_step[level];
     vec3 offset = abs(w - eye);
     float d = max(max(offset.x, offset.y), offset.z);
-    precise float lambda = morph ? clamp((morph_end[level] - d) * morph_inverse_span[level], 0.0, 1.0) : 1.0;
+    precise float lambda = morph ? morph_lambda(index, cube.yzw, q, d) : 1.0;
     // The ends exactly (Lemma 2), the mix in between without fused multiply-adds, as on the CPU.
     precise vec3 position = lambda >= 1.0 ? w : lambda <= 0.0 ? p : p * (1.0 - lambda) + w * lambda;
     gl_Position = clip_from_lattice * vec4(position, 1.0);
@@ -182,6 +220,9 @@ struct HlodPrograms : GpuCache::Entry {
 struct HlodGpu : GpuCache::Entry {
     uint64_t bytes = 0;  // every buffer below
     gl::Buffer cubes;
+    gl::Buffer links;      // per cube: neighbours and parent
+    gl::Buffer band_ends;  // per cube, of `kappas`
+    Kappas kappas;
     gl::Buffer drawn;  // this frame's cubes, for the boxes view
     std::vector<Chunk> chunks;
     std::vector<uint32_t> chunk_of;         // per cube
@@ -236,6 +277,14 @@ std::unique_ptr<HlodGpu> upload(const HlodModel& model) {
     std::vector<std::array<uint32_t, 4>> records;
     for (const HlodCube& c : cubes) records.push_back({c.node.level, c.node.i, c.node.j, c.node.k});
     gpu->cubes = gl::Buffer(records, 0);
+    std::vector<uint32_t> links;
+    links.reserve(cubes.size() * 28);
+    for (uint32_t c = 0; c < cubes.size(); ++c) {
+        links.insert(links.end(), model.neighbours(c).begin(), model.neighbours(c).end());
+        links.push_back(model.parent(c));
+    }
+    gpu->links = gl::Buffer(links, 0);
+    gpu->band_ends = gl::Buffer(cubes.size() * sizeof(std::array<float, 2>), GL_DYNAMIC_STORAGE_BIT);
 
     GLint max_block = 0;
     glGetIntegerv(GL_MAX_SHADER_STORAGE_BLOCK_SIZE, &max_block);
@@ -256,7 +305,7 @@ std::unique_ptr<HlodGpu> upload(const HlodModel& model) {
     gpu->chunks.push_back(upload_chunk(data));
     for (Chunk& chunk : gpu->chunks) chunk.commands = gl::Buffer(cubes.size() * sizeof(DrawCommand), GL_DYNAMIC_STORAGE_BIT);
     gpu->drawn = gl::Buffer(cubes.size() * sizeof(uint32_t), GL_DYNAMIC_STORAGE_BIT);
-    gpu->bytes = gpu->cubes.size() + gpu->drawn.size();
+    gpu->bytes = gpu->cubes.size() + gpu->links.size() + gpu->band_ends.size() + gpu->drawn.size();
     for (const Chunk& c : gpu->chunks)
         gpu->bytes += c.vertices.size() + c.parents.size() + c.vertex_colors.size() + c.parent_colors.size() +
                       c.indices.size() + c.commands.size();
@@ -264,27 +313,26 @@ std::unique_ptr<HlodGpu> upload(const HlodModel& model) {
     return gpu;
 }
 
-void set_view_uniforms(const HlodModel& model, const gl::Program& program, const DrawContext& context,
+void set_view_uniforms(const HlodModel& model, const gl::Program& program, HlodGpu& gpu, const DrawContext& context,
                        const DrawItem& item) {
     const glm::dmat4 world_from_lattice = item.model * model.lattice_to_node();
     // Composed in double, then rounded once: survey-scale translations cancel before going to float.
     program.set("clip_from_lattice", glm::mat4(context.projection * context.view * world_from_lattice));
     program.set("world_from_lattice_normal", glm::mat3(glm::transpose(glm::inverse(glm::dmat3(world_from_lattice)))));
     program.set("eye", model.shader_eye(item.model, context.eye));
-    const LevelKappas kappa = model.kappas_for(context.camera);
+    if (Kappas kappas = model.kappas_for(context.camera); kappas != gpu.kappas) {  // a new image size, fov or target
+        gpu.band_ends.upload(kappas->band_ends);
+        gpu.kappas = std::move(kappas);
+    }
     const HlodHeader& h = model.header();
-    std::array<float, kMaxLevels> step{}, parent_step{}, end{}, inverse_span{};
+    std::array<float, kMaxLevels> step{}, parent_step{};
     for (uint32_t l = 0; l <= h.max_level; ++l) {
         step[l] = h.lattice_step(l);
         parent_step[l] = h.lattice_step(l == 0 ? 0 : l - 1);
-        const auto band = model.morph_band(l, kappa);
-        end[l] = band.end;
-        inverse_span[l] = band.inverse_span;
     }
     glProgramUniform1fv(program.id(), program.uniform_location("lattice_step"), kMaxLevels, step.data());
     glProgramUniform1fv(program.id(), program.uniform_location("parent_step"), kMaxLevels, parent_step.data());
-    glProgramUniform1fv(program.id(), program.uniform_location("morph_end"), kMaxLevels, end.data());
-    glProgramUniform1fv(program.id(), program.uniform_location("morph_inverse_span"), kMaxLevels, inverse_span.data());
+    program.set("overhang", int(model.overhang_steps()));
     program.set("morph", int(model.morphs_for(context.camera)));
     program.set("has_colors", int(h.has_colors()));
     program.set("color_by_level", int(model.debug_view() == HlodDebugView::levels));
@@ -311,9 +359,11 @@ void draw_boxes(const HlodModel& model, const gl::Program& p, HlodGpu& gpu, Draw
 void HlodModel::draw(DrawContext& context, const DrawItem& item) {
     const HlodPrograms& programs = context.cache.get_shared<HlodPrograms>(kProgramsKey, [] { return std::make_unique<HlodPrograms>(); });
     HlodGpu& gpu = context.cache.get<HlodGpu>(*this, [&] { return upload(*this); });
-    set_view_uniforms(*this, programs.surface, context, item);
+    set_view_uniforms(*this, programs.surface, gpu, context, item);
     programs.surface.use();
     gpu.cubes.bind_base(GL_SHADER_STORAGE_BUFFER, 1);
+    gpu.links.bind_base(GL_SHADER_STORAGE_BUFFER, 8);
+    gpu.band_ends.bind_base(GL_SHADER_STORAGE_BUFFER, 9);
 
     for (Chunk& chunk : gpu.chunks) chunk.frame_commands.clear();
     for (uint32_t k = 0; k < item.count; ++k) {

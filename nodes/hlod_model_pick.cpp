@@ -27,7 +27,7 @@ HlodModel::MorphInputs HlodModel::morph_inputs(const PickContext& view) const {
 
 void HlodModel::drawn_positions(uint32_t c, const MorphInputs& inputs, std::vector<glm::vec3>& out) const {
     if (inputs.morph) {
-        morphed_positions(c, inputs.eye, inputs.kappa, out);
+        morphed_positions(c, inputs.eye, *inputs.kappa, out);
         return;
     }
     const HlodCube& cube = cubes_[c];
@@ -56,7 +56,7 @@ std::optional<SurfaceHit> HlodModel::intersect(const Ray& ray, const PickContext
         // A cube's box holds its children's boxes, so nothing still queued or below it starts nearer.
         if (next.entry > lattice_ray.t_max) break;
         const HlodCube& cube = cubes_[next.cube];
-        if (!suitable(cube.node, view)) {
+        if (!suitable(next.cube, view)) {
             for (const uint32_t child : cube.children)
                 if (child != kNoCube) enqueue(child);
             continue;

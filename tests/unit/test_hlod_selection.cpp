@@ -6,6 +6,7 @@
 
 #include <array>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <map>
 #include <random>
@@ -33,7 +34,7 @@ Position bits(const glm::vec3& p) {
 
 // The drawn triangles of a view as morphed positions, degenerate ones dropped.
 std::vector<std::array<Position, 3>> drawn_triangles(const HlodModel& model, const std::vector<uint32_t>& cubes,
-                                                     const glm::dvec3& eye, const LevelKappas& kappa) {
+                                                     const glm::dvec3& eye, const CubeKappas& kappa) {
     std::vector<std::array<Position, 3>> triangles;
     std::vector<glm::vec3> positions;
     for (uint32_t c : cubes) {
@@ -86,10 +87,18 @@ uint32_t level_spread(const HlodModel& model, const std::vector<uint32_t>& cubes
     return hi - lo;
 }
 
+// The largest κ of a level's cubes: how far out that level still switches.
+double largest_kappa(const HlodModel& model, const CubeKappas& kappa, uint32_t level) {
+    double largest = 0;
+    for (uint32_t c = 0; c < model.cubes().size(); ++c)
+        if (model.cubes()[c].node.level == level) largest = std::max(largest, kappa[c]);
+    return largest;
+}
+
 // The crack check: from every eye the drawn cut has no crack (`cracks` of its triangles is 0), and it can
 // fail: at least `min_mixed` views mix levels and, without the morph, most of them show cracks.
 template <class Cracks>
-void expect_watertight(HlodModel& model, const LevelKappas& kappa, const std::vector<glm::dvec3>& eyes, int min_mixed,
+void expect_watertight(HlodModel& model, const Kappas& kappa, const std::vector<glm::dvec3>& eyes, int min_mixed,
                        Cracks&& cracks) {
     std::vector<uint32_t> cubes;
     int mixed_views = 0, cracked_without_morph = 0;
@@ -97,22 +106,22 @@ void expect_watertight(HlodModel& model, const LevelKappas& kappa, const std::ve
         model.select({eye, kappa}, cubes);
         ASSERT_FALSE(cubes.empty());
         model.set_morph(true);
-        ASSERT_EQ(cracks(drawn_triangles(model, cubes, eye, kappa)), 0u)
-            << "crack seen from " << eye.x << " " << eye.y << " " << eye.z << ", κ_0 " << kappa[0];
+        ASSERT_EQ(cracks(drawn_triangles(model, cubes, eye, *kappa)), 0u)
+            << "crack seen from " << eye.x << " " << eye.y << " " << eye.z << ", κ_root " << (*kappa)[model.root()];
         if (level_spread(model, cubes) == 0) continue;
         ++mixed_views;
         model.set_morph(false);
-        cracked_without_morph += cracks(drawn_triangles(model, cubes, eye, kappa)) > 0;
+        cracked_without_morph += cracks(drawn_triangles(model, cubes, eye, *kappa)) > 0;
         model.set_morph(true);
     }
-    EXPECT_GT(mixed_views, min_mixed) << "κ_0 " << kappa[0];
-    EXPECT_GT(cracked_without_morph, mixed_views / 2) << "κ_0 " << kappa[0];
+    EXPECT_GT(mixed_views, min_mixed) << "κ_root " << (*kappa)[model.root()];
+    EXPECT_GT(cracked_without_morph, mixed_views / 2) << "κ_root " << (*kappa)[model.root()];
 }
 
 // Lemma 2 for `checked` cubes: with the eye where a cube just stops being suitable, its children's
 // morphed triangles are exactly its own (each child vertex at its parent, the parent's vertices
 // unmoved): no pop.
-void expect_no_pop(const HlodModel& model, const LevelKappas& kappa, int wanted) {
+void expect_no_pop(const HlodModel& model, const CubeKappas& kappa, int wanted) {
     int checked = 0;
     for (uint32_t c = 0; c < model.cubes().size() && checked < wanted; ++c) {
         const HlodCube& cube = model.cubes()[c];
@@ -122,7 +131,7 @@ void expect_no_pop(const HlodModel& model, const LevelKappas& kappa, int wanted)
         // Straight out from the cell's top face, at the switch distance: just outside it the cube is
         // drawn, just inside its children are.
         const glm::dvec3 top{cell.center().x, cell.center().y, cell.hi.z};
-        const double switch_distance = kappa[cube.node.level] * s;
+        const double switch_distance = kappa[c] * s;
         const glm::dvec3 before = top + glm::dvec3(0, 0, switch_distance * (1 + 1e-6));
         const glm::dvec3 after = top + glm::dvec3(0, 0, switch_distance * (1 - 1e-6));
         std::vector<uint32_t> parent{c}, children;
@@ -136,7 +145,7 @@ void expect_no_pop(const HlodModel& model, const LevelKappas& kappa, int wanted)
         };
         const auto drawn_before = canonical(drawn_triangles(model, parent, before, kappa));
         const auto drawn_after = canonical(drawn_triangles(model, children, after, kappa));
-        EXPECT_EQ(drawn_before, drawn_after) << describe_cube(cube.node) << ", κ_l " << kappa[cube.node.level];
+        EXPECT_EQ(drawn_before, drawn_after) << describe_cube(cube.node) << ", κ " << kappa[c];
         ++checked;
     }
     EXPECT_EQ(checked, wanted);
@@ -152,10 +161,10 @@ protected:
         if (!model_) GTEST_SKIP() << "data/bunny.off missing: run scripts/setup.sh";
     }
 
-    // The κ the checks run with: one κ0 for every level, and per level as pixel errors set them for
+    // The κ the checks run with: one κ0 for every cube, and per cube as pixel errors set them for
     // a 1920-pixel-wide 60° view (nodes/README.md, "Selection").
-    static std::vector<LevelKappas> kappa_sets() {
-        std::vector<LevelKappas> sets{LevelKappas(std::max(2.0, model_->min_kappa0()))};
+    static std::vector<Kappas> kappa_sets() {
+        std::vector<Kappas> sets{model_->uniform_kappas(std::max(2.0, model_->min_kappa0()))};
         Camera camera;
         camera.width = 1920, camera.height = 1080, camera.fov_y_degrees = 60;
         for (double pixels : {16.0, 64.0}) {
@@ -205,33 +214,43 @@ TEST_F(HlodSelection, TheModelLoadsWithItsOctree) {
 }
 
 TEST_F(HlodSelection, WatertightFromEveryViewWithTheMorphAndCrackedWithout) {
-    for (const LevelKappas& kappa : kappa_sets())
-        expect_watertight(*model_, kappa, eyes(102, kappa[1] / 2), 15, [](const auto& triangles) { return odd_edges(triangles); });
+    for (const Kappas& kappa : kappa_sets())
+        expect_watertight(*model_, kappa, eyes(102, largest_kappa(*model_, *kappa, 1) / 2), 15,
+                          [](const auto& triangles) { return odd_edges(triangles); });
 }
 
-TEST_F(HlodSelection, PerLevelKappasNest) {
-    // However the levels' errors differ, κ_l ≤ 2κ_{l−1} − 1 − 3σ0 − 0.25 (each morph band a quarter cube
-    // wide, neighbours within a level) and κ_l ≥ 1 + 3σ0 + 0.25, for any view and target.
+TEST_F(HlodSelection, CubeKappasNest) {
+    // However the cubes' errors differ, a cube's κ is at most 2κ − 1 − 3σ0 − 0.25 of its parent's and of
+    // each of its parent's neighbours' (each vertex's morph band a quarter cube wide, neighbours within
+    // a level), and every κ ≥ 1 + 3σ0 + 0.25, for any view and target.
     const HlodHeader& h = model_->header();
     Camera camera;
+    size_t varied = 0;
     for (double fov : {20.0, 50.0, 120.0})
         for (int width : {320, 1920, 7680})
             for (double pixels : {0.1, 1.0, 16.0, 1e6}) {
                 camera.fov_y_degrees = fov, camera.width = width, camera.height = width / 2;
                 model_->set_pixel_error(pixels);
-                const LevelKappas kappa = model_->kappas_for(camera);
-                for (uint32_t l = 0; l <= h.max_level; ++l) {
-                    EXPECT_GE(kappa[l], model_->min_kappa0());
-                    if (l > 0) {
-                        EXPECT_LE(kappa[l], 2 * kappa[l - 1] - 1.25 - 3 * h.sigma0 + 1e-12) << "level " << l;
-                    }
+                const Kappas kappa = model_->kappas_for(camera);
+                std::vector<double> lo(h.max_level + 1, INFINITY), hi(h.max_level + 1, 0.0);
+                for (uint32_t c = 0; c < model_->cubes().size(); ++c) {
+                    const uint32_t level = model_->cubes()[c].node.level;
+                    lo[level] = std::min(lo[level], (*kappa)[c]), hi[level] = std::max(hi[level], (*kappa)[c]);
+                    EXPECT_GE((*kappa)[c], model_->min_kappa0());
+                    if (model_->parent(c) == kNoCube) continue;
+                    for (const uint32_t n : model_->neighbours(model_->parent(c)))
+                        if (n != kNoCube) {
+                            EXPECT_LE((*kappa)[c], 2 * (*kappa)[n] - 1.25 - 3 * h.sigma0 + 1e-12) << describe_cube(model_->cubes()[c].node);
+                        }
                 }
+                for (uint32_t l = 0; l <= h.max_level; ++l) varied += hi[l] > 1.2 * lo[l];
             }
+    EXPECT_GT(varied, 0u) << "some level's cubes should get κ of their own";
     model_->set_kappa0(2.0);
 }
 
 TEST_F(HlodSelection, NeighbouringCubesDifferByAtMostOneLevel) {
-    for (const LevelKappas& kappa : kappa_sets()) {
+    for (const Kappas& kappa : kappa_sets()) {
     std::vector<uint32_t> cubes;
     for (const glm::dvec3& eye : eyes(40)) {
         model_->select({eye, kappa}, cubes);
@@ -250,7 +269,7 @@ TEST_F(HlodSelection, NeighbouringCubesDifferByAtMostOneLevel) {
 // Lemma 2: with the eye where a cube just stops being suitable, its children's morphed triangles are
 // exactly its own (each child vertex at its parent, the parent's vertices unmoved): no pop.
 TEST_F(HlodSelection, ChildrenAtTheSwitchDrawTheParentsTriangles) {
-    for (const LevelKappas& kappa : kappa_sets()) expect_no_pop(*model_, kappa, 20);
+    for (const Kappas& kappa : kappa_sets()) expect_no_pop(*model_, *kappa, 20);
 }
 
 TEST_F(HlodSelection, CubesOutsideTheFrustumAreNotSelected) {
@@ -261,14 +280,14 @@ TEST_F(HlodSelection, CubesOutsideTheFrustumAreNotSelected) {
     const glm::dmat4 clip = camera.projection_matrix(0.001, 10 * h.root_size) * camera.view_matrix();
     const Frustum frustum = Frustum::from_matrix(clip);
     std::vector<uint32_t> cubes;
-    model_->select({camera.position, 2.5, &frustum}, cubes);
+    model_->select({camera.position, model_->uniform_kappas(2.5), &frustum}, cubes);
     EXPECT_TRUE(cubes.empty());
     // Looking at the centre from close by: fewer cubes than without culling, and every one in view.
     camera.look_at(centre + glm::dvec3(0.1, 0.05, 0.3) * h.root_size, centre);
     const Frustum facing = Frustum::from_matrix(camera.projection_matrix(0.001, 10 * h.root_size) * camera.view_matrix());
     std::vector<uint32_t> all;
-    model_->select({camera.position, 2.5}, all);
-    model_->select({camera.position, 2.5, &facing}, cubes);
+    model_->select({camera.position, model_->uniform_kappas(2.5)}, all);
+    model_->select({camera.position, model_->uniform_kappas(2.5), &facing}, cubes);
     EXPECT_FALSE(cubes.empty());
     EXPECT_LT(cubes.size(), all.size());
     for (uint32_t c : cubes) EXPECT_NE(std::find(all.begin(), all.end(), c), all.end());
@@ -289,7 +308,7 @@ TEST_F(HlodSelection, TheNodeSelectsInItsOwnFrameUnderATransform) {
     Camera camera;
     const glm::dvec3 centre = near->bound().center();
     camera.look_at(centre + glm::dvec3(0.18, 0.36, 1.6) * size, centre);
-    const LevelKappas kappa = model_->kappas_for(camera);
+    const Kappas kappa = model_->kappas_for(camera);
     auto [near_plane, far_plane] = camera.clip_planes_for(root->bound());
     RenderList list;
     CullVisitor cull(camera, camera.view_matrix(), camera.projection_matrix(near_plane, far_plane), list);
@@ -312,84 +331,96 @@ TEST_F(HlodSelection, TheNodeSelectsInItsOwnFrameUnderATransform) {
 }
 
 // The promise of --pixel-error P (DESIGN.md §8, nodes/README.md), checked from the geometry, not from
-// the κ formulas: with the κ_l kappas_for() gives a camera, every drawn cube's error bound, seen from
-// the eye at the nearest point the cube can draw anything (its cull box) and magnified as the image's
-// corner magnifies (f/r·(1 + tan²(θx/2) + tan²(θy/2))), spans at most P pixels; and where a vertex
-// morphs toward its parent, the parent level's largest bound does too at that vertex. The full
-// resolution is as exact as it gets, drawn as close as the eye likes: outside the promise. Eyes from
-// just off the surface to far away, so every level gets drawn.
-TEST_F(HlodSelection, PixelErrorBoundsTheProjectedErrorOfEveryDrawnCube) {
-    const HlodHeader& h = model_->header();
+// the κ formulas: with the κ kappas_for() gives a 1920 × 1080 60° camera, every drawn cube's error
+// bound, seen from the eye at the nearest point the cube can draw anything (its cull box) and magnified
+// as the image's corner magnifies (f/r·(1 + tan²(θx/2) + tan²(θy/2))), spans at most P pixels; and where
+// a vertex morphs toward its parent, the parent cube's bound does too at that vertex. The full
+// resolution is as exact as it gets, drawn as close as the eye likes: outside the promise. Returns the
+// triangles drawn over the views, per target; every level must get drawn, and for each target some
+// cube must come within 4× of it (the bound is not met by drawing everything finer than needed).
+std::vector<uint64_t> expect_pixel_error_kept(HlodModel& model, const std::vector<glm::dvec3>& views,
+                                              const std::vector<double>& targets) {
+    const HlodHeader& h = model.header();
     Camera camera;
     camera.width = 1920, camera.height = 1080, camera.fov_y_degrees = 60;
     const double tx = camera.tan_half_fov_x(), ty = std::tan(glm::radians(30.0));
     const double magnification = camera.width / (2 * tx) * (1 + tx * tx + ty * ty);  // pixels per unit at unit distance
-    std::vector<double> level_error(h.max_level + 1, 0.0);
-    for (const HlodCube& c : model_->cubes()) level_error[c.node.level] = std::max(level_error[c.node.level], double(c.node.error));
-    ASSERT_GT(level_error[0], 0.0);
-
-    std::vector<glm::dvec3> views = eyes(40);
-    std::mt19937 rng(7);
-    std::uniform_real_distribution<double> unit(-1, 1), exponent(-1, std::log(80.0));
-    for (int i = 0; i < 60; ++i) {
-        const glm::dvec3 dir = glm::normalize(glm::dvec3{unit(rng), unit(rng), unit(rng)});
-        views.push_back(0.5 * glm::dvec3(h.root_size) + dir * h.root_size * std::exp(exponent(rng)));
-    }
     auto distance_to = [](const glm::dvec3& p, const Box& box) {
         return glm::length(glm::max(glm::dvec3(0.0), glm::max(box.lo - p, p - box.hi)));
     };
-
     std::vector<uint64_t> triangles_per_target;
     std::set<uint32_t> levels_drawn;
-    for (const double pixels : {1.0, 4.0, 16.0}) {
-        model_->set_pixel_error(pixels);
-        const LevelKappas kappa = model_->kappas_for(camera);
+    for (const double pixels : targets) {
+        model.set_pixel_error(pixels);
+        const Kappas kappa = model.kappas_for(camera);
         uint64_t triangles = 0;
         double worst = 0;
         std::vector<uint32_t> cubes;
         std::vector<glm::vec3> morphed;
         for (const glm::dvec3& eye : views) {
-            model_->select({eye, kappa}, cubes);
+            model.select({eye, kappa}, cubes);
             for (uint32_t c : cubes) {
-                const HlodCube& cube = model_->cubes()[c];
+                const HlodCube& cube = model.cubes()[c];
                 const uint32_t level = cube.node.level;
                 levels_drawn.insert(level);
                 triangles += cube.data.triangle_count();
                 if (level < h.max_level) {
-                    const double error = cube.node.error, distance = distance_to(eye, model_->cull_box(cube.node));
+                    const double error = cube.node.error, distance = distance_to(eye, model.cull_box(cube.node));
                     const double projected = distance > error ? error * magnification / (distance - error) : INFINITY;
                     EXPECT_LE(projected, pixels) << describe_cube(cube.node) << " for P " << pixels << " from "
                                                  << eye.x << " " << eye.y << " " << eye.z;
                     worst = std::max(worst, projected);
                 }
                 if (level == 0) continue;
-                model_->morphed_positions(c, glm::vec3(eye), kappa, morphed);
+                model.morphed_positions(c, glm::vec3(eye), *kappa, morphed);
                 double nearest_morphing = INFINITY;
                 for (uint32_t v = 0; v < cube.data.vertex_count(); ++v) {
-                    const glm::vec3 own = model_->vertex_position(cube, v);
+                    const glm::vec3 own = model.vertex_position(cube, v);
                     if (morphed[v] != own) nearest_morphing = std::min(nearest_morphing, glm::length(eye - glm::dvec3(own)));
                 }
-                const double parent_error = level_error[level - 1];
+                const double parent_error = model.cubes()[model.parent(c)].node.error;
                 EXPECT_LE(parent_error * magnification / (nearest_morphing - parent_error), pixels)
                     << describe_cube(cube.node) << " morphing toward its parent, P " << pixels;
             }
         }
-        // The bound is not met by drawing everything finer than needed: some cube comes near it.
         EXPECT_GT(worst, pixels / 4) << "P " << pixels;
         triangles_per_target.push_back(triangles);
     }
     EXPECT_EQ(levels_drawn.size(), h.max_level + 1u);
+    return triangles_per_target;
+}
+
+// Eyes from `centre` in random directions, from 1/e to `far` times `size` away.
+std::vector<glm::dvec3> eyes_around(const glm::dvec3& centre, double size, double far, int count) {
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<double> unit(-1, 1), exponent(-1, std::log(far));
+    std::vector<glm::dvec3> out;
+    for (int i = 0; i < count; ++i) {
+        const glm::dvec3 dir = glm::normalize(glm::dvec3{unit(rng), unit(rng), unit(rng)});
+        out.push_back(centre + dir * size * std::exp(exponent(rng)));
+    }
+    return out;
+}
+
+// Eyes from just off the surface to far away, so every level gets drawn.
+TEST_F(HlodSelection, PixelErrorBoundsTheProjectedErrorOfEveryDrawnCube) {
+    const HlodHeader& h = model_->header();
+    std::vector<glm::dvec3> views = eyes(40);
+    for (const glm::dvec3& eye : eyes_around(0.5 * glm::dvec3(h.root_size), h.root_size, 80, 60)) views.push_back(eye);
+    const auto triangles_per_target = expect_pixel_error_kept(*model_, views, {1.0, 4.0, 16.0});
     // A coarser target draws fewer triangles.
     EXPECT_GT(triangles_per_target[0], triangles_per_target[1]);
     EXPECT_GT(triangles_per_target[1], triangles_per_target[2]);
 
     // However coarse the target, κ stays where the morph works: κ ≥ 1 + 3σ0 + 0.25 (DESIGN.md §3).
+    Camera camera;
     const double morph_minimum = 1.0 + 3.0 * double(h.sigma0) + 0.25;
     model_->set_pixel_error(1e6);
-    for (uint32_t l = 0; l <= h.max_level; ++l) EXPECT_DOUBLE_EQ(model_->kappas_for(camera)[l], morph_minimum);
+    const Kappas coarsest = model_->kappas_for(camera);
+    for (uint32_t c = 0; c < model_->cubes().size(); ++c) EXPECT_DOUBLE_EQ((*coarsest)[c], morph_minimum);
     model_->set_kappa0(0.5);
     EXPECT_DOUBLE_EQ(model_->kappa0(), morph_minimum);
-    EXPECT_DOUBLE_EQ(model_->kappas_for(camera)[h.max_level], morph_minimum);
+    EXPECT_DOUBLE_EQ((*model_->kappas_for(camera))[model_->root()], morph_minimum);
     EXPECT_THROW(model_->set_pixel_error(-1), std::invalid_argument);
     model_->set_kappa0(2.0);
 }
@@ -459,11 +490,47 @@ TEST_F(TerrainSelection, WatertightInsideItsOutlineWithTheMorphAndCrackedWithout
     camera.width = 1920, camera.height = 1080, camera.fov_y_degrees = 60;
     for (double pixels : {0.0, 64.0, 256.0}) {
         if (pixels > 0) model_->set_pixel_error(pixels);
-        const LevelKappas kappa = model_->kappas_for(camera);
+        const Kappas kappa = model_->kappas_for(camera);
         // Loops beyond the outline's one.
-        expect_watertight(*model_, kappa, eyes(60, kappa[1] / 2), 15,
+        expect_watertight(*model_, kappa, eyes(60, largest_kappa(*model_, *kappa, 1) / 2), 15,
                           [](const auto& triangles) { return boundary_loops(triangles) - 1; });
-        expect_no_pop(*model_, kappa, 20);
+        expect_no_pop(*model_, *kappa, 20);
+    }
+    model_->set_kappa0(2.0);
+}
+
+TEST_F(TerrainSelection, PixelErrorBoundsTheProjectedErrorOfEveryDrawnCube) {
+    const double size = model_->header().root_size;
+    std::vector<glm::dvec3> views = eyes(40, 1);
+    for (const glm::dvec3& eye : eyes_around(0.5 * glm::dvec3(size), size, 80, 60)) views.push_back(eye);
+    expect_pixel_error_kept(*model_, views, {1.0, 4.0, 16.0});
+    model_->set_kappa0(2.0);
+}
+
+// The spatially varying bound at work: where a cube's bound (or its parent's) is smaller than its
+// level's largest, its κ is smaller and the selection draws it from closer, so the same pixel target
+// draws fewer triangles than one κ per level (each level's largest) would, the crack and pixel checks
+// above holding all the same.
+TEST_F(TerrainSelection, CubesWithSmallerBoundsAreDrawnFromCloser) {
+    Camera camera;
+    camera.width = 1920, camera.height = 1080, camera.fov_y_degrees = 60;
+    for (const double pixels : {1.0, 16.0}) {
+        model_->set_pixel_error(pixels);
+        const Kappas per_cube = model_->kappas_for(camera);
+        auto per_level = std::make_shared<CubeKappas>(*per_cube);
+        for (uint32_t c = 0; c < model_->cubes().size(); ++c)
+            per_level->kappa[c] = largest_kappa(*model_, *per_cube, model_->cubes()[c].node.level);
+        uint64_t triangles_per_cube = 0, triangles_per_level = 0;
+        std::vector<uint32_t> cubes;
+        for (const glm::dvec3& eye : eyes(60, largest_kappa(*model_, *per_cube, 1) / 2)) {
+            model_->select({eye, per_cube}, cubes);
+            for (uint32_t c : cubes) triangles_per_cube += model_->cubes()[c].data.triangle_count();
+            model_->select({eye, per_level}, cubes);
+            for (uint32_t c : cubes) triangles_per_level += model_->cubes()[c].data.triangle_count();
+        }
+        EXPECT_LT(double(triangles_per_cube), 0.9 * double(triangles_per_level)) << "P " << pixels;
+        std::printf("P %g: %llu triangles with κ per cube, %llu with each level's largest\n", pixels,
+                    (unsigned long long)triangles_per_cube, (unsigned long long)triangles_per_level);
     }
     model_->set_kappa0(2.0);
 }

@@ -207,7 +207,7 @@ TEST_F(PickHlod, TheSearchAlongTheRayFindsWhatTheWholeSelectionGives) {
                 std::vector<glm::vec3> positions;
                 for (const uint32_t c : selection) {
                     const HlodCube& cube = model->cubes()[c];
-                    model->morphed_positions(c, eye, model->kappas_for(camera), positions);
+                    model->morphed_positions(c, eye, *model->kappas_for(camera), positions);
                     if (!morphed)
                         for (uint32_t v = 0; v < positions.size(); ++v) positions[v] = model->vertex_position(cube, v);
                     const auto hit = nearest_triangle(lattice_ray, cube.data.indices, [&](uint32_t v) { return glm::dvec3(positions[v]); });

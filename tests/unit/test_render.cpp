@@ -261,14 +261,14 @@ TEST_F(Render, TheShaderMorphsBitForBitLikeTheCpuTwin) {
     renderer.render(*root, camera, target);
 
     const glm::vec3 eye = model->shader_eye(world_from_node, camera.position);
-    const LevelKappas kappa = model->kappas_for(camera);
+    const Kappas kappa = model->kappas_for(camera);
     std::vector<glm::vec3> cpu;
     size_t cubes = 0, vertices = 0, mid_morph = 0, mismatches = 0;
     std::set<uint32_t> levels;
     for (uint32_t c = 0; c < model->cubes().size(); ++c) {
         const std::vector<glm::vec4>* gpu = model->captured_morph(c);
         if (!gpu) continue;
-        model->morphed_positions(c, eye, kappa, cpu);
+        model->morphed_positions(c, eye, *kappa, cpu);
         ASSERT_EQ(gpu->size(), cpu.size());
         // Only vertices a triangle uses go through the shader.
         const auto& indices = model->cubes()[c].data.indices;
