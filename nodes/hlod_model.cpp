@@ -132,16 +132,20 @@ Kappas HlodModel::uniform_kappas(double kappa) const {
 
 std::vector<double> HlodModel::kappas_for_gain(double gain) const {
     const double sigma0 = header_.sigma0;
-    std::vector<double> kappa(cubes_.size());
+    std::vector<double> kappa(cubes_.size(), min_kappa0());
     for (uint32_t c = 0; c < cubes_.size(); ++c) {
-        // A cube draws within 1.5·σ0·s_l of its cell (the vertices' overhang, then the morph's travel),
-        // so its nearest drawn point is (κ − 1.5σ0)·s_l away; where its vertices morph, farther than
-        // (1 + κ + σ0)·s_l, its parent's bound must hold too.
+        // The full resolution is exempt. A coarser cube c draws within 1.5·σ0·s_l of its cell (the
+        // vertices' overhang, then the morph's travel), so its nearest drawn point is (κ_c − 1.5σ0)·s_l
+        // away: its own bound needs κ_c ≥ 1.5σ0 + g·e_c/s_l. The children of c and of its neighbours
+        // morph toward them within kMorphCubes·s_{l+1} of c's band end, (κ_c − σ0)·s_l, when c holds
+        // their vertices: their parents' bounds need κ_c ≥ σ0 + kMorphCubes/2 + g·e_n/s_l for every
+        // neighbour n, which also covers c's own bound.
         const HlodNode& node = cubes_[c].node;
-        const double s = header_.cube_size(node.level);
-        double need = 1.5 * sigma0 + node.error / s * gain;
-        if (parent_[c] != kNoCube) need = std::max(need, cubes_[parent_[c]].node.error / s * gain - 1 - sigma0);
-        kappa[c] = std::max(need, min_kappa0());
+        if (node.level == header_.max_level) continue;
+        double worst = 0;
+        for (const uint32_t n : neighbours_[c])
+            if (n != kNoCube) worst = std::max(worst, double(cubes_[n].node.error));
+        kappa[c] = std::max(kappa[c], sigma0 + kMorphCubes / 2 + worst / header_.cube_size(node.level) * gain);
     }
     // Nesting (nodes/README.md): a cube's κ is at most 2κ − 1 − 3σ0 − 0.25 of its parent and of its
     // parent's neighbours, which keeps each vertex's morph band a quarter cube wide and neighbouring
@@ -282,7 +286,8 @@ float HlodModel::morph_lambda(uint32_t c, const glm::ivec3& q, float d, const Cu
     if (parent_[c] == kNoCube) return 1.0f;
     const MorphBand band = morph_band(c, q, kappa);
     int exponent = 0;
-    std::frexp(band.end - band.start, &exponent);  // span = m·2^exponent, m in [0.5, 1)
+    // span = m·2^exponent, m in [0.5, 1)
+    std::frexp(std::min(band.end - band.start, morph_span_limit(cubes_[c].node.level)), &exponent);
     return std::clamp((band.end - d) * std::ldexp(1.0f, 1 - exponent), 0.0f, 1.0f);  // as the shader
 }
 

@@ -122,9 +122,14 @@ public:
     };
     MorphBand morph_band(uint32_t cube, const glm::ivec3& q, const CubeKappas& kappa) const;
     // λ at d∞ distance d from the eye: clamp((end − d)·2^−k, 0, 1), 2^k the largest power of two within
-    // the band's span, so that the product is exact on CPU and GPU alike (GLSL's division is not
-    // correctly rounded). 1 at the root, which has no parent.
+    // both the band's span and morph_span_limit, so that the morph happens at the band's far end,
+    // where the parent is nearly suitable itself, and the product is exact on CPU and GPU alike
+    // (GLSL's division is not correctly rounded). 1 at the root, which has no parent.
     float morph_lambda(uint32_t cube, const glm::ivec3& q, float d, const CubeKappas& kappa) const;
+    // The morph's longest run, kMorphCubes·s_l: a vertex of level l morphs over at most that much of
+    // the eye's distance, just before its parent's cube becomes suitable.
+    static constexpr double kMorphCubes = 1.0;
+    float morph_span_limit(uint32_t level) const { return float(kMorphCubes * header_.cube_size(level)); }
     // ⌈σ0·2^15⌉: how far a vertex may lie outside its cell, in steps of its level's lattice.
     int32_t overhang_steps() const;
     // What the shader gets for a view, so that the CPU twin can be fed exactly the same: the eye in

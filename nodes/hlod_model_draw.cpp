@@ -47,6 +47,7 @@ uniform vec3 eye;  // lattice frame
 uniform float lattice_step[16];
 uniform float parent_step[16];
 uniform int overhang;  // HlodModel::overhang_steps
+uniform float morph_span[16];  // HlodModel::morph_span_limit
 uniform bool morph;
 uniform bool has_colors;
 uniform bool color_by_level;
@@ -71,7 +72,7 @@ uint slot(ivec3 cell, ivec3 home) {
     return uint(o.x + 3 * o.y + 9 * o.z);
 }
 
-float morph_lambda(uint cube, uvec3 cell, ivec3 q, float d) {
+float morph_lambda(uint cube, uint level, uvec3 cell, ivec3 q, float d) {
     uint parent = links[cube * 28u + 27u];
     if (parent == no_cube) return 1.0;
     float start = band_ends[cube].x, end = band_ends[parent].y;
@@ -90,7 +91,7 @@ float morph_lambda(uint cube, uvec3 cell, ivec3 q, float d) {
                 if (m != no_cube) end = min(end, band_ends[m].y);
             }
     int exponent;
-    frexp(end - start, exponent);
+    frexp(min(end - start, morph_span[level]), exponent);
     precise float lambda = clamp((end - d) * ldexp(1.0, 1 - exponent), 0.0, 1.0);
     return lambda;
 }
@@ -120,7 +121,7 @@ void main() {
     precise vec3 p = vec3(lattice_steps(parent, cube.yzw >> 1)) * parent_step[level];
     vec3 offset = abs(w - eye);
     float d = max(max(offset.x, offset.y), offset.z);
-    precise float lambda = morph ? morph_lambda(index, cube.yzw, q, d) : 1.0;
+    precise float lambda = morph ? morph_lambda(index, level, cube.yzw, q, d) : 1.0;
     // The ends exactly (Lemma 2), the mix in between without fused multiply-adds, as on the CPU.
     precise vec3 position = lambda >= 1.0 ? w : lambda <= 0.0 ? p : p * (1.0 - lambda) + w * lambda;
     gl_Position = clip_from_lattice * vec4(position, 1.0);
@@ -325,11 +326,13 @@ void set_view_uniforms(const HlodModel& model, const gl::Program& program, HlodG
         gpu.kappas = std::move(kappas);
     }
     const HlodHeader& h = model.header();
-    std::array<float, kMaxLevels> step{}, parent_step{};
+    std::array<float, kMaxLevels> step{}, parent_step{}, span{};
     for (uint32_t l = 0; l <= h.max_level; ++l) {
         step[l] = h.lattice_step(l);
         parent_step[l] = h.lattice_step(l == 0 ? 0 : l - 1);
+        span[l] = model.morph_span_limit(l);
     }
+    glProgramUniform1fv(program.id(), program.uniform_location("morph_span"), kMaxLevels, span.data());
     glProgramUniform1fv(program.id(), program.uniform_location("lattice_step"), kMaxLevels, step.data());
     glProgramUniform1fv(program.id(), program.uniform_location("parent_step"), kMaxLevels, parent_step.data());
     program.set("overhang", int(model.overhang_steps()));
