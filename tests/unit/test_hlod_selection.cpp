@@ -425,6 +425,64 @@ TEST_F(HlodSelection, PixelErrorBoundsTheProjectedErrorOfEveryDrawnCube) {
     model_->set_kappa0(2.0);
 }
 
+// The promise for the node as the renderer culls it, in world units: under a rotation and a uniform
+// scale, for 120° views in a tall and a wide image and a narrow 20° one, every drawn cube's bound
+// (scaled) seen from the world eye at its cull box's nearest point (as far in world units as the scale
+// makes it) spans at most P pixels at the image's corner magnification.
+TEST_F(HlodSelection, PixelErrorHoldsUnderATransformForWideAndTallViews) {
+    auto root = std::make_shared<Group>();
+    auto place = std::make_shared<Transform>();
+    const double scale = 3.7;
+    place->set_matrix(glm::scale(glm::rotate(glm::translate(glm::dmat4(1.0), glm::dvec3(5, -2, 1)), glm::radians(33.0),
+                                             glm::normalize(glm::dvec3(1, 2, 0.5))),
+                                 glm::dvec3(scale)));
+    place->add(model_);
+    root->add(place);
+    const Box bound = root->bound();
+    const double max_level = model_->header().max_level;
+    struct View {
+        double fov;
+        int width, height;
+    };
+    size_t cubes_checked = 0;
+    double worst = 0;
+    for (const View& v : {View{120, 600, 1200}, View{120, 2400, 600}, View{20, 1000, 1000}}) {
+        Camera camera;
+        camera.fov_y_degrees = v.fov, camera.width = v.width, camera.height = v.height;
+        const double tx = camera.tan_half_fov_x(), ty = std::tan(glm::radians(v.fov) / 2);
+        const double magnification = camera.width / (2 * tx) * (1 + tx * tx + ty * ty);
+        for (const double pixels : {1.0, 8.0}) {
+            model_->set_pixel_error(pixels);
+            for (const glm::dvec3& eye : eyes_around(bound.center(), bound.radius(), 60, 30)) {
+                camera.look_at(eye, bound.center());
+                auto [near_plane, far_plane] = camera.clip_planes_for(bound);
+                RenderList list;
+                CullVisitor cull(camera, camera.view_matrix(), camera.projection_matrix(near_plane, far_plane), list);
+                cull.set_frustum_culling(false);
+                root->accept(cull);
+                ASSERT_EQ(list.opaque.size(), 1u);
+                const DrawItem& item = list.opaque.front();
+                const glm::dvec3 local_eye = glm::dvec3(glm::inverse(item.model) * glm::dvec4(eye, 1.0)) - model_->origin();
+                for (uint32_t k = 0; k < item.count; ++k) {
+                    const HlodNode& node = model_->cubes()[list.item_data[item.first + k]].node;
+                    if (node.level == max_level) continue;
+                    const Box box = model_->cull_box(node);
+                    const double error = scale * node.error;
+                    const double distance = scale * glm::length(glm::max(glm::dvec3(0.0), glm::max(box.lo - local_eye, local_eye - box.hi)));
+                    const double projected = distance > error ? error * magnification / (distance - error) : INFINITY;
+                    EXPECT_LE(projected, pixels) << describe_cube(node) << ", " << v.fov << "° " << v.width << "x" << v.height;
+                    worst = std::max(worst, projected / pixels);
+                    ++cubes_checked;
+                }
+            }
+        }
+    }
+    EXPECT_GT(cubes_checked, 100u);
+    EXPECT_GT(worst, 0.25) << "some cube should come near its target";
+    place->remove(model_.get());
+    model_->set_kappa0(2.0);
+}
+
 TEST(HlodLoad, ACorruptFileIsRefusedNamingIt) {
     test::TempDir dir;
     BuildSettings settings;
