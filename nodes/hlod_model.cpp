@@ -84,6 +84,8 @@ std::shared_ptr<HlodModel> HlodModel::load(const std::filesystem::path& path) {
                         path.string() + ": " + describe_cube(cube.node));
     }
     model->finest_first_.assign(order.rbegin(), order.rend());
+    model->resident_.assign(nodes.size(), 1);
+    model->capped_.assign(nodes.size(), 0);
     model->level_error_.assign(model->header_.max_level + 1, 0.0);
     for (const HlodNode& n : nodes) {
         double& worst = model->level_error_[n.level];
@@ -109,6 +111,28 @@ void HlodModel::set_pixel_error(double pixels) {
     pixel_error_ = pixels;
 }
 
+void HlodModel::set_residency(std::vector<uint8_t> resident) {
+    if (resident.size() != cubes_.size()) throw std::invalid_argument("residency: one flag per cube is needed");
+    for (uint32_t c = 0; c < cubes_.size(); ++c)
+        if (resident[c] && parent_[c] != kNoCube && !resident[parent_[c]])
+            throw std::invalid_argument("residency: " + describe_cube(cubes_[c].node) + " is resident without its parent");
+    // Coarse to fine: a stand-in caps itself; a capped cube caps the children of its neighbours (the
+    // cubes of the next level that touch it), so no drawn neighbour is two levels finer.
+    std::vector<uint8_t> capped(cubes_.size(), 0);
+    for (auto it = finest_first_.rbegin(); it != finest_first_.rend(); ++it) {
+        const uint32_t c = *it;
+        for (const uint32_t child : cubes_[c].children)
+            if (child != kNoCube && !resident[child]) capped[c] = resident[c];
+        if (parent_[c] == kNoCube) continue;
+        for (const uint32_t n : neighbours_[parent_[c]])
+            if (n != kNoCube && capped[n]) capped[c] = 1;
+    }
+    const std::lock_guard lock(kappas_mutex_);  // the band ends follow the capped cubes
+    resident_ = std::move(resident);
+    capped_ = std::move(capped);
+    ++residency_version_;
+}
+
 Kappas HlodModel::kappas_for(const Camera& camera) const {
     if (pixel_error_ <= 0 || camera.projection != ProjectionKind::perspective) return uniform_kappas(kappa0_);
     // Pixels per unit of error at unit distance, over P, at the image's corner: the projection's
@@ -118,15 +142,15 @@ Kappas HlodModel::kappas_for(const Camera& camera) const {
     const double focal = camera.width / (2 * tx);
     const double gain = 1 + focal * (1 + tx * tx + ty * ty) / pixel_error_;  // the 1: the error's own extent
     const std::lock_guard lock(kappas_mutex_);
-    if (cached_kappas_ && cached_key_ == gain) return cached_kappas_;
-    cached_key_ = gain;
+    if (cached_kappas_ && cached_key_ == std::pair(gain, residency_version_)) return cached_kappas_;
+    cached_key_ = {gain, residency_version_};
     return cached_kappas_ = make_kappas(kappas_for_gain(gain));
 }
 
 Kappas HlodModel::uniform_kappas(double kappa) const {
     const std::lock_guard lock(kappas_mutex_);
-    if (cached_kappas_ && cached_key_ == -kappa) return cached_kappas_;
-    cached_key_ = -kappa;
+    if (cached_kappas_ && cached_key_ == std::pair(-kappa, residency_version_)) return cached_kappas_;
+    cached_key_ = {-kappa, residency_version_};
     return cached_kappas_ = make_kappas(std::vector<double>(cubes_.size(), kappa));
 }
 
@@ -166,7 +190,7 @@ Kappas HlodModel::make_kappas(std::vector<double> kappa) const {
     const double sigma0 = header_.sigma0;
     for (uint32_t c = 0; c < kappa.size(); ++c) {
         const double s = header_.cube_size(cubes_[c].node.level);
-        out->band_ends[c] = {float((1.0 + kappa[c] + sigma0) * s), float((kappa[c] - sigma0) * s)};
+        out->band_ends[c] = {float((1.0 + kappa[c] + sigma0) * s), capped_[c] ? 0.0f : float((kappa[c] - sigma0) * s)};
     }
     out->kappa = std::move(kappa);
     return out;
@@ -207,7 +231,7 @@ void HlodModel::select(const HlodView& view, std::vector<uint32_t>& out) const {
 void HlodModel::select_from(uint32_t c, const HlodView& view, uint8_t mask, std::vector<uint32_t>& out) const {
     const HlodCube& cube = cubes_[c];
     if (view.frustum && mask && !intersects(*view.frustum, cull_box(cube.node), mask)) return;
-    if (suitable(c, view)) {
+    if (drawn_here(c, view)) {
         out.push_back(c);
         return;
     }

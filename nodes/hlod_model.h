@@ -80,6 +80,16 @@ public:
     double min_kappa0() const { return 1.0 + 3.0 * header_.sigma0 + 0.25; }
     // ε_l: the largest error bound of level l's cubes over their size.
     double level_error(uint32_t level) const { return level_error_[level]; }
+    // Which cubes' data is at hand (DESIGN.md §7, nodes/README.md "Stand-ins"): every cube once loaded
+    // whole. A cube is resident only with its parent. A resident cube with a missing child stands in
+    // for its whole sibling group, and the cubes around a stand-in are capped too, level by level, so
+    // that drawn neighbours still differ by at most one level; a capped cube is drawn wherever the
+    // selection reaches it, and its children's vertices near it stay on their parents (its band end is
+    // 0), so the cut stays watertight. set_residency throws std::invalid_argument on a resident cube
+    // whose parent is not, or a list of the wrong length.
+    void set_residency(std::vector<uint8_t> resident);
+    bool resident(uint32_t cube) const { return resident_[cube] != 0; }
+    bool capped(uint32_t cube) const { return capped_[cube] != 0; }
     // The cube's neighbours of its own level, the 3 × 3 × 3 around it (itself in the middle) at
     // (di + 1) + 3(dj + 1) + 9(dk + 1), kNoCube where there is none; and its parent (kNoCube: the root).
     const std::array<uint32_t, 27>& neighbours(uint32_t cube) const { return neighbours_[cube]; }
@@ -172,6 +182,8 @@ private:
     HlodModel() = default;
     // Whether the selection draws this cube rather than going down to its children.
     bool suitable(uint32_t cube, const HlodView& view) const;
+    // Whether the selection draws this cube when it reaches it: suitable, or capped.
+    bool drawn_here(uint32_t cube, const HlodView& view) const { return capped_[cube] || suitable(cube, view); }
     // κ per cube from a pixel error's gain (pixels per unit of error at unit distance), nested.
     std::vector<double> kappas_for_gain(double gain) const;
     Kappas make_kappas(std::vector<double> kappa) const;
@@ -186,9 +198,12 @@ private:
     std::vector<std::array<uint32_t, 27>> neighbours_;  // per cube
     std::vector<uint32_t> parent_;                      // per cube
     std::vector<uint32_t> finest_first_;                // cube indices, finest level first
-    // The last κ computed, with what it was computed from (a gain, or −κ0 for a uniform κ).
+    std::vector<uint8_t> resident_, capped_;           // per cube
+    uint64_t residency_version_ = 0;                     // counts set_residency calls
+    // The last κ computed, with what it was computed from (a gain, or −κ0 for a uniform κ, and the
+    // residency, whose capped cubes' band ends are 0).
     mutable std::mutex kappas_mutex_;
-    mutable double cached_key_ = 0;
+    mutable std::pair<double, uint64_t> cached_key_{0, 0};
     mutable Kappas cached_kappas_;
     double kappa0_ = 2.0;
     double pixel_error_ = 0;  // > 0: κ0 follows from it per view

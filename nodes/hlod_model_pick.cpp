@@ -56,7 +56,7 @@ std::optional<SurfaceHit> HlodModel::intersect(const Ray& ray, const PickContext
         // A cube's box holds its children's boxes, so nothing still queued or below it starts nearer.
         if (next.entry > lattice_ray.t_max) break;
         const HlodCube& cube = cubes_[next.cube];
-        if (!suitable(next.cube, view)) {
+        if (!drawn_here(next.cube, view)) {
             for (const uint32_t child : cube.children)
                 if (child != kNoCube) enqueue(child);
             continue;

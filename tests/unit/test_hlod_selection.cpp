@@ -330,6 +330,55 @@ TEST_F(HlodSelection, TheNodeSelectsInItsOwnFrameUnderATransform) {
     far->remove(model_.get());
 }
 
+// Streaming's stand-ins (DESIGN.md §7, nodes/README.md): with cubes missing at random (the root's
+// children resident, as the coarse levels stay; each other sibling group resident with probability 0.6
+// when its parent is), every drawn cube is resident, the drawn cut is watertight
+// with the morph and neighbours differ by at most one level, with one κ and per-cube κ; and cubes
+// with a missing child do get drawn where their children would have been.
+TEST_F(HlodSelection, MissingCubesAreStoodInForByTheirParentsWithoutCracks) {
+    const auto& cubes = model_->cubes();
+    std::vector<uint32_t> coarse_first(cubes.size());
+    for (uint32_t c = 0; c < cubes.size(); ++c) coarse_first[c] = c;
+    std::stable_sort(coarse_first.begin(), coarse_first.end(),
+                     [&](uint32_t a, uint32_t b) { return cubes[a].node.level < cubes[b].node.level; });
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<double> share(0, 1);
+    size_t stand_ins_drawn = 0;
+    for (int trial = 0; trial < 4; ++trial) {
+        std::vector<uint8_t> resident(cubes.size(), 0);
+        resident[model_->root()] = 1;
+        for (const uint32_t c : coarse_first) {
+            const bool group = resident[c] && (cubes[c].node.level == 0 || share(rng) < 0.6);
+            for (const uint32_t child : cubes[c].children)
+                if (child != kNoCube) resident[child] = group;
+        }
+        model_->set_residency(resident);
+        for (const Kappas& kappa : kappa_sets()) {
+            const auto views = eyes(40, largest_kappa(*model_, *kappa, 1) / 2);
+            expect_watertight(*model_, kappa, views, 5, [](const auto& triangles) { return odd_edges(triangles); });
+            std::vector<uint32_t> drawn;
+            for (const glm::dvec3& eye : views) {
+                model_->select({eye, kappa}, drawn);
+                for (const uint32_t a : drawn) {
+                    ASSERT_TRUE(model_->resident(a)) << describe_cube(cubes[a].node);
+                    for (const uint32_t child : cubes[a].children) stand_ins_drawn += child != kNoCube && !resident[child];
+                    for (const uint32_t b : drawn) {
+                        const Box ca = model_->cell(cubes[a].node), cb = model_->cell(cubes[b].node);
+                        if (glm::all(glm::lessThanEqual(ca.lo, cb.hi)) && glm::all(glm::lessThanEqual(cb.lo, ca.hi))) {
+                            EXPECT_LE(std::abs(int(cubes[a].node.level) - int(cubes[b].node.level)), 1);
+                        }
+                    }
+                }
+            }
+        }
+    }
+    EXPECT_GT(stand_ins_drawn, 100u);
+    std::vector<uint8_t> partial(cubes.size(), 1);
+    partial[model_->root()] = 0;
+    EXPECT_THROW(model_->set_residency(partial), std::invalid_argument);  // children without their parent
+    model_->set_residency(std::vector<uint8_t>(cubes.size(), 1));
+}
+
 // The promise of --pixel-error P (DESIGN.md §8, nodes/README.md), checked from the geometry, not from
 // the κ formulas: with the κ kappas_for() gives a 1920 × 1080 60° camera, every drawn cube's error
 // bound, seen from the eye at the nearest point the cube can draw anything (its cull box) and magnified
