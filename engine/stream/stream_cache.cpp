@@ -1,0 +1,287 @@
+#include "engine/stream/stream_cache.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <queue>
+#include <stdexcept>
+
+namespace strata {
+
+StreamCache::StreamCache(uint64_t budget_bytes, unsigned loader_threads) : budget_(budget_bytes) {
+    if (budget_bytes == 0) throw std::invalid_argument("the streaming budget must be positive");
+    for (unsigned t = 0; t < std::max(1u, loader_threads); ++t) threads_.emplace_back([this] { loader_loop(); });
+}
+
+StreamCache::~StreamCache() {
+    {
+        const std::lock_guard lock(mutex_);
+        stopping_ = true;
+        jobs_.clear();
+    }
+    work_ready_.notify_all();
+    for (std::thread& t : threads_) t.join();
+}
+
+StreamCache::SourceId StreamCache::add(std::shared_ptr<StreamSource> source) {
+    Source entry;
+    entry.items.resize(source->item_count());
+    entry.source = std::move(source);
+    sources_.push_back(std::move(entry));
+    return SourceId(sources_.size() - 1);
+}
+
+void StreamCache::remove(SourceId id) {
+    Source& s = sources_.at(id);
+    {
+        const std::lock_guard lock(mutex_);
+        in_flight_ -= std::erase_if(jobs_, [&](const Job& job) { return job.source == id; });
+    }
+    for (const Item& it : s.items) {
+        if (it.state == State::resident) resident_bytes_ -= it.bytes, --resident_items_;
+        if (it.state == State::loading) reserved_bytes_ -= it.bytes;  // a running load is discarded when done
+    }
+    s.removed = true;
+    s.items.clear();
+    std::erase_if(pinned_, [&](const auto& p) { return p.first == id; });
+}
+
+StreamCache::Item& StreamCache::item(SourceId source, uint32_t index) { return sources_.at(source).items.at(index); }
+const StreamCache::Item& StreamCache::item(SourceId source, uint32_t index) const { return sources_.at(source).items.at(index); }
+
+void StreamCache::request(SourceId source, uint32_t index, double priority) {
+    const StreamSource& s = *sources_.at(source).source;
+    for (uint32_t i = index; i != StreamSource::kNoItem; i = s.parent(i)) {
+        Item& it = item(source, i);
+        it.last_used = frame_;  // what the frame asks for, and the ancestors it needs, stay
+        if (it.state != State::resident) requests_.push_back({source, i, priority});
+    }
+}
+
+void StreamCache::touch(SourceId source, uint32_t index) { item(source, index).last_used = frame_; }
+
+void StreamCache::pin(SourceId source, uint32_t index) {
+    Item& it = item(source, index);
+    if (it.pinned) return;
+    it.pinned = true;
+    pinned_.push_back({source, index});
+}
+
+void StreamCache::loader_loop() {
+    for (;;) {
+        Job job;
+        {
+            std::unique_lock lock(mutex_);
+            work_ready_.wait(lock, [&] { return stopping_ || !jobs_.empty(); });
+            if (stopping_) return;
+            job = std::move(jobs_.front());
+            jobs_.pop_front();
+        }
+        Done done{job.source, job.item, {}, {}};
+        try {
+            done.loaded = job.loader->load(job.item, job.parent);
+            if (!done.loaded.value) done.failure = "a load gave nothing";
+        } catch (const std::exception& e) {
+            done.failure = e.what();
+            if (done.failure.empty()) done.failure = "a load failed";
+        }
+        {
+            const std::lock_guard lock(mutex_);
+            done_.push_back(std::move(done));
+        }
+        work_done_.notify_all();
+    }
+}
+
+void StreamCache::take_in_finished() {
+    std::vector<Done> finished;
+    {
+        const std::lock_guard lock(mutex_);
+        finished.swap(done_);
+    }
+    for (Done& d : finished) {
+        --in_flight_;
+        Source& s = sources_[d.source];
+        if (s.removed) continue;  // its reservation went with the source
+        Item& it = s.items[d.item];
+        reserved_bytes_ -= it.bytes;
+        const uint32_t parent = s.source->parent(d.item);
+        if (d.failure.empty() && d.loaded.bytes > it.bytes)
+            d.failure = "a load took " + std::to_string(d.loaded.bytes) + " bytes, more than its bound of " + std::to_string(it.bytes);
+        if (!d.failure.empty()) {
+            it.state = State::failed;
+            it.failure = std::move(d.failure);
+            if (parent != StreamSource::kNoItem) --s.items[parent].children_held;
+            ++failed_;
+            continue;
+        }
+        it.state = State::resident;
+        it.value = std::move(d.loaded.value);
+        it.bytes = d.loaded.bytes;
+        resident_bytes_ += it.bytes;
+        ++resident_items_;
+        ++loaded_;
+        ++s.version;
+    }
+}
+
+void StreamCache::evict(SourceId source, uint32_t index) {
+    Source& s = sources_[source];
+    Item& it = s.items[index];
+    it.state = State::absent;
+    it.value.reset();
+    resident_bytes_ -= it.bytes;
+    --resident_items_;
+    ++evicted_;
+    ++s.version;
+    if (const uint32_t parent = s.source->parent(index); parent != StreamSource::kNoItem) --s.items[parent].children_held;
+}
+
+bool StreamCache::make_room(uint64_t bytes) {
+    if (used() + bytes <= budget_) return true;
+    // Least recently used first, among resident items nothing holds: not pinned, no child resident
+    // or loading, not used by this frame. Evicting a child may free its parent, which then joins.
+    struct Candidate {
+        uint64_t last_used;
+        SourceId source;
+        uint32_t item;
+        bool operator>(const Candidate& o) const { return last_used > o.last_used; }
+    };
+    std::priority_queue<Candidate, std::vector<Candidate>, std::greater<>> candidates;
+    auto consider = [&](SourceId source, uint32_t index) {
+        const Item& it = sources_[source].items[index];
+        if (it.state == State::resident && !it.pinned && it.children_held == 0 && it.last_used < frame_)
+            candidates.push({it.last_used, source, index});
+    };
+    for (SourceId s = 0; s < sources_.size(); ++s)
+        for (uint32_t i = 0; i < sources_[s].items.size(); ++i) consider(s, i);
+    while (used() + bytes > budget_ && !candidates.empty()) {
+        const Candidate c = candidates.top();
+        candidates.pop();
+        evict(c.source, c.item);
+        if (const uint32_t parent = sources_[c.source].source->parent(c.item); parent != StreamSource::kNoItem)
+            consider(c.source, parent);
+    }
+    return used() + bytes <= budget_;
+}
+
+void StreamCache::start_loads() {
+    for (const auto& [source, index] : pinned_) request(source, index, INFINITY);
+    std::stable_sort(requests_.begin(), requests_.end(), [](const Request& a, const Request& b) { return a.priority > b.priority; });
+    shortfall_ = waiting_ = 0;
+    std::vector<Job> jobs;
+    for (const Request& r : requests_) {
+        Source& s = sources_[r.source];
+        if (s.removed) continue;
+        Item& it = s.items[r.item];
+        if (it.state != State::absent) continue;  // loading, resident, failed, or asked twice
+        const uint32_t parent = s.source->parent(r.item);
+        if (parent != StreamSource::kNoItem && s.items[parent].state != State::resident) {
+            ++waiting_;  // next time, after its parent
+            continue;
+        }
+        const uint64_t bound = s.source->item_bytes(r.item);
+        if (!make_room(bound)) {
+            shortfall_ += bound;
+            ++waiting_;
+            continue;
+        }
+        it.state = State::loading;
+        it.bytes = bound;
+        reserved_bytes_ += bound;
+        peak_bytes_ = std::max(peak_bytes_, used());
+        ++in_flight_;
+        if (parent != StreamSource::kNoItem) ++s.items[parent].children_held;
+        jobs.push_back({r.source, r.item, s.source, parent == StreamSource::kNoItem ? nullptr : s.items[parent].value});
+    }
+    if (jobs.empty()) return;
+    {
+        const std::lock_guard lock(mutex_);
+        for (Job& job : jobs) jobs_.push_back(std::move(job));
+    }
+    work_ready_.notify_all();
+}
+
+void StreamCache::update() {
+    take_in_finished();
+    make_room(0);  // a lowered budget
+    start_loads();
+    requests_.clear();
+    ++frame_;
+}
+
+void StreamCache::wait_for_requests(double timeout_seconds) {
+    using Clock = std::chrono::steady_clock;
+    const auto start = Clock::now();
+    const std::vector<Request> wanted = requests_;
+    for (;;) {
+        requests_ = wanted;
+        take_in_finished();
+        make_room(0);
+        start_loads();
+        uint64_t missing = 0;
+        for (const Request& r : wanted) {
+            const Source& s = sources_[r.source];
+            if (s.removed) continue;
+            const Item& it = s.items[r.item];
+            if (it.state == State::failed) throw std::runtime_error(it.failure);
+            missing += it.state != State::resident;
+        }
+        if (missing == 0) break;
+        if (in_flight_ == 0)  // nothing will come: what is wanted does not fit beside what it needs
+            throw std::runtime_error("the view needs " + std::to_string(missing) + " more items than the streaming budget of " +
+                                     std::to_string(budget_) + " bytes holds (" + std::to_string(shortfall_) +
+                                     " bytes short)");
+        std::unique_lock lock(mutex_);
+        const auto ready = [&] { return !done_.empty(); };
+        if (timeout_seconds > 0) {
+            const auto deadline = start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(timeout_seconds));
+            if (!work_done_.wait_until(lock, deadline, ready))
+                throw std::runtime_error("the view's items were not all loaded after " + std::to_string(timeout_seconds) +
+                                         " s (" + std::to_string(missing) + " missing)");
+        } else {
+            work_done_.wait(lock, ready);
+        }
+    }
+    requests_.clear();
+    ++frame_;
+}
+
+bool StreamCache::resident(SourceId source, uint32_t index) const { return item(source, index).state == State::resident; }
+
+std::shared_ptr<const void> StreamCache::value(SourceId source, uint32_t index) const { return item(source, index).value; }
+
+std::optional<std::string> StreamCache::failure(SourceId source, uint32_t index) const {
+    const Item& it = item(source, index);
+    if (it.state != State::failed) return std::nullopt;
+    return it.failure;
+}
+
+void StreamCache::forget_failure(SourceId source, uint32_t index) {
+    Item& it = item(source, index);
+    if (it.state != State::failed) return;
+    it.state = State::absent;
+    it.failure.clear();
+}
+
+uint64_t StreamCache::version(SourceId source) const { return sources_.at(source).version; }
+
+StreamCache::Stats StreamCache::stats() const {
+    Stats s;
+    s.budget = budget_;
+    s.resident_bytes = resident_bytes_;
+    s.reserved_bytes = reserved_bytes_;
+    s.peak_bytes = peak_bytes_;
+    s.resident_items = resident_items_;
+    s.waiting = waiting_;
+    s.in_flight = in_flight_;
+    s.loaded = loaded_, s.evicted = evicted_, s.failed = failed_, s.shortfall = shortfall_;
+    return s;
+}
+
+void StreamCache::set_budget(uint64_t budget_bytes) {
+    if (budget_bytes == 0) throw std::invalid_argument("the streaming budget must be positive");
+    budget_ = budget_bytes;
+}
+
+}  // namespace strata

@@ -1,0 +1,165 @@
+// The residency cache (DESIGN.md §7): one budget for a whole scene, loader threads, and what is
+// resident of each streamed source. It knows no file format: a source (an HLOD model) names its items
+// (cubes) by index, gives each a parent and a byte bound known before loading, and loads them.
+//
+// The rules it keeps:
+// - An item is resident only with its parent (and so with all its ancestors): a load starts only once
+//   the parent is resident, and only items without resident children are evicted.
+// - The budget is a hard cap: the bytes of resident items plus those reserved for loads in flight
+//   never exceed it. A load reserves its item's bound when it starts; the item's actual bytes, which
+//   may be fewer, count once it is resident. resident_bytes() is exact.
+// - Residency changes only in update(), on the caller's (the render) thread: between two updates
+//   what a frame sees stays put. Loads run on the loader threads.
+// - Priority: each frame's requests start highest first; to make room, update() evicts the least
+//   recently used items that this frame neither touched nor requested.
+#pragma once
+
+#include <condition_variable>
+#include <cstdint>
+#include <deque>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <unordered_map>
+#include <vector>
+
+namespace strata {
+
+class StreamSource {
+public:
+    static constexpr uint32_t kNoItem = ~0u;
+    struct Loaded {
+        std::shared_ptr<const void> value;
+        uint64_t bytes = 0;  // what the value holds; at most item_bytes()
+    };
+    virtual ~StreamSource() = default;
+    virtual uint32_t item_count() const = 0;
+    virtual uint32_t parent(uint32_t item) const = 0;  // kNoItem for a root
+    // An upper bound on what the item takes once loaded, known before loading.
+    virtual uint64_t item_bytes(uint32_t item) const = 0;
+    // Runs on a loader thread, given the parent's value (null for a root). Throws std::exception on
+    // failure, with a message that names the source and the item.
+    virtual Loaded load(uint32_t item, const std::shared_ptr<const void>& parent) = 0;
+};
+
+class StreamCache {
+public:
+    using SourceId = uint32_t;
+    struct Stats {
+        uint64_t budget = 0;
+        uint64_t resident_bytes = 0;  // exact: the loaded values' own counts
+        uint64_t reserved_bytes = 0;  // bounds of loads in flight
+        uint64_t peak_bytes = 0;      // of resident + reserved, since the cache was made
+        uint64_t resident_items = 0;
+        uint64_t waiting = 0;         // items the last update left unloaded: parent missing, or no room
+        uint64_t in_flight = 0;
+        uint64_t loaded = 0, evicted = 0, failed = 0;  // since the cache was made
+        uint64_t shortfall = 0;       // bytes the last update could not find room for (0: all fitted)
+    };
+
+    // `loader_threads` ≥ 1. Throws std::invalid_argument on a zero budget.
+    StreamCache(uint64_t budget_bytes, unsigned loader_threads);
+    ~StreamCache();  // cancels queued loads and waits for those running
+    StreamCache(const StreamCache&) = delete;
+    StreamCache& operator=(const StreamCache&) = delete;
+
+    SourceId add(std::shared_ptr<StreamSource> source);
+    // Drops the source's items; its queued loads are cancelled, and those running are discarded when done.
+    void remove(SourceId source);
+
+    // Asks for an item for this frame, with a priority (higher first). Its missing ancestors are
+    // asked for first, with the same priority. A request lasts until the next update().
+    void request(SourceId source, uint32_t item, double priority);
+    // Marks a resident item as used by this frame: not evicted by the next update().
+    void touch(SourceId source, uint32_t item);
+    // Never evicted (a model's coarse levels): pinned items are loaded first and count in the budget.
+    void pin(SourceId source, uint32_t item);
+
+    // Takes in finished loads, evicts to make room, starts the most wanted requests the budget allows,
+    // then ends the frame: requests and touches are cleared.
+    void update();
+    // update() until every item requested this frame is resident; throws std::runtime_error naming
+    // the item when a load fails, naming the shortfall when the budget cannot hold them together, and
+    // after `timeout_seconds` (≤ 0: no limit). Waits on the loads, not on a clock.
+    void wait_for_requests(double timeout_seconds = 0);
+
+    bool resident(SourceId source, uint32_t item) const;
+    // The item's value, or null when it is not resident. Stays valid for the caller as long as it
+    // holds the pointer, though it no longer counts once evicted.
+    std::shared_ptr<const void> value(SourceId source, uint32_t item) const;
+    // The failure of the item's last load, if it failed; a failed item is not loaded again until
+    // forget_failure().
+    std::optional<std::string> failure(SourceId source, uint32_t item) const;
+    void forget_failure(SourceId source, uint32_t item);
+    // Counts each update() that changed what is resident of the source (a load came in, an item left).
+    uint64_t version(SourceId source) const;
+
+    Stats stats() const;
+    uint64_t budget() const { return budget_; }
+    // A new budget; what no longer fits is evicted by the next update() as room is needed.
+    void set_budget(uint64_t budget_bytes);
+
+private:
+    enum class State : uint8_t { absent, loading, resident, failed };
+    struct Item {
+        State state = State::absent;
+        bool pinned = false;
+        uint32_t children_held = 0;  // children resident or loading: the item may not leave
+        uint64_t bytes = 0;  // actual once resident; the bound while loading
+        uint64_t last_used = 0;
+        std::shared_ptr<const void> value;
+        std::string failure;
+    };
+    struct Source {
+        std::shared_ptr<StreamSource> source;
+        std::vector<Item> items;
+        uint64_t version = 0;
+        bool removed = false;
+    };
+    struct Job {
+        SourceId source;
+        uint32_t item;
+        std::shared_ptr<StreamSource> loader;
+        std::shared_ptr<const void> parent;
+    };
+    struct Done {
+        SourceId source;
+        uint32_t item;
+        StreamSource::Loaded loaded;
+        std::string failure;
+    };
+    struct Request {
+        SourceId source;
+        uint32_t item;
+        double priority;
+    };
+
+    void loader_loop();
+    void take_in_finished();
+    bool make_room(uint64_t bytes);
+    void start_loads();
+    void evict(SourceId source, uint32_t item);
+    Item& item(SourceId source, uint32_t item);
+    const Item& item(SourceId source, uint32_t item) const;
+    uint64_t used() const { return resident_bytes_ + reserved_bytes_; }
+
+    uint64_t budget_;
+    std::vector<Source> sources_;  // by SourceId; removed ones stay as empty slots
+    std::vector<Request> requests_;
+    std::vector<std::pair<SourceId, uint32_t>> pinned_;
+    uint64_t frame_ = 1;
+    uint64_t resident_bytes_ = 0, reserved_bytes_ = 0, peak_bytes_ = 0, resident_items_ = 0;
+    uint64_t loaded_ = 0, evicted_ = 0, failed_ = 0, shortfall_ = 0, in_flight_ = 0, waiting_ = 0;
+
+    // Shared with the loader threads.
+    mutable std::mutex mutex_;
+    std::condition_variable work_ready_, work_done_;
+    std::deque<Job> jobs_;
+    std::vector<Done> done_;
+    bool stopping_ = false;
+    std::vector<std::thread> threads_;
+};
+
+}  // namespace strata

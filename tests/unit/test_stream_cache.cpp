@@ -1,0 +1,288 @@
+// The residency cache (engine/stream/stream_cache.h) with a source of its own: an octree of items of
+// known sizes loaded on the cache's real threads, a gate that holds loads in flight, and items that
+// fail. Tests wait for the cache's state (wait_for_requests, the gate's count), never for a time.
+#include <gtest/gtest.h>
+
+#include <condition_variable>
+#include <mutex>
+#include <random>
+#include <set>
+
+#include "engine/stream/stream_cache.h"
+
+namespace strata {
+namespace {
+
+// An octree `depth` levels deep, items numbered breadth first; item i's value is its index, and its
+// bytes are 1000 + 10·(i mod 7) (the bound says 1100).
+class TreeSource : public StreamSource {
+public:
+    explicit TreeSource(int depth) {
+        uint32_t count = 0, level_size = 1;
+        for (int l = 0; l < depth; ++l, level_size *= 8) {
+            for (uint32_t i = 0; i < level_size; ++i) parents_.push_back(l == 0 ? kNoItem : first_of_level_.back() + i / 8);
+            first_of_level_.push_back(count);
+            count += level_size;
+        }
+    }
+    uint32_t item_count() const override { return uint32_t(parents_.size()); }
+    uint32_t parent(uint32_t item) const override { return parents_[item]; }
+    uint64_t item_bytes(uint32_t) const override { return 1100; }
+    static uint64_t actual_bytes(uint32_t item) { return 1000 + 10 * (item % 7); }
+    uint32_t first_of_level(int level) const { return first_of_level_[size_t(level)]; }
+
+    Loaded load(uint32_t item, const std::shared_ptr<const void>& parent) override {
+        {
+            std::unique_lock lock(mutex_);
+            ++started_;
+            changed_.notify_all();
+            changed_.wait(lock, [&] { return open_; });
+            // Parents come first: the cache hands each load its parent's value.
+            if ((parents_[item] == kNoItem) != (parent == nullptr) ||
+                (parent && *static_cast<const uint32_t*>(parent.get()) != parents_[item]))
+                wrong_parent_ = true;
+            order_.push_back(item);
+        }
+        if (failing_.count(item)) throw std::runtime_error("tree: item " + std::to_string(item) + " is unreadable");
+        return {std::make_shared<const uint32_t>(item), over_bound_.count(item) ? 2000 : actual_bytes(item)};
+    }
+
+    // The gate: closed, loads wait inside load() once started.
+    void set_open(bool open) {
+        {
+            const std::lock_guard lock(mutex_);
+            open_ = open;
+        }
+        changed_.notify_all();
+    }
+    void wait_until_started(size_t count) {
+        std::unique_lock lock(mutex_);
+        changed_.wait(lock, [&] { return started_ >= count; });
+    }
+    std::vector<uint32_t> order() const {
+        const std::lock_guard lock(mutex_);
+        return order_;
+    }
+    bool wrong_parent() const { return wrong_parent_; }
+    std::set<uint32_t> failing_, over_bound_;
+
+private:
+    std::vector<uint32_t> parents_, first_of_level_;
+    mutable std::mutex mutex_;
+    std::condition_variable changed_;
+    bool open_ = true, wrong_parent_ = false;
+    size_t started_ = 0;
+    std::vector<uint32_t> order_;
+};
+
+// Every resident item's ancestors are resident, and the resident bytes are exactly the loaded items'.
+void expect_consistent(const StreamCache& cache, StreamCache::SourceId id, const TreeSource& tree) {
+    uint64_t bytes = 0;
+    for (uint32_t i = 0; i < tree.item_count(); ++i) {
+        if (!cache.resident(id, i)) continue;
+        bytes += TreeSource::actual_bytes(i);
+        if (tree.parent(i) != StreamSource::kNoItem) {
+            EXPECT_TRUE(cache.resident(id, tree.parent(i))) << "item " << i;
+        }
+    }
+    const StreamCache::Stats s = cache.stats();
+    EXPECT_EQ(s.resident_bytes, bytes);
+    EXPECT_LE(s.resident_bytes + s.reserved_bytes, s.budget);
+    EXPECT_LE(s.peak_bytes, s.budget);
+}
+
+TEST(StreamCache, AnItemLoadsAfterItsAncestorsEachGivenItsParent) {
+    auto tree = std::make_shared<TreeSource>(4);
+    StreamCache cache(1 << 20, 3);
+    const auto id = cache.add(tree);
+    const uint32_t leaf = tree->first_of_level(3) + 77;
+    cache.request(id, leaf, 1.0);
+    cache.wait_for_requests();
+    for (uint32_t i = leaf; i != StreamSource::kNoItem; i = tree->parent(i)) EXPECT_TRUE(cache.resident(id, i)) << i;
+    EXPECT_EQ(*static_cast<const uint32_t*>(cache.value(id, leaf).get()), leaf);
+    EXPECT_EQ(tree->order().size(), 4u);  // the leaf and its three ancestors, nothing else
+    EXPECT_FALSE(tree->wrong_parent());
+    EXPECT_EQ(cache.stats().loaded, 4u);
+    expect_consistent(cache, id, *tree);
+}
+
+TEST(StreamCache, TheBudgetIsAHardCapOverManyFramesOfRandomViews) {
+    auto tree = std::make_shared<TreeSource>(4);  // 585 items, about 600 kB
+    const uint64_t budget = 60 * 1100;            // a tenth of them
+    StreamCache cache(budget, 2);
+    const auto id = cache.add(tree);
+    std::mt19937 rng(3);
+    for (int frame = 0; frame < 300; ++frame) {
+        // A "view": a few leaves near one another, the ones drawn last frame touched.
+        const uint32_t around = tree->first_of_level(3) + rng() % 512;
+        for (uint32_t k = 0; k < 6; ++k) {
+            const uint32_t item = tree->first_of_level(3) + (around + k * 3) % 512;
+            if (cache.resident(id, item)) cache.touch(id, item);
+            else cache.request(id, item, double(rng() % 100));
+        }
+        cache.update();
+        expect_consistent(cache, id, *tree);
+        if (frame % 50 == 49) {  // a capture: everything of one view, waited for
+            for (uint32_t k = 0; k < 6; ++k) cache.request(id, tree->first_of_level(3) + (around + k * 3) % 512, 1.0);
+            cache.wait_for_requests();
+            expect_consistent(cache, id, *tree);
+        }
+    }
+    const StreamCache::Stats s = cache.stats();
+    EXPECT_GT(s.evicted, 100u) << "the views needed more than the budget over time";
+    EXPECT_GT(s.peak_bytes, budget * 9 / 10) << "the cache used its room";
+    EXPECT_FALSE(tree->wrong_parent());
+}
+
+TEST(StreamCache, TheLeastRecentlyUsedLeavesGoFirstAndNothingThisFrameUses) {
+    auto tree = std::make_shared<TreeSource>(3);
+    StreamCache cache(6 * 1100, 1);  // the root, one level-1 item and four of its children
+    const auto id = cache.add(tree);
+    const uint32_t mid = tree->first_of_level(1), child = tree->first_of_level(2);
+    for (uint32_t k = 0; k < 4; ++k) {  // children 0..3, one per frame: 0 is the oldest
+        cache.request(id, child + k, 1.0);
+        cache.wait_for_requests();
+    }
+    cache.touch(id, child + 0);  // used again this frame: stays
+    cache.request(id, child + 4, 1.0);
+    cache.wait_for_requests();
+    EXPECT_TRUE(cache.resident(id, child + 0));
+    EXPECT_FALSE(cache.resident(id, child + 1)) << "the least recently used leaf goes";
+    EXPECT_TRUE(cache.resident(id, child + 2));
+    EXPECT_TRUE(cache.resident(id, child + 4));
+    EXPECT_TRUE(cache.resident(id, mid)) << "a parent with resident children never goes";
+    EXPECT_EQ(cache.stats().evicted, 1u);
+    expect_consistent(cache, id, *tree);
+}
+
+TEST(StreamCache, HigherPriorityLoadsFirstWhenOnlyOneFits) {
+    auto tree = std::make_shared<TreeSource>(2);
+    StreamCache cache(2 * 1100, 1);  // the root and one child
+    const auto id = cache.add(tree);
+    cache.request(id, 0, 1.0);
+    cache.wait_for_requests();
+    cache.request(id, 3, 1.0);
+    cache.request(id, 5, 9.0);
+    cache.touch(id, 0);
+    cache.update();
+    EXPECT_EQ(cache.stats().shortfall, 1100u) << "the second did not fit";
+    cache.request(id, 5, 9.0);
+    cache.wait_for_requests();
+    EXPECT_TRUE(cache.resident(id, 5));
+    EXPECT_FALSE(cache.resident(id, 3));
+}
+
+TEST(StreamCache, LoadsInFlightCountAgainstTheBudget) {
+    auto tree = std::make_shared<TreeSource>(2);
+    StreamCache cache(4 * 1100, 2);
+    const auto id = cache.add(tree);
+    cache.request(id, 0, 1.0);
+    cache.wait_for_requests();
+    tree->set_open(false);
+    for (uint32_t c = 1; c <= 8; ++c) cache.request(id, c, 1.0);
+    cache.update();
+    const StreamCache::Stats s = cache.stats();
+    EXPECT_EQ(s.in_flight, 3u) << "three children's bounds fit beside the root";
+    EXPECT_EQ(s.reserved_bytes, 3 * 1100u);
+    EXPECT_EQ(s.shortfall, 5 * 1100u);
+    tree->wait_until_started(3);  // the root and two loader threads' worth, the third queued
+    tree->set_open(true);
+    for (uint32_t c = 1; c <= 3; ++c) cache.request(id, c, 1.0);
+    cache.wait_for_requests();
+    EXPECT_EQ(cache.stats().reserved_bytes, 0u);
+    expect_consistent(cache, id, *tree);
+}
+
+TEST(StreamCache, AFailedLoadIsReportedNamingItAndNotRetriedUntilForgotten) {
+    auto tree = std::make_shared<TreeSource>(3);
+    tree->failing_ = {tree->first_of_level(1) + 2};
+    StreamCache cache(1 << 20, 2);
+    const auto id = cache.add(tree);
+    const uint32_t below = tree->first_of_level(2) + 2 * 8 + 5;  // a child of the failing item
+    cache.request(id, below, 1.0);
+    try {
+        cache.wait_for_requests();
+        FAIL() << "a failing load was waited for";
+    } catch (const std::runtime_error& e) {
+        EXPECT_NE(std::string(e.what()).find("item 3 is unreadable"), std::string::npos) << e.what();
+    }
+    EXPECT_TRUE(cache.failure(id, 3).has_value());
+    EXPECT_FALSE(cache.resident(id, below));
+    const uint64_t loads = tree->order().size();
+    cache.request(id, 3, 1.0);
+    cache.update();
+    EXPECT_EQ(cache.stats().in_flight, 0u) << "not retried";
+    tree->failing_.clear();
+    cache.forget_failure(id, 3);
+    cache.request(id, below, 1.0);
+    cache.wait_for_requests();
+    EXPECT_TRUE(cache.resident(id, below));
+    EXPECT_EQ(tree->order().size(), loads + 2);
+    EXPECT_EQ(cache.stats().failed, 1u);
+}
+
+TEST(StreamCache, WaitingNamesTheShortfallWhenAViewDoesNotFit) {
+    auto tree = std::make_shared<TreeSource>(2);
+    StreamCache cache(4 * 1100, 2);
+    const auto id = cache.add(tree);
+    for (uint32_t c = 1; c <= 8; ++c) cache.request(id, c, 1.0);
+    try {
+        cache.wait_for_requests();
+        FAIL() << "nine items fitted in the room of four";
+    } catch (const std::runtime_error& e) {
+        EXPECT_NE(std::string(e.what()).find("budget"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find("short"), std::string::npos) << e.what();
+    }
+    expect_consistent(cache, id, *tree);
+}
+
+TEST(StreamCache, AValueLargerThanItsBoundIsAFailureAndNotCounted) {
+    auto tree = std::make_shared<TreeSource>(2);
+    tree->over_bound_ = {4};
+    StreamCache cache(1 << 20, 1);
+    const auto id = cache.add(tree);
+    cache.request(id, 4, 1.0);
+    EXPECT_THROW(cache.wait_for_requests(), std::runtime_error);
+    EXPECT_NE(cache.failure(id, 4)->find("more than its bound"), std::string::npos);
+    EXPECT_EQ(cache.stats().resident_bytes, TreeSource::actual_bytes(0));
+}
+
+TEST(StreamCache, RemovingASourceDropsItsItemsAndDiscardsItsRunningLoads) {
+    auto tree = std::make_shared<TreeSource>(2), other = std::make_shared<TreeSource>(2);
+    StreamCache cache(1 << 20, 1);
+    const auto id = cache.add(tree), kept = cache.add(other);
+    cache.request(id, 0, 1.0);
+    cache.request(kept, 0, 1.0);
+    cache.wait_for_requests();
+    tree->set_open(false);
+    for (uint32_t c = 1; c <= 4; ++c) cache.request(id, c, 1.0);
+    cache.update();
+    tree->wait_until_started(2);  // the root, then one child held in load(); three queued
+    cache.remove(id);
+    tree->set_open(true);
+    cache.request(kept, 1, 1.0);
+    cache.wait_for_requests();
+    const StreamCache::Stats s = cache.stats();
+    EXPECT_EQ(s.resident_bytes, TreeSource::actual_bytes(0) + TreeSource::actual_bytes(1));
+    EXPECT_EQ(s.reserved_bytes, 0u);
+    EXPECT_EQ(s.in_flight, 0u);
+}
+
+TEST(StreamCache, PinnedItemsLoadFirstAndStay) {
+    auto tree = std::make_shared<TreeSource>(3);
+    StreamCache cache(4 * 1100, 1);
+    const auto id = cache.add(tree);
+    cache.pin(id, 0);
+    cache.pin(id, 1);
+    for (int frame = 0; frame < 8; ++frame) {  // each frame a new leaf under item 2, none touched again
+        cache.request(id, tree->first_of_level(2) + 8 + uint32_t(frame), 1.0);
+        cache.wait_for_requests();
+        EXPECT_TRUE(cache.resident(id, 0));
+        EXPECT_TRUE(cache.resident(id, 1));
+    }
+    EXPECT_GT(cache.stats().evicted, 4u);
+    EXPECT_THROW(StreamCache(0, 1), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace strata
