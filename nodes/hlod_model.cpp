@@ -78,10 +78,11 @@ std::shared_ptr<HlodModel> HlodModel::load(const std::filesystem::path& path) {
     std::stable_sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) { return nodes[a].level < nodes[b].level; });
     for (uint32_t c : order) {
         HlodCube& cube = model->cubes_[c];
-        cube.data = file.read_cube(cube.node);
+        auto data = std::make_shared<CubeData>(file.read_cube(cube.node));
         const uint32_t parent = model->parent_[c];
-        resolve_parents(cube.data, parent == kNoCube ? cube.data.vertices : model->cubes_[parent].data.vertices,
+        resolve_parents(*data, parent == kNoCube ? data->vertices : model->cubes_[parent].data->vertices,
                         path.string() + ": " + describe_cube(cube.node));
+        cube.data = std::move(data);
     }
     model->finest_first_.assign(order.rbegin(), order.rend());
     model->resident_.assign(nodes.size(), 1);
@@ -92,7 +93,7 @@ std::shared_ptr<HlodModel> HlodModel::load(const std::filesystem::path& path) {
         worst = std::max(worst, double(n.error) / model->header_.cube_size(n.level));
     }
     for (HlodCube& cube : model->cubes_) {
-        for (uint32_t v = 0; v < cube.data.vertex_count(); ++v) {
+        for (uint32_t v = 0; v < cube.data->vertex_count(); ++v) {
             const glm::vec3 p = model->vertex_position(cube, v);
             model->bound_.expand(glm::dvec3(p) + model->origin());
         }
@@ -246,21 +247,21 @@ void HlodModel::select_from(uint32_t c, const HlodView& view, uint8_t mask, std:
 }
 
 glm::ivec3 HlodModel::lattice_steps(const HlodCube& cube, uint32_t v) const {
-    const uint16_t* q = &cube.data.vertices.positions[3 * size_t(v)];
+    const uint16_t* q = &cube.data->vertices.positions[3 * size_t(v)];
     const HlodNode& n = cube.node;
     return glm::ivec3(q[0], q[1], q[2]) + glm::ivec3(int32_t(n.i << kLatticeBits), int32_t(n.j << kLatticeBits), int32_t(n.k << kLatticeBits)) -
            kLatticeBias;
 }
 
 glm::vec3 HlodModel::vertex_position(const HlodCube& cube, uint32_t v) const {
-    const uint16_t* q = &cube.data.vertices.positions[3 * size_t(v)];
+    const uint16_t* q = &cube.data->vertices.positions[3 * size_t(v)];
     const HlodNode& n = cube.node;
     return {lattice_coordinate(header_, n.level, n.i, q[0]), lattice_coordinate(header_, n.level, n.j, q[1]),
             lattice_coordinate(header_, n.level, n.k, q[2])};
 }
 
 glm::vec3 HlodModel::parent_position(const HlodCube& cube, uint32_t p) const {
-    const uint16_t* q = &cube.data.parents.positions[3 * size_t(p)];
+    const uint16_t* q = &cube.data->parents.positions[3 * size_t(p)];
     const HlodNode& n = cube.node;
     // At level 0 the table is the root's own vertices: decode it on the root's lattice (cell 0 / 2 = 0).
     const uint32_t level = n.level == 0 ? 0 : n.level - 1;
@@ -317,14 +318,14 @@ float HlodModel::morph_lambda(uint32_t c, const glm::ivec3& q, float d, const Cu
 
 void HlodModel::morphed_positions(uint32_t c, const glm::vec3& eye, const CubeKappas& kappa, std::vector<glm::vec3>& out) const {
     const HlodCube& cube = cubes_[c];
-    out.resize(cube.data.vertex_count());
+    out.resize(cube.data->vertex_count());
     for (uint32_t v = 0; v < out.size(); ++v) {
         const glm::vec3 w = vertex_position(cube, v);
         if (!morph_) {
             out[v] = w;
             continue;
         }
-        const glm::vec3 parent = parent_position(cube, cube.data.parent_of[v]);
+        const glm::vec3 parent = parent_position(cube, cube.data->parent_of[v]);
         const glm::vec3 offset = glm::abs(w - eye);
         const float d = std::max(std::max(offset.x, offset.y), offset.z);
         const float lambda = morph_lambda(c, lattice_steps(cube, v), d, kappa);

@@ -25,7 +25,7 @@ enum class HlodDebugView { none, levels, wireframe };
 
 struct HlodCube {
     HlodNode node;
-    CubeData data;
+    std::shared_ptr<const CubeData> data;  // null while the cube is not resident
     std::array<uint32_t, 8> children;  // cube index per octant, or kNoCube
 };
 

@@ -238,7 +238,7 @@ struct ChunkData {
 uint32_t pack_pair(uint32_t low, uint32_t high) { return (low & 0xffffu) | high << 16; }
 
 void append_cube(const HlodCube& cube, uint32_t index, ChunkData& data, DrawCommand& command) {
-    const CubeData& c = cube.data;
+    const CubeData& c = *cube.data;
     const uint32_t parent_base = uint32_t(data.parents.size());
     command = {uint32_t(c.indices.size()), 1, uint32_t(data.indices.size()), int32_t(data.vertices.size()), index};
     for (uint32_t v = 0; v < c.vertex_count(); ++v) {
@@ -294,7 +294,7 @@ std::unique_ptr<HlodGpu> upload(const HlodModel& model) {
     gpu->command_of.resize(cubes.size());
     ChunkData data;
     for (uint32_t c = 0; c < cubes.size(); ++c) {
-        const CubeData& cube = cubes[c].data;
+        const CubeData& cube = *cubes[c].data;
         if (!data.vertices.empty() && (data.vertices.size() + cube.vertex_count() > limit ||
                                        data.parents.size() + cube.parents.size() > limit)) {
             gpu->chunks.push_back(upload_chunk(data));
@@ -399,7 +399,7 @@ void HlodModel::draw(DrawContext& context, const DrawItem& item) {
             const auto values = capture.download<glm::vec4>(capture.size() / sizeof(glm::vec4));
             for (const DrawCommand& command : chunk.frame_commands) {
                 const auto first = values.begin() + command.base_vertex;
-                captured_[command.base_instance].assign(first, first + cubes_[command.base_instance].data.vertex_count());
+                captured_[command.base_instance].assign(first, first + cubes_[command.base_instance].data->vertex_count());
             }
         }
     }

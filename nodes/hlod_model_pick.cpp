@@ -31,7 +31,7 @@ void HlodModel::drawn_positions(uint32_t c, const MorphInputs& inputs, std::vect
         return;
     }
     const HlodCube& cube = cubes_[c];
-    out.resize(cube.data.vertex_count());
+    out.resize(cube.data->vertex_count());
     for (uint32_t v = 0; v < out.size(); ++v) out[v] = vertex_position(cube, v);
 }
 
@@ -62,7 +62,7 @@ std::optional<SurfaceHit> HlodModel::intersect(const Ray& ray, const PickContext
             continue;
         }
         drawn_positions(next.cube, inputs, positions);
-        const auto hit = nearest_triangle(lattice_ray, cube.data.indices, [&](uint32_t v) { return glm::dvec3(positions[v]); });
+        const auto hit = nearest_triangle(lattice_ray, cube.data->indices, [&](uint32_t v) { return glm::dvec3(positions[v]); });
         if (!hit) continue;
         nearest = SurfaceHit{hit->t, hit->normal, next.cube};
         lattice_ray.t_max = hit->t;

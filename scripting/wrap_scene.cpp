@@ -359,7 +359,7 @@ int hlod_info(lua_State* L) {
     const HlodModel& model = check_node_as<HlodModel>(L, 1, "HLOD model");
     const HlodHeader& h = model.header();
     uint64_t triangles = 0;
-    for (const HlodCube& c : model.cubes()) triangles += c.node.level == h.max_level ? c.data.triangle_count() : 0;
+    for (const HlodCube& c : model.cubes()) triangles += c.node.level == h.max_level ? c.node.triangle_count : 0;
     lua_createtable(L, 0, 8);
     lua_pushinteger(L, h.max_level + 1);
     lua_setfield(L, -2, "levels");

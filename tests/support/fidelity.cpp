@@ -166,7 +166,7 @@ MeasuredSurface FidelityMeter::drawn_surface(const Camera& camera) const {
         model_->drawn_positions(c, inputs, drawn);
         const uint32_t base = uint32_t(positions.size() / 3);
         for (const glm::vec3& x : drawn) positions.insert(positions.end(), {x.x, x.y, x.z});
-        for (const uint32_t i : model_->cubes()[c].data.indices) indices.push_back(base + i);
+        for (const uint32_t i : model_->cubes()[c].data->indices) indices.push_back(base + i);
     }
     return MeasuredSurface(std::move(positions), std::move(indices), glm::dvec3(0.0));
 }

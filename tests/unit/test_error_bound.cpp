@@ -79,12 +79,12 @@ void expect_bounded(const HlodModel& hlod, const Mesh& scan) {
             if (cube.node.level != level) continue;
             by_cell[{cube.node.i, cube.node.j, cube.node.k}] = c;
             const uint32_t first = uint32_t(drawn.positions.size() / 3);
-            for (uint32_t v = 0; v < cube.data.vertex_count(); ++v) {
+            for (uint32_t v = 0; v < cube.data->vertex_count(); ++v) {
                 const glm::vec3 p = model->vertex_position(cube, v);
                 drawn.positions.insert(drawn.positions.end(), {p.x, p.y, p.z});
             }
-            for (uint32_t i : cube.data.indices) drawn.triangles.push_back(first + i);
-            cube_of.insert(cube_of.end(), cube.data.triangle_count(), c);
+            for (uint32_t i : cube.data->indices) drawn.triangles.push_back(first + i);
+            cube_of.insert(cube_of.end(), cube.data->triangle_count(), c);
         }
         const TriangleTree drawn_tree(drawn.view(), {});
 

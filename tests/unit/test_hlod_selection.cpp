@@ -39,7 +39,7 @@ std::vector<std::array<Position, 3>> drawn_triangles(const HlodModel& model, con
     std::vector<glm::vec3> positions;
     for (uint32_t c : cubes) {
         model.morphed_positions(c, glm::vec3(eye), kappa, positions);
-        const auto& indices = model.cubes()[c].data.indices;
+        const auto& indices = model.cubes()[c].data->indices;
         for (size_t t = 0; t < indices.size(); t += 3) {
             std::array<Position, 3> tri{bits(positions[indices[t]]), bits(positions[indices[t + 1]]),
                                         bits(positions[indices[t + 2]])};
@@ -191,8 +191,8 @@ protected:
             }
             const HlodCube* cube;
             do cube = &finest[size_t(share(rng) * finest.size()) % finest.size()];
-            while (cube->node.level != model_->header().max_level || cube->data.vertex_count() == 0);
-            const glm::vec3 p = model_->vertex_position(*cube, uint32_t(share(rng) * cube->data.vertex_count()) % cube->data.vertex_count());
+            while (cube->node.level != model_->header().max_level || cube->data->vertex_count() == 0);
+            const glm::vec3 p = model_->vertex_position(*cube, uint32_t(share(rng) * cube->data->vertex_count()) % cube->data->vertex_count());
             out.push_back(glm::dvec3(p) + glm::dvec3(unit(rng), unit(rng), unit(rng)) * (0.01 * reach * size));
         }
         return out;
@@ -412,7 +412,7 @@ std::vector<uint64_t> expect_pixel_error_kept(HlodModel& model, const std::vecto
                 const HlodCube& cube = model.cubes()[c];
                 const uint32_t level = cube.node.level;
                 levels_drawn.insert(level);
-                triangles += cube.data.triangle_count();
+                triangles += cube.data->triangle_count();
                 if (level < h.max_level) {
                     const double error = cube.node.error, distance = distance_to(eye, model.cull_box(cube.node));
                     const double projected = distance > error ? error * magnification / (distance - error) : INFINITY;
@@ -423,7 +423,7 @@ std::vector<uint64_t> expect_pixel_error_kept(HlodModel& model, const std::vecto
                 if (level == 0) continue;
                 model.morphed_positions(c, glm::vec3(eye), *kappa, morphed);
                 double nearest_morphing = INFINITY;
-                for (uint32_t v = 0; v < cube.data.vertex_count(); ++v) {
+                for (uint32_t v = 0; v < cube.data->vertex_count(); ++v) {
                     const glm::vec3 own = model.vertex_position(cube, v);
                     if (morphed[v] != own) nearest_morphing = std::min(nearest_morphing, glm::length(eye - glm::dvec3(own)));
                 }
@@ -631,9 +631,9 @@ TEST_F(TerrainSelection, CubesWithSmallerBoundsAreDrawnFromCloser) {
         std::vector<uint32_t> cubes;
         for (const glm::dvec3& eye : eyes(60, largest_kappa(*model_, *per_cube, 1) / 2)) {
             model_->select({eye, per_cube}, cubes);
-            for (uint32_t c : cubes) triangles_per_cube += model_->cubes()[c].data.triangle_count();
+            for (uint32_t c : cubes) triangles_per_cube += model_->cubes()[c].data->triangle_count();
             model_->select({eye, per_level}, cubes);
-            for (uint32_t c : cubes) triangles_per_level += model_->cubes()[c].data.triangle_count();
+            for (uint32_t c : cubes) triangles_per_level += model_->cubes()[c].data->triangle_count();
         }
         EXPECT_LT(double(triangles_per_cube), 0.9 * double(triangles_per_level)) << "P " << pixels;
         std::printf("P %g: %llu triangles with κ per cube, %llu with each level's largest\n", pixels,

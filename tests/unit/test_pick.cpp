@@ -210,7 +210,7 @@ TEST_F(PickHlod, TheSearchAlongTheRayFindsWhatTheWholeSelectionGives) {
                     model->morphed_positions(c, eye, *model->kappas_for(camera), positions);
                     if (!morphed)
                         for (uint32_t v = 0; v < positions.size(); ++v) positions[v] = model->vertex_position(cube, v);
-                    const auto hit = nearest_triangle(lattice_ray, cube.data.indices, [&](uint32_t v) { return glm::dvec3(positions[v]); });
+                    const auto hit = nearest_triangle(lattice_ray, cube.data->indices, [&](uint32_t v) { return glm::dvec3(positions[v]); });
                     if (hit && (!nearest || hit->t < nearest->t)) nearest = SurfaceHit{hit->t, hit->normal, c};
                 }
                 return nearest;

@@ -192,7 +192,7 @@ TEST_F(Render, NoPopWhenACubeIsReplacedByItsChildren) {
     uint32_t chosen = kNoCube;
     for (uint32_t c = 0; c < model->cubes().size(); ++c) {
         const HlodCube& cube = model->cubes()[c];
-        if (cube.node.level == 2 && (chosen == kNoCube || cube.data.triangle_count() > model->cubes()[chosen].data.triangle_count()))
+        if (cube.node.level == 2 && (chosen == kNoCube || cube.data->triangle_count() > model->cubes()[chosen].data->triangle_count()))
             chosen = c;
     }
     ASSERT_NE(chosen, kNoCube);
@@ -252,7 +252,7 @@ TEST_F(Render, TheShaderMorphsBitForBitLikeTheCpuTwin) {
     // Just off the surface, at a vertex of the finest level, looking in at the middle.
     const HlodCube* finest = nullptr;
     for (const HlodCube& c : model->cubes())
-        if (c.node.level == model->header().max_level && (!finest || c.data.vertex_count() > finest->data.vertex_count())) finest = &c;
+        if (c.node.level == model->header().max_level && (!finest || c.data->vertex_count() > finest->data->vertex_count())) finest = &c;
     ASSERT_NE(finest, nullptr);
     const glm::dvec3 on_surface = world_from_node * model->lattice_to_node() * glm::dvec4(model->vertex_position(*finest, 0), 1.0);
     camera.look_at(on_surface + 0.3 * (on_surface - bound.center()), bound.center());
@@ -271,7 +271,7 @@ TEST_F(Render, TheShaderMorphsBitForBitLikeTheCpuTwin) {
         model->morphed_positions(c, eye, *kappa, cpu);
         ASSERT_EQ(gpu->size(), cpu.size());
         // Only vertices a triangle uses go through the shader.
-        const auto& indices = model->cubes()[c].data.indices;
+        const auto& indices = model->cubes()[c].data->indices;
         for (const uint32_t v : std::set<uint32_t>(indices.begin(), indices.end())) {
             const glm::vec3 drawn((*gpu)[v]);
             mismatches += std::memcmp(&drawn, &cpu[v], sizeof drawn) != 0;
