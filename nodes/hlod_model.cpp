@@ -30,15 +30,13 @@ double box_distance(const glm::dvec3& p, const Box& box) {
 
 }  // namespace
 
-std::shared_ptr<HlodModel> HlodModel::load(const std::filesystem::path& path) {
-    HlodFile file(path);
-    std::shared_ptr<HlodModel> model(new HlodModel());
-    model->path_ = path;
-    model->header_ = file.header();
-    model->set_name(path.stem().string());
-    model->set_kappa0(2.0);  // the default, raised to what this model's σ0 needs for its morph
+void HlodModel::read_octree(const HlodFile& file) {
+    path_ = file.path();
+    header_ = file.header();
+    set_name(path_.stem().string());
+    set_kappa0(2.0);  // the default, raised to what this model's σ0 needs for its morph
     const auto& nodes = file.nodes();
-    if (nodes.empty()) throw std::runtime_error(path.string() + ": the model has no cubes");
+    if (nodes.empty()) throw std::runtime_error(path_.string() + ": the model has no cubes");
 
     // Octree links: each cube finds its parent, children and neighbours by (level, i, j, k).
     std::unordered_map<uint64_t, uint32_t> index;
@@ -50,48 +48,53 @@ std::shared_ptr<HlodModel> HlodModel::load(const std::filesystem::path& path) {
         const auto it = index.find(key(level, uint32_t(i), uint32_t(j), uint32_t(k)));
         return it == index.end() ? kNoCube : it->second;
     };
-    model->cubes_.resize(nodes.size());
+    cubes_.resize(nodes.size());
     for (uint32_t c = 0; c < nodes.size(); ++c) {
-        HlodCube& cube = model->cubes_[c];
+        HlodCube& cube = cubes_[c];
         cube.node = nodes[c];
         cube.children.fill(kNoCube);
         index[key(nodes[c].level, nodes[c].i, nodes[c].j, nodes[c].k)] = c;
     }
-    if (find(0, 0, 0, 0) == kNoCube) throw std::runtime_error(path.string() + ": the model has no root cube");
-    model->parent_.assign(nodes.size(), kNoCube);
-    model->neighbours_.resize(nodes.size());
+    if (find(0, 0, 0, 0) == kNoCube) throw std::runtime_error(path_.string() + ": the model has no root cube");
+    parent_.assign(nodes.size(), kNoCube);
+    neighbours_.resize(nodes.size());
     for (uint32_t c = 0; c < nodes.size(); ++c) {
         const HlodNode& n = nodes[c];
         for (int d = 0; d < 27; ++d)
-            model->neighbours_[c][d] = find(n.level, int64_t(n.i) + d % 3 - 1, int64_t(n.j) + d / 3 % 3 - 1, int64_t(n.k) + d / 9 - 1);
+            neighbours_[c][d] = find(n.level, int64_t(n.i) + d % 3 - 1, int64_t(n.j) + d / 3 % 3 - 1, int64_t(n.k) + d / 9 - 1);
         if (n.level == 0) continue;
         const uint32_t parent = find(n.level - 1, n.i / 2, n.j / 2, n.k / 2);
-        if (parent == kNoCube) throw std::runtime_error(path.string() + ": " + describe_cube(n) + " has no parent cube");
-        model->cubes_[parent].children[octant_of(n)] = c;
-        model->parent_[c] = parent;
+        if (parent == kNoCube) throw std::runtime_error(path_.string() + ": " + describe_cube(n) + " has no parent cube");
+        cubes_[parent].children[octant_of(n)] = c;
+        parent_[c] = parent;
     }
-    model->root_ = find(0, 0, 0, 0);
+    root_ = find(0, 0, 0, 0);
+    finest_first_.resize(nodes.size());
+    for (uint32_t c = 0; c < nodes.size(); ++c) finest_first_[c] = c;
+    std::stable_sort(finest_first_.begin(), finest_first_.end(), [&](uint32_t a, uint32_t b) { return nodes[a].level > nodes[b].level; });
+    resident_.assign(nodes.size(), 0);
+    capped_.assign(nodes.size(), 0);
+    level_error_.assign(header_.max_level + 1, 0.0);
+    for (const HlodNode& n : nodes) {
+        double& worst = level_error_[n.level];
+        worst = std::max(worst, double(n.error) / header_.cube_size(n.level));
+    }
+}
 
+std::shared_ptr<HlodModel> HlodModel::load(const std::filesystem::path& path) {
+    HlodFile file(path);
+    std::shared_ptr<HlodModel> model(new HlodModel());
+    model->read_octree(file);
     // Coarse to fine, so each cube finds its parents' vertices already decoded.
-    std::vector<uint32_t> order(nodes.size());
-    for (uint32_t c = 0; c < nodes.size(); ++c) order[c] = c;
-    std::stable_sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) { return nodes[a].level < nodes[b].level; });
-    for (uint32_t c : order) {
-        HlodCube& cube = model->cubes_[c];
+    for (auto c = model->finest_first_.rbegin(); c != model->finest_first_.rend(); ++c) {
+        HlodCube& cube = model->cubes_[*c];
         auto data = std::make_shared<CubeData>(file.read_cube(cube.node));
-        const uint32_t parent = model->parent_[c];
+        const uint32_t parent = model->parent_[*c];
         resolve_parents(*data, parent == kNoCube ? data->vertices : model->cubes_[parent].data->vertices,
                         path.string() + ": " + describe_cube(cube.node));
         cube.data = std::move(data);
     }
-    model->finest_first_.assign(order.rbegin(), order.rend());
-    model->resident_.assign(nodes.size(), 1);
-    model->capped_.assign(nodes.size(), 0);
-    model->level_error_.assign(model->header_.max_level + 1, 0.0);
-    for (const HlodNode& n : nodes) {
-        double& worst = model->level_error_[n.level];
-        worst = std::max(worst, double(n.error) / model->header_.cube_size(n.level));
-    }
+    model->set_residency(std::vector<uint8_t>(model->cubes_.size(), 1));
     for (HlodCube& cube : model->cubes_) {
         for (uint32_t v = 0; v < cube.data->vertex_count(); ++v) {
             const glm::vec3 p = model->vertex_position(cube, v);
@@ -99,6 +102,120 @@ std::shared_ptr<HlodModel> HlodModel::load(const std::filesystem::path& path) {
         }
     }
     return model;
+}
+
+namespace {
+
+// A streamed model's cubes as the cache loads them: read by offset (HlodFile reads are thread-safe),
+// checksum checked, decoded, and given their parents' vertices from the parent the cache hands over.
+class CubeSource : public StreamSource {
+public:
+    CubeSource(std::shared_ptr<const HlodFile> file, const HlodModel& model) : file_(std::move(file)) {
+        for (uint32_t c = 0; c < model.cubes().size(); ++c) {
+            parents_.push_back(model.parent(c));
+            bounds_.push_back(model.cube_bytes_bound(model.cubes()[c].node));
+        }
+    }
+    uint32_t item_count() const override { return uint32_t(parents_.size()); }
+    uint32_t parent(uint32_t cube) const override { return parents_[cube]; }
+    uint64_t item_bytes(uint32_t cube) const override { return bounds_[cube]; }
+    Loaded load(uint32_t cube, const std::shared_ptr<const void>& parent) override {
+        const HlodNode& node = file_->nodes()[cube];
+        auto data = std::make_shared<CubeData>(file_->read_cube(node));
+        const auto* parent_data = static_cast<const CubeData*>(parent.get());
+        resolve_parents(*data, parent_data ? parent_data->vertices : data->vertices,
+                        file_->path().string() + ": " + describe_cube(node));
+        for (VertexArrays* arrays : {&data->vertices, &data->parents}) {  // what it holds is what it counts
+            arrays->positions.shrink_to_fit(), arrays->normals.shrink_to_fit();
+            arrays->colors.shrink_to_fit(), arrays->uvs.shrink_to_fit();
+        }
+        data->parent_of.shrink_to_fit(), data->parent_vertex.shrink_to_fit(), data->indices.shrink_to_fit();
+        const uint64_t bytes = HlodModel::cube_bytes(*data);
+        return {std::shared_ptr<const CubeData>(std::move(data)), bytes};
+    }
+
+private:
+    std::shared_ptr<const HlodFile> file_;
+    std::vector<uint32_t> parents_;
+    std::vector<uint64_t> bounds_;
+};
+
+// Bytes per vertex of the GPU records hlod_model_draw.cpp uploads: a 16-byte record for each vertex
+// and each parent, a colour word each where the model has colours, and 4 bytes per index.
+constexpr uint64_t kGpuRecordBytes = 16, kGpuColorBytes = 4, kGpuIndexBytes = 4;
+
+}  // namespace
+
+uint64_t HlodModel::cube_bytes(const CubeData& d) {
+    auto held = [](const auto& v) { return uint64_t(v.capacity()) * sizeof(v[0]); };
+    auto arrays = [&](const VertexArrays& a) { return held(a.positions) + held(a.normals) + held(a.colors) + held(a.uvs); };
+    const uint64_t cpu = arrays(d.vertices) + arrays(d.parents) + held(d.parent_vertex) + held(d.indices) + held(d.parent_of);
+    const uint64_t colors = d.vertices.colors.empty() ? 0 : kGpuColorBytes * (d.vertices.size() + d.parents.size());
+    const uint64_t gpu = kGpuRecordBytes * (d.vertices.size() + d.parents.size()) + colors + kGpuIndexBytes * d.indices.size();
+    return cpu + gpu;
+}
+
+uint64_t HlodModel::cube_bytes_bound(const HlodNode& node) const {
+    // Per vertex, for itself and for its parent's copy (at most one per vertex): positions, normals,
+    // colours, UVs; then its parent index and entry, the indices, and the GPU records.
+    const uint64_t attributes = 3 * 2 + 2 * 2 + (header_.has_colors() ? 4 : 0) + (header_.has_uvs() ? 8 : 0);
+    const uint64_t per_vertex = 2 * attributes + 4 + 4 + 2 * kGpuRecordBytes + (header_.has_colors() ? 2 * kGpuColorBytes : 0);
+    return per_vertex * node.vertex_count + 3 * (4 + kGpuIndexBytes) * uint64_t(node.triangle_count);
+}
+
+std::shared_ptr<HlodModel> HlodModel::open(const std::filesystem::path& path, StreamCache& cache) {
+    auto file = std::make_shared<const HlodFile>(path);
+    std::shared_ptr<HlodModel> model(new HlodModel());
+    model->read_octree(*file);
+    model->set_residency(model->resident_);
+    // The bound: the finest cubes' cells, grown by the vertices' overhang (their data is not read).
+    const uint32_t finest = model->header_.max_level;
+    for (const HlodCube& cube : model->cubes_)
+        if (cube.node.level == finest) {
+            const Box cell = model->cell(cube.node);
+            const glm::dvec3 grow(model->header_.sigma0 * model->header_.cube_size(finest));
+            model->bound_.expand(cell.lo - grow + model->origin());
+            model->bound_.expand(cell.hi + grow + model->origin());
+        }
+    model->stream_ = std::make_unique<Stream>(Stream{cache, cache.add(std::make_shared<CubeSource>(file, *model))});
+    // Coarse levels whose cubes fit in 5 % of the budget together stay resident.
+    std::vector<uint64_t> level_bytes(finest + 1, 0);
+    for (const HlodCube& cube : model->cubes_) level_bytes[cube.node.level] += model->cube_bytes_bound(cube.node);
+    uint64_t pinned = 0;
+    uint32_t levels = 0;
+    while (levels <= finest && pinned + level_bytes[levels] <= cache.budget() / 20) pinned += level_bytes[levels++];
+    for (uint32_t c = 0; c < model->cubes_.size(); ++c)
+        if (model->cubes_[c].node.level < std::max(levels, 1u)) cache.pin(model->stream_->source, c);
+    return model;
+}
+
+HlodModel::~HlodModel() {
+    if (stream_) stream_->cache.remove(stream_->source);
+}
+
+void HlodModel::sync_residency() {
+    const uint64_t version = stream_->cache.version(stream_->source);
+    if (version == stream_->synced) return;
+    stream_->synced = version;
+    std::vector<uint8_t> resident(cubes_.size());
+    for (uint32_t c = 0; c < cubes_.size(); ++c) {
+        cubes_[c].data = std::static_pointer_cast<const CubeData>(stream_->cache.value(stream_->source, c));
+        resident[c] = cubes_[c].data != nullptr;
+    }
+    set_residency(std::move(resident));
+}
+
+void HlodModel::request_refinement(const HlodView& view, const std::vector<uint32_t>& drawn) const {
+    if (!resident_[root_]) stream_->cache.request(stream_->source, root_, INFINITY);
+    for (const uint32_t c : drawn) {
+        stream_->cache.touch(stream_->source, c);
+        if (!capped_[c] || suitable(c, view)) continue;
+        // A stand-in drawn closer than its switch distance: the nearer it is, the sooner its children.
+        const double s = header_.cube_size(cubes_[c].node.level);
+        const double priority = (*view.kappa)[c] * s / std::max(box_distance(view.eye, cell(cubes_[c].node)), 1e-6 * s);
+        for (const uint32_t child : cubes_[c].children)
+            if (child != kNoCube && !resident_[child]) stream_->cache.request(stream_->source, child, priority);
+    }
 }
 
 void HlodModel::set_kappa0(double kappa0) {
@@ -231,6 +348,7 @@ void HlodModel::select(const HlodView& view, std::vector<uint32_t>& out) const {
 
 void HlodModel::select_from(uint32_t c, const HlodView& view, uint8_t mask, std::vector<uint32_t>& out) const {
     const HlodCube& cube = cubes_[c];
+    if (!resident_[c]) return;  // only the root can be reached so: its parent would stand in
     if (view.frustum && mask && !intersects(*view.frustum, cull_box(cube.node), mask)) return;
     if (drawn_here(c, view)) {
         out.push_back(c);
@@ -356,6 +474,7 @@ const std::vector<glm::vec4>* HlodModel::captured_morph(uint32_t cube) const {
 }
 
 void HlodModel::cull(CullVisitor& cull) {
+    if (stream_) sync_residency();
     const Frustum frustum = cull.local_frustum().in_child_frame(lattice_to_node());
     HlodView view = view_for(cull.camera(), cull.local_eye());
     if (cull.frustum_culling()) {
@@ -363,6 +482,7 @@ void HlodModel::cull(CullVisitor& cull) {
         view.plane_mask = cull.plane_mask();
     }
     select(view, selection_);
+    if (stream_) request_refinement(view, selection_);
     if (!selection_.empty()) cull.add(*this, selection_.data(), uint32_t(selection_.size()));
 }
 

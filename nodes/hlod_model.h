@@ -16,6 +16,7 @@
 #include "engine/scene/camera.h"
 #include "engine/scene/drawable.h"
 #include "engine/scene/frustum.h"
+#include "engine/stream/stream_cache.h"
 #include "preprocess/hlod_format.h"
 
 namespace strata {
@@ -59,6 +60,20 @@ class HlodModel : public Drawable {
 public:
     // Reads and decodes every cube (checksums checked); throws std::runtime_error naming the file.
     static std::shared_ptr<HlodModel> load(const std::filesystem::path& path);
+    // Opens a model for streaming (DESIGN.md §7): reads the header and the node table only. Cubes load
+    // on the cache's threads as views ask for them (cull() asks for the children a stand-in lacks),
+    // each with its parent; meanwhile stand-ins draw (set_residency). The coarse levels whose cubes fit
+    // in 5 % of the budget together stay resident. Throws std::runtime_error naming the file.
+    static std::shared_ptr<HlodModel> open(const std::filesystem::path& path, StreamCache& cache = StreamCache::shared());
+    ~HlodModel() override;
+    bool streamed() const { return stream_ != nullptr; }
+    // Streamed: takes in what the cache loaded or evicted since the last call (the cubes' data and
+    // set_residency); cull() calls it. Render thread.
+    void sync_residency();
+    // What a cube takes once resident, in CPU and GPU memory together: a bound from the node table's
+    // counts, and the exact figure for decoded data. The streaming budget counts these.
+    uint64_t cube_bytes_bound(const HlodNode& node) const;
+    static uint64_t cube_bytes(const CubeData& data);
 
     const HlodHeader& header() const { return header_; }
     const std::vector<HlodCube>& cubes() const { return cubes_; }
@@ -90,6 +105,7 @@ public:
     void set_residency(std::vector<uint8_t> resident);
     bool resident(uint32_t cube) const { return resident_[cube] != 0; }
     bool capped(uint32_t cube) const { return capped_[cube] != 0; }
+    uint64_t residency_version() const { return residency_version_; }  // counts set_residency calls
     // The cube's neighbours of its own level, the 3 × 3 × 3 around it (itself in the middle) at
     // (di + 1) + 3(dj + 1) + 9(dk + 1), kNoCube where there is none; and its parent (kNoCube: the root).
     const std::array<uint32_t, 27>& neighbours(uint32_t cube) const { return neighbours_[cube]; }
@@ -198,6 +214,17 @@ private:
     std::vector<std::array<uint32_t, 27>> neighbours_;  // per cube
     std::vector<uint32_t> parent_;                      // per cube
     std::vector<uint32_t> finest_first_;                // cube indices, finest level first
+    // Streamed: the cache, this model's source in it, and the cache's version last taken in.
+    struct Stream {
+        StreamCache& cache;
+        StreamCache::SourceId source;
+        uint64_t synced = ~uint64_t(0);
+    };
+    std::unique_ptr<Stream> stream_;
+    // The octree from the node table (links, neighbours, errors); cube data is not read.
+    void read_octree(const HlodFile& file);
+    // Streamed: asks the cache for what the selection lacks, and marks what it draws as used.
+    void request_refinement(const HlodView& view, const std::vector<uint32_t>& drawn) const;
     std::vector<uint8_t> resident_, capped_;           // per cube
     uint64_t residency_version_ = 0;                     // counts set_residency calls
     // The last κ computed, with what it was computed from (a gain, or −κ0 for a uniform κ, and the

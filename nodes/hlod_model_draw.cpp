@@ -219,7 +219,8 @@ struct HlodPrograms : GpuCache::Entry {
 };
 
 struct HlodGpu : GpuCache::Entry {
-    uint64_t bytes = 0;  // every buffer below
+    uint64_t residency = 0;  // the model's residency version the buffers hold
+    uint64_t bytes = 0;      // every buffer below
     gl::Buffer cubes;
     gl::Buffer links;      // per cube: neighbours and parent
     gl::Buffer band_ends;  // per cube, of `kappas`
@@ -274,6 +275,7 @@ Chunk upload_chunk(ChunkData& data) {
 
 std::unique_ptr<HlodGpu> upload(const HlodModel& model) {
     auto gpu = std::make_unique<HlodGpu>();
+    gpu->residency = model.residency_version();
     const auto& cubes = model.cubes();
     std::vector<std::array<uint32_t, 4>> records;
     for (const HlodCube& c : cubes) records.push_back({c.node.level, c.node.i, c.node.j, c.node.k});
@@ -294,6 +296,7 @@ std::unique_ptr<HlodGpu> upload(const HlodModel& model) {
     gpu->command_of.resize(cubes.size());
     ChunkData data;
     for (uint32_t c = 0; c < cubes.size(); ++c) {
+        if (!cubes[c].data) continue;  // not resident: never selected
         const CubeData& cube = *cubes[c].data;
         if (!data.vertices.empty() && (data.vertices.size() + cube.vertex_count() > limit ||
                                        data.parents.size() + cube.parents.size() > limit)) {
@@ -362,6 +365,9 @@ void draw_boxes(const HlodModel& model, const gl::Program& p, HlodGpu& gpu, Draw
 void HlodModel::draw(DrawContext& context, const DrawItem& item) {
     const HlodPrograms& programs = context.cache.get_shared<HlodPrograms>(kProgramsKey, [] { return std::make_unique<HlodPrograms>(); });
     HlodGpu& gpu = context.cache.get<HlodGpu>(*this, [&] { return upload(*this); });
+    // Streamed: what is resident changed. Everything resident goes up again (a pool that takes a
+    // cube at a time is the next step).
+    if (gpu.residency != residency_version_) gpu = std::move(*upload(*this));
     set_view_uniforms(*this, programs.surface, gpu, context, item);
     programs.surface.use();
     gpu.cubes.bind_base(GL_SHADER_STORAGE_BUFFER, 1);

@@ -7,6 +7,7 @@
 #include "engine/gl/depth_convention.h"
 #include "engine/scene/cull_visitor.h"
 #include "engine/scene/drawable.h"
+#include "engine/stream/stream_cache.h"
 
 namespace strata {
 
@@ -78,13 +79,19 @@ FrameStats Renderer::render(Node& scene, const Camera& camera, gl::Framebuffer& 
     std::tie(near_, far_) = camera.clip_planes_for(scene.bound());
     orthographic_ = camera.projection == ProjectionKind::orthographic;
     const glm::dmat4 view = camera.view_matrix(), projection = camera.projection_matrix(near_, far_);
-    list_.clear();
-    CullVisitor cull(camera, view, projection, list_);
-    cull.set_frustum_culling(s.frustum_culling);
-    scene.accept(cull);
+    StreamCache* stream = StreamCache::shared_if_made();
+    for (;;) {
+        list_.clear();
+        CullVisitor cull(camera, view, projection, list_);
+        cull.set_frustum_culling(s.frustum_culling);
+        scene.accept(cull);
+        stats.nodes_culled = cull.stats().nodes_culled;
+        if (!stream || !s.full_detail || !stream->has_requests()) break;
+        stream->wait_for_requests(s.full_detail_timeout);  // then cull again: the view may now refine further
+    }
+    if (stream) stream->update();  // takes in finished loads, starts what this frame asked for
     list_.sort();
     stats.cull_ms = milliseconds_since(cull_start);
-    stats.nodes_culled = cull.stats().nodes_culled;
 
     const auto draw_start = std::chrono::steady_clock::now();
     target.bind();

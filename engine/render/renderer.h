@@ -19,6 +19,12 @@ struct RenderSettings {
     bool frustum_culling = true;
     // Time the draws on the GPU (a timer query; waits for the GPU to finish the frame).
     bool measure_gpu_time = false;
+    // Streamed models (engine/stream): wait until every cube the view selects is resident, then draw,
+    // so that the frame does not depend on the cache (captures); a failed load or a view larger than
+    // the budget throws std::runtime_error naming it, and so does a wait past the timeout (> 0, in
+    // seconds). Otherwise the frame draws what is resident, its stand-ins for the rest, and never waits.
+    bool full_detail = false;
+    double full_detail_timeout = 0;
 };
 
 class Renderer {

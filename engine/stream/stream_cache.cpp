@@ -6,7 +6,25 @@
 #include <queue>
 #include <stdexcept>
 
+#include "preprocess/byte_size.h"
+
 namespace strata {
+
+namespace {
+std::mutex shared_mutex;
+std::unique_ptr<StreamCache> shared_cache;
+}  // namespace
+
+StreamCache& StreamCache::shared() {
+    const std::lock_guard lock(shared_mutex);
+    if (!shared_cache) shared_cache = std::make_unique<StreamCache>(default_memory_limit(), std::clamp(std::thread::hardware_concurrency(), 1u, 4u));
+    return *shared_cache;
+}
+
+StreamCache* StreamCache::shared_if_made() {
+    const std::lock_guard lock(shared_mutex);
+    return shared_cache.get();
+}
 
 StreamCache::StreamCache(uint64_t budget_bytes, unsigned loader_threads) : budget_(budget_bytes) {
     if (budget_bytes == 0) throw std::invalid_argument("the streaming budget must be positive");

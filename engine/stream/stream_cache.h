@@ -65,6 +65,12 @@ public:
     StreamCache(const StreamCache&) = delete;
     StreamCache& operator=(const StreamCache&) = delete;
 
+    // The process's one cache, which streamed models share (one budget for the whole scene): made on
+    // first use with a quarter of physical memory and up to 4 loader threads. shared_if_made() is
+    // null before that.
+    static StreamCache& shared();
+    static StreamCache* shared_if_made();
+
     SourceId add(std::shared_ptr<StreamSource> source);
     // Drops the source's items; its queued loads are cancelled, and those running are discarded when done.
     void remove(SourceId source);
@@ -80,6 +86,8 @@ public:
     // Takes in finished loads, evicts to make room, starts the most wanted requests the budget allows,
     // then ends the frame: requests and touches are cleared.
     void update();
+    // Whether this frame asked for something not yet resident.
+    bool has_requests() const { return !requests_.empty(); }
     // update() until every item requested this frame is resident; throws std::runtime_error naming
     // the item when a load fails, naming the shortfall when the budget cannot hold them together, and
     // after `timeout_seconds` (≤ 0: no limit). Waits on the loads, not on a clock.
