@@ -73,7 +73,7 @@ void HlodModel::read_octree(const HlodFile& file) {
     for (uint32_t c = 0; c < nodes.size(); ++c) finest_first_[c] = c;
     std::stable_sort(finest_first_.begin(), finest_first_.end(), [&](uint32_t a, uint32_t b) { return nodes[a].level > nodes[b].level; });
     resident_.assign(nodes.size(), 0);
-    capped_.assign(nodes.size(), 0);
+    lacks_child_.assign(nodes.size(), 0);
     level_error_.assign(header_.max_level + 1, 0.0);
     for (const HlodNode& n : nodes) {
         double& worst = level_error_[n.level];
@@ -209,13 +209,59 @@ void HlodModel::request_refinement(const HlodView& view, const std::vector<uint3
     if (!resident_[root_]) stream_->cache.request(stream_->source, root_, INFINITY);
     for (const uint32_t c : drawn) {
         stream_->cache.touch(stream_->source, c);
-        if (!capped_[c] || suitable(c, view)) continue;
+        if (!lacks_child_[c] || suitable(c, view)) continue;
         // A stand-in drawn closer than its switch distance: the nearer it is, the sooner its children.
         const double s = header_.cube_size(cubes_[c].node.level);
         const double priority = (*view.kappa)[c] * s / std::max(box_distance(view.eye, cell(cubes_[c].node)), 1e-6 * s);
         for (const uint32_t child : cubes_[c].children)
             if (child != kNoCube && !resident_[child]) stream_->cache.request(stream_->source, child, priority);
     }
+}
+
+void HlodModel::set_residency(std::vector<uint8_t> resident) {
+    if (resident.size() != cubes_.size()) throw std::invalid_argument("residency: one flag per cube is needed");
+    std::vector<uint8_t> lacks_child(cubes_.size(), 0);
+    for (uint32_t c = 0; c < cubes_.size(); ++c) {
+        if (resident[c] && parent_[c] != kNoCube && !resident[parent_[c]])
+            throw std::invalid_argument("residency: " + describe_cube(cubes_[c].node) + " is resident without its parent");
+        for (const uint32_t child : cubes_[c].children)
+            if (child != kNoCube && !resident[child]) lacks_child[c] = resident[c];
+    }
+    resident_ = std::move(resident);
+    lacks_child_ = std::move(lacks_child);
+    ++residency_version_;
+}
+
+bool HlodModel::Capping::capped(uint32_t c) {
+    if (const auto it = memo_.find(c); it != memo_.end()) return it->second;
+    bool capped = model_.lacks_child_[c] && !model_.suitable(c, view_);
+    // A capped cube of the parent's level next to this one keeps it from refining, so that nothing drawn
+    // beside that cube is two levels finer.
+    if (const uint32_t parent = model_.parent_[c]; !capped && parent != kNoCube)
+        for (const uint32_t n : model_.neighbours_[parent])
+            if (n != kNoCube && this->capped(n)) {
+                capped = true;
+                break;
+            }
+    memo_.emplace(c, capped);
+    return capped;
+}
+
+Kappas HlodModel::Capping::morph_kappas() const {
+    std::vector<uint32_t> capped;
+    for (const auto& [cube, is_capped] : memo_)
+        if (is_capped) capped.push_back(cube);
+    if (capped.empty()) return view_.kappa;
+    auto out = std::make_shared<CubeKappas>(*view_.kappa);
+    for (const uint32_t c : capped) out->band_ends[c][1] = 0.0f;  // what it holds stays on its parents
+    return out;
+}
+
+bool HlodModel::drawn_here(uint32_t c, const HlodView& view, Capping& capping) const {
+    // Capping is asked of every cube reached, so that the morph knows the ends of all the cubes that
+    // hold a drawn vertex (its cube's parent's neighbours).
+    const bool capped = capping.capped(c);
+    return capped || suitable(c, view);
 }
 
 void HlodModel::set_kappa0(double kappa0) {
@@ -229,28 +275,6 @@ void HlodModel::set_pixel_error(double pixels) {
     pixel_error_ = pixels;
 }
 
-void HlodModel::set_residency(std::vector<uint8_t> resident) {
-    if (resident.size() != cubes_.size()) throw std::invalid_argument("residency: one flag per cube is needed");
-    for (uint32_t c = 0; c < cubes_.size(); ++c)
-        if (resident[c] && parent_[c] != kNoCube && !resident[parent_[c]])
-            throw std::invalid_argument("residency: " + describe_cube(cubes_[c].node) + " is resident without its parent");
-    // Coarse to fine: a stand-in caps itself; a capped cube caps the children of its neighbours (the
-    // cubes of the next level that touch it), so no drawn neighbour is two levels finer.
-    std::vector<uint8_t> capped(cubes_.size(), 0);
-    for (auto it = finest_first_.rbegin(); it != finest_first_.rend(); ++it) {
-        const uint32_t c = *it;
-        for (const uint32_t child : cubes_[c].children)
-            if (child != kNoCube && !resident[child]) capped[c] = resident[c];
-        if (parent_[c] == kNoCube) continue;
-        for (const uint32_t n : neighbours_[parent_[c]])
-            if (n != kNoCube && capped[n]) capped[c] = 1;
-    }
-    const std::lock_guard lock(kappas_mutex_);  // the band ends follow the capped cubes
-    resident_ = std::move(resident);
-    capped_ = std::move(capped);
-    ++residency_version_;
-}
-
 Kappas HlodModel::kappas_for(const Camera& camera) const {
     if (pixel_error_ <= 0 || camera.projection != ProjectionKind::perspective) return uniform_kappas(kappa0_);
     // Pixels per unit of error at unit distance, over P, at the image's corner: the projection's
@@ -260,15 +284,15 @@ Kappas HlodModel::kappas_for(const Camera& camera) const {
     const double focal = camera.width / (2 * tx);
     const double gain = 1 + focal * (1 + tx * tx + ty * ty) / pixel_error_;  // the 1: the error's own extent
     const std::lock_guard lock(kappas_mutex_);
-    if (cached_kappas_ && cached_key_ == std::pair(gain, residency_version_)) return cached_kappas_;
-    cached_key_ = {gain, residency_version_};
+    if (cached_kappas_ && cached_key_ == gain) return cached_kappas_;
+    cached_key_ = gain;
     return cached_kappas_ = make_kappas(kappas_for_gain(gain));
 }
 
 Kappas HlodModel::uniform_kappas(double kappa) const {
     const std::lock_guard lock(kappas_mutex_);
-    if (cached_kappas_ && cached_key_ == std::pair(-kappa, residency_version_)) return cached_kappas_;
-    cached_key_ = {-kappa, residency_version_};
+    if (cached_kappas_ && cached_key_ == -kappa) return cached_kappas_;
+    cached_key_ = -kappa;
     return cached_kappas_ = make_kappas(std::vector<double>(cubes_.size(), kappa));
 }
 
@@ -308,7 +332,7 @@ Kappas HlodModel::make_kappas(std::vector<double> kappa) const {
     const double sigma0 = header_.sigma0;
     for (uint32_t c = 0; c < kappa.size(); ++c) {
         const double s = header_.cube_size(cubes_[c].node.level);
-        out->band_ends[c] = {float((1.0 + kappa[c] + sigma0) * s), capped_[c] ? 0.0f : float((kappa[c] - sigma0) * s)};
+        out->band_ends[c] = {float((1.0 + kappa[c] + sigma0) * s), float((kappa[c] - sigma0) * s)};
     }
     out->kappa = std::move(kappa);
     return out;
@@ -341,16 +365,18 @@ bool HlodModel::suitable(uint32_t cube, const HlodView& view) const {
     return box_distance(view.eye, cell(node)) >= (*view.kappa)[cube] * header_.cube_size(node.level);
 }
 
-void HlodModel::select(const HlodView& view, std::vector<uint32_t>& out) const {
+void HlodModel::select(const HlodView& view, std::vector<uint32_t>& out, Kappas* morph) const {
     out.clear();
-    select_from(root_, view, view.plane_mask, out);
+    Capping capping(*this, view);
+    select_from(root_, view, capping, view.plane_mask, out);
+    if (morph) *morph = capping.morph_kappas();
 }
 
-void HlodModel::select_from(uint32_t c, const HlodView& view, uint8_t mask, std::vector<uint32_t>& out) const {
+void HlodModel::select_from(uint32_t c, const HlodView& view, Capping& capping, uint8_t mask, std::vector<uint32_t>& out) const {
     const HlodCube& cube = cubes_[c];
     if (!resident_[c]) return;  // only the root can be reached so: its parent would stand in
     if (view.frustum && mask && !intersects(*view.frustum, cull_box(cube.node), mask)) return;
-    if (drawn_here(c, view)) {
+    if (drawn_here(c, view, capping)) {
         out.push_back(c);
         return;
     }
@@ -360,7 +386,7 @@ void HlodModel::select_from(uint32_t c, const HlodView& view, uint8_t mask, std:
     const uint32_t near = (view.eye.x >= centre.x) | (view.eye.y >= centre.y) << 1 | (view.eye.z >= centre.z) << 2;
     for (uint32_t k = 0; k < 8; ++k) {
         const uint32_t child = cube.children[near ^ k];
-        if (child != kNoCube) select_from(child, view, mask, out);
+        if (child != kNoCube) select_from(child, view, capping, mask, out);
     }
 }
 
@@ -481,9 +507,10 @@ void HlodModel::cull(CullVisitor& cull) {
         view.frustum = &frustum;
         view.plane_mask = cull.plane_mask();
     }
-    select(view, selection_);
+    Kappas morph;
+    select(view, selection_, &morph);
     if (stream_) request_refinement(view, selection_);
-    if (!selection_.empty()) cull.add(*this, selection_.data(), uint32_t(selection_.size()));
+    if (!selection_.empty()) cull.add(*this, selection_.data(), uint32_t(selection_.size()), std::move(morph));
 }
 
 }  // namespace strata

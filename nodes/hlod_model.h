@@ -96,15 +96,13 @@ public:
     // ε_l: the largest error bound of level l's cubes over their size.
     double level_error(uint32_t level) const { return level_error_[level]; }
     // Which cubes' data is at hand (DESIGN.md §7, nodes/README.md "Stand-ins"): every cube once loaded
-    // whole. A cube is resident only with its parent. A resident cube with a missing child stands in
-    // for its whole sibling group, and the cubes around a stand-in are capped too, level by level, so
-    // that drawn neighbours still differ by at most one level; a capped cube is drawn wherever the
-    // selection reaches it, and its children's vertices near it stay on their parents (its band end is
-    // 0), so the cut stays watertight. set_residency throws std::invalid_argument on a resident cube
-    // whose parent is not, or a list of the wrong length.
+    // whole. A cube is resident only with its parent. A resident cube that is not suitable but lacks a
+    // child stands in for its whole sibling group; the selection caps the cubes around such a
+    // stand-in, level by level, so that drawn neighbours still differ by at most one level, and gives
+    // the capped cubes a band end of 0 so that the cut stays watertight. set_residency throws
+    // std::invalid_argument on a resident cube whose parent is not, or a list of the wrong length.
     void set_residency(std::vector<uint8_t> resident);
     bool resident(uint32_t cube) const { return resident_[cube] != 0; }
-    bool capped(uint32_t cube) const { return capped_[cube] != 0; }
     uint64_t residency_version() const { return residency_version_; }  // counts set_residency calls
     // The cube's neighbours of its own level, the 3 × 3 × 3 around it (itself in the middle) at
     // (di + 1) + 3(dj + 1) + 9(dk + 1), kNoCube where there is none; and its parent (kNoCube: the root).
@@ -123,8 +121,10 @@ public:
     glm::dmat4 lattice_to_node() const;
     glm::dvec3 origin() const { return {header_.origin[0], header_.origin[1], header_.origin[2]}; }
 
-    // The coarsest suitable cubes (DESIGN.md §3) that meet the frustum, front to back.
-    void select(const HlodView& view, std::vector<uint32_t>& out) const;
+    // The coarsest suitable cubes (DESIGN.md §3) that meet the frustum, front to back, and the stand-ins
+    // for cubes not resident. `morph`, if given, receives the κ to morph them with: view.kappa, with the
+    // band ends of the cubes the view caps set to 0 (the same pointer when it caps none).
+    void select(const HlodView& view, std::vector<uint32_t>& out, Kappas* morph = nullptr) const;
     // A cube's cell in the lattice frame.
     Box cell(const HlodNode& node) const;
     // The box around everything a cube draws, morphed or not: its cell grown by 1.5·σ0·s_l (the
@@ -198,12 +198,27 @@ private:
     HlodModel() = default;
     // Whether the selection draws this cube rather than going down to its children.
     bool suitable(uint32_t cube, const HlodView& view) const;
-    // Whether the selection draws this cube when it reaches it: suitable, or capped.
-    bool drawn_here(uint32_t cube, const HlodView& view) const { return capped_[cube] || suitable(cube, view); }
+    // The cubes a view caps (nodes/README.md, "Stand-ins"), found as the selection asks: a cube is
+    // capped when it stands in (resident, not suitable, lacking a child) or a neighbour of its parent
+    // is capped. Memoized for one view.
+    class Capping {
+    public:
+        Capping(const HlodModel& model, const HlodView& view) : model_(model), view_(view) {}
+        bool capped(uint32_t cube);
+        // view.kappa with the band ends of the capped cubes found so far set to 0.
+        Kappas morph_kappas() const;
+
+    private:
+        const HlodModel& model_;
+        const HlodView& view_;
+        std::unordered_map<uint32_t, bool> memo_;
+    };
+    // Whether the selection draws this cube when it reaches it: capped, or suitable.
+    bool drawn_here(uint32_t cube, const HlodView& view, Capping& capping) const;
     // κ per cube from a pixel error's gain (pixels per unit of error at unit distance), nested.
     std::vector<double> kappas_for_gain(double gain) const;
     Kappas make_kappas(std::vector<double> kappa) const;
-    void select_from(uint32_t cube, const HlodView& view, uint8_t mask, std::vector<uint32_t>& out) const;
+    void select_from(uint32_t cube, const HlodView& view, Capping& capping, uint8_t mask, std::vector<uint32_t>& out) const;
 
     std::filesystem::path path_;
     HlodHeader header_;
@@ -225,19 +240,18 @@ private:
     void read_octree(const HlodFile& file);
     // Streamed: asks the cache for what the selection lacks, and marks what it draws as used.
     void request_refinement(const HlodView& view, const std::vector<uint32_t>& drawn) const;
-    std::vector<uint8_t> resident_, capped_;           // per cube
+    std::vector<uint8_t> resident_, lacks_child_;      // per cube: lacks_child_, resident without a child
     uint64_t residency_version_ = 0;                     // counts set_residency calls
-    // The last κ computed, with what it was computed from (a gain, or −κ0 for a uniform κ, and the
-    // residency, whose capped cubes' band ends are 0).
+    // The last κ computed, with what it was computed from (a gain, or −κ0 for a uniform κ).
     mutable std::mutex kappas_mutex_;
-    mutable std::pair<double, uint64_t> cached_key_{0, 0};
+    mutable double cached_key_ = 0;
     mutable Kappas cached_kappas_;
     double kappa0_ = 2.0;
     double pixel_error_ = 0;  // > 0: κ0 follows from it per view
     bool morph_ = true;
     HlodDebugView debug_view_ = HlodDebugView::none;
     bool show_boxes_ = false;
-    std::vector<uint32_t> selection_;  // scratch for cull()
+    std::vector<uint32_t> selection_;  // scratch for cull(); a draw item's state is the κ it morphs with
     bool capture_morph_ = false;
     std::unordered_map<uint32_t, std::vector<glm::vec4>> captured_;  // filled by draw() while capturing
 };

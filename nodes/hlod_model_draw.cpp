@@ -324,7 +324,9 @@ void set_view_uniforms(const HlodModel& model, const gl::Program& program, HlodG
     program.set("clip_from_lattice", glm::mat4(context.projection * context.view * world_from_lattice));
     program.set("world_from_lattice_normal", glm::mat3(glm::transpose(glm::inverse(glm::dmat3(world_from_lattice)))));
     program.set("eye", model.shader_eye(item.model, context.eye));
-    if (Kappas kappas = model.kappas_for(context.camera); kappas != gpu.kappas) {  // a new image size, fov or target
+    // The κ the selection morphs with (capped band ends while cubes are missing); a new one for a new
+    // image size, field of view, target or capping.
+    if (Kappas kappas = std::static_pointer_cast<const CubeKappas>(item.state); kappas != gpu.kappas) {
         gpu.band_ends.upload(kappas->band_ends);
         gpu.kappas = std::move(kappas);
     }

@@ -22,7 +22,11 @@ struct Candidate {
 }  // namespace
 
 HlodModel::MorphInputs HlodModel::morph_inputs(const PickContext& view) const {
-    return {shader_eye(view.world_from_node, view.eye_world), kappas_for(view.camera), morphs_for(view.camera)};
+    // The κ the view's selection morphs with, band ends of capped cubes included.
+    Kappas kappa;
+    std::vector<uint32_t> drawn;
+    select(view_for(view.camera, view.local_eye()), drawn, &kappa);
+    return {shader_eye(view.world_from_node, view.eye_world), std::move(kappa), morphs_for(view.camera)};
 }
 
 void HlodModel::drawn_positions(uint32_t c, const MorphInputs& inputs, std::vector<glm::vec3>& out) const {
@@ -50,13 +54,14 @@ std::optional<SurfaceHit> HlodModel::intersect(const Ray& ray, const PickContext
     enqueue(root_);
     std::optional<SurfaceHit> nearest;
     std::vector<glm::vec3> positions;
+    Capping capping(*this, view);
     while (!queue.empty()) {
         const Candidate next = queue.top();
         queue.pop();
         // A cube's box holds its children's boxes, so nothing still queued or below it starts nearer.
         if (next.entry > lattice_ray.t_max) break;
         const HlodCube& cube = cubes_[next.cube];
-        if (!drawn_here(next.cube, view)) {
+        if (!drawn_here(next.cube, view, capping)) {
             for (const uint32_t child : cube.children)
                 if (child != kNoCube) enqueue(child);
             continue;

@@ -122,12 +122,12 @@ void CullVisitor::apply(AmbientLight& light) {
 
 glm::dvec3 CullVisitor::local_eye() const { return glm::dvec3(glm::inverse(model()) * glm::dvec4(eye_world_, 1.0)); }
 
-void CullVisitor::add(Drawable& drawable, const uint32_t* data, uint32_t count) {
+void CullVisitor::add(Drawable& drawable, const uint32_t* data, uint32_t count, std::shared_ptr<const void> state) {
     const uint32_t first = uint32_t(out_.item_data.size());
     out_.item_data.insert(out_.item_data.end(), data, data + count);
     const glm::dvec3 center = glm::dvec3(model() * glm::dvec4(drawable.bound().center(), 1.0));
     const double depth = -(view_ * glm::dvec4(center, 1.0)).z;
-    out_.opaque.push_back({&drawable, model(), depth, first, count});
+    out_.opaque.push_back({&drawable, model(), depth, first, count, std::move(state)});
 }
 
 }  // namespace strata

@@ -45,7 +45,7 @@ public:
     uint8_t plane_mask() const { return state_.back().mask; }
     glm::dvec3 local_eye() const;
     // Adds a draw item for `drawable` in the current frame; `data` becomes its item_data range.
-    void add(Drawable& drawable, const uint32_t* data = nullptr, uint32_t count = 0);
+    void add(Drawable& drawable, const uint32_t* data = nullptr, uint32_t count = 0, std::shared_ptr<const void> state = nullptr);
     RenderList& list() { return out_; }
     const CullStats& stats() const { return stats_; }
 

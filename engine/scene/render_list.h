@@ -2,6 +2,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include <glm/glm.hpp>
@@ -16,6 +17,7 @@ struct DrawItem {
     double depth;      // along the view direction, of the bound's centre: the draw order
     uint32_t first;    // the drawable's own range in RenderList::item_data (the HLOD model's cubes)
     uint32_t count;
+    std::shared_ptr<const void> state;  // what the drawable decided while culling, for its draw (or null)
 };
 
 struct LightItem {
