@@ -247,9 +247,9 @@ void StreamCache::wait_for_requests(double timeout_seconds) {
         }
         if (missing == 0) break;
         if (in_flight_ == 0)  // nothing will come: what is wanted does not fit beside what it needs
-            throw std::runtime_error("the view needs " + std::to_string(missing) + " more items than the streaming budget of " +
-                                     std::to_string(budget_) + " bytes holds (" + std::to_string(shortfall_) +
-                                     " bytes short)");
+            throw std::runtime_error("the view needs more than the streaming budget of " + describe_bytes(budget_) + " holds: " +
+                                     std::to_string(missing) + " of its items do not fit beside the rest (" +
+                                     describe_bytes(shortfall_) + " short)");
         std::unique_lock lock(mutex_);
         const auto ready = [&] { return !done_.empty(); };
         if (timeout_seconds > 0) {
@@ -263,6 +263,11 @@ void StreamCache::wait_for_requests(double timeout_seconds) {
     }
     requests_.clear();
     ++frame_;
+}
+
+void StreamCache::wait_for_a_load() {
+    std::unique_lock lock(mutex_);
+    work_done_.wait(lock, [&] { return !done_.empty() || in_flight_ == 0; });
 }
 
 bool StreamCache::resident(SourceId source, uint32_t index) const { return item(source, index).state == State::resident; }

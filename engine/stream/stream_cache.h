@@ -93,6 +93,9 @@ public:
     // after `timeout_seconds` (≤ 0: no limit). Waits on the loads, not on a clock.
     void wait_for_requests(double timeout_seconds = 0);
 
+    // Blocks until a load in flight has finished (at once when none is in flight); update() takes it in.
+    void wait_for_a_load();
+
     bool resident(SourceId source, uint32_t item) const;
     // The item's value, or null when it is not resident. Stays valid for the caller as long as it
     // holds the pointer, though it no longer counts once evicted.

@@ -19,51 +19,16 @@
 #include "nodes/hlod_model.h"
 #include "preprocess/hlod_builder.h"
 #include "tests/support/bunny_model.h"
+#include "tests/support/crack_check.h"
 #include "tests/support/dem_grid.h"
 
 namespace strata {
 namespace {
 
-using Position = std::array<uint32_t, 3>;  // a morphed position's float bits: welds exactly
-
-Position bits(const glm::vec3& p) {
-    Position out;
-    std::memcpy(out.data(), &p, sizeof out);
-    return out;
-}
-
-// The drawn triangles of a view as morphed positions, degenerate ones dropped.
-std::vector<std::array<Position, 3>> drawn_triangles(const HlodModel& model, const std::vector<uint32_t>& cubes,
-                                                     const glm::dvec3& eye, const CubeKappas& kappa) {
-    std::vector<std::array<Position, 3>> triangles;
-    std::vector<glm::vec3> positions;
-    for (uint32_t c : cubes) {
-        model.morphed_positions(c, glm::vec3(eye), kappa, positions);
-        const auto& indices = model.cubes()[c].data->indices;
-        for (size_t t = 0; t < indices.size(); t += 3) {
-            std::array<Position, 3> tri{bits(positions[indices[t]]), bits(positions[indices[t + 1]]),
-                                        bits(positions[indices[t + 2]])};
-            if (tri[0] == tri[1] || tri[1] == tri[2] || tri[0] == tri[2]) continue;
-            triangles.push_back(tri);
-        }
-    }
-    return triangles;
-}
-
-// Edges (undirected, welded by position) used an odd number of times: cracks in a closed surface.
-std::vector<std::pair<Position, Position>> odd_edge_list(const std::vector<std::array<Position, 3>>& triangles) {
-    std::vector<std::pair<Position, Position>> edges, odd;
-    for (const auto& t : triangles)
-        for (int e = 0; e < 3; ++e) edges.push_back(std::minmax(t[e], t[(e + 1) % 3]));
-    std::sort(edges.begin(), edges.end());
-    for (size_t i = 0, j; i < edges.size(); i = j) {
-        for (j = i; j < edges.size() && edges[j] == edges[i]; ++j) {
-        }
-        if ((j - i) % 2) odd.push_back(edges[i]);
-    }
-    return odd;
-}
-size_t odd_edges(const std::vector<std::array<Position, 3>>& triangles) { return odd_edge_list(triangles).size(); }
+using test::Position;
+using test::drawn_triangles;
+using test::odd_edge_list;
+using test::odd_edges;
 
 // How many separate loops the odd edges of an open surface form: its outline is one, and each crack
 // away from the outline is another.

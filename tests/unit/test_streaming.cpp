@@ -1,0 +1,170 @@
+// Streamed HLOD models (DESIGN.md §7, HlodModel::open, engine/stream): the real bunny model opened by
+// its node table, its cubes loaded on the cache's threads. A fly-in never draws a cube that is not
+// resident and never cracks (the CPU twin's crack check on every frame, stand-ins and capped band
+// ends included), under a budget that forces evictions; a full-detail frame equals the model loaded
+// whole, from a cold cache, a warm one and a budget just holding the frame; a budget below that is
+// an error that says so.
+#include <gtest/gtest.h>
+
+#include <glm/gtc/matrix_transform.hpp>
+
+#include "engine/gl/context.h"
+#include "engine/gl/framebuffer.h"
+#include "engine/render/renderer.h"
+#include "engine/scene/cull_visitor.h"
+#include "nodes/hlod_model.h"
+#include "tests/support/bunny_model.h"
+#include "tests/support/crack_check.h"
+
+namespace strata {
+namespace {
+
+// A camera at `eye` looking at the model's centre, with fixed clip planes (a streamed model's bound is
+// its cells', looser than the decoded vertices' of a model loaded whole).
+// The middle of the model's root cube, in its node frame: the same for a model loaded whole or streamed.
+glm::dvec3 centre_of(const HlodModel& model) { return model.origin() + 0.5 * glm::dvec3(model.header().root_size); }
+
+void aim(Camera& camera, const HlodModel& model, const glm::dvec3& eye) {
+    camera.width = 320, camera.height = 240, camera.fov_y_degrees = 50;
+    camera.near_clip = 1e-3 * model.header().root_size, camera.far_clip = 20 * model.header().root_size;
+    camera.look_at(eye, centre_of(model));
+}
+
+// What one frame culls: the model's draw item (its cubes and the κ they morph with).
+struct Culled {
+    std::vector<uint32_t> cubes;
+    Kappas kappa;
+    glm::dvec3 eye;  // lattice frame
+};
+Culled cull_frame(Node& root, const HlodModel& model, const Camera& camera) {
+    RenderList list;
+    CullVisitor cull(camera, camera.view_matrix(), camera.projection_matrix(camera.near_clip, camera.far_clip), list);
+    cull.set_frustum_culling(false);
+    root.accept(cull);
+    Culled out{{}, model.kappas_for(camera), camera.position - model.origin()};
+    for (const DrawItem& item : list.opaque) {
+        out.cubes.assign(list.item_data.begin() + item.first, list.item_data.begin() + item.first + item.count);
+        out.kappa = std::static_pointer_cast<const CubeKappas>(item.state);
+    }
+    return out;
+}
+
+class Streaming : public ::testing::Test {
+protected:
+    void SetUp() override {
+        if (test::bunny_hlod().empty()) GTEST_SKIP() << "data/bunny.off missing: run scripts/setup.sh";
+    }
+};
+
+TEST_F(Streaming, AFlyInDrawsOnlyResidentCubesAndNeverCracks) {
+    const auto whole = HlodModel::load(test::bunny_hlod());
+    uint64_t model_bytes = 0;
+    for (const HlodCube& cube : whole->cubes()) model_bytes += HlodModel::cube_bytes(*cube.data);
+    StreamCache cache(model_bytes / 4, 2);  // a quarter of the model: the fly-in must evict
+    auto model = HlodModel::open(test::bunny_hlod(), cache);
+    model->set_kappa0(2.5);
+    whole->set_kappa0(2.5);
+    auto root = std::make_shared<Group>();
+    root->add(model);
+    const double size = model->header().root_size;
+    const glm::dvec3 centre = centre_of(*model);
+    int frames_with_stand_ins = 0, frames_drawn = 0;
+    // From far away to just off the surface, circling, one step a frame; then the last view held.
+    const int steps = 80;
+    glm::dvec3 eye;
+    for (int frame = 0; frame < steps + 40; ++frame) {
+        const double t = std::min(frame, steps) / double(steps);
+        const double angle = 4.0 * t, distance = size * (3.0 * (1 - t) + 0.55 * t);
+        eye = centre + distance * glm::dvec3(std::sin(angle), 0.3, std::cos(angle));
+        Camera camera;
+        aim(camera, *model, eye);
+        const Culled culled = cull_frame(*root, *model, camera);
+        frames_with_stand_ins += cache.has_requests();
+        if (!culled.cubes.empty()) {
+            ++frames_drawn;
+            for (const uint32_t c : culled.cubes) ASSERT_TRUE(model->resident(c)) << describe_cube(model->cubes()[c].node);
+            ASSERT_EQ(test::odd_edges(test::drawn_triangles(*model, culled.cubes, culled.eye, *culled.kappa)), 0u)
+                << "a crack in frame " << frame;
+        }
+        cache.update();
+        const StreamCache::Stats s = cache.stats();
+        ASSERT_LE(s.resident_bytes + s.reserved_bytes, s.budget);
+        cache.wait_for_a_load();  // frames outrun loads here: let each see some arrive, not all
+    }
+    EXPECT_GT(frames_drawn, steps);
+    EXPECT_GT(frames_with_stand_ins, 3) << "frames drew stand-ins while their children loaded";
+    EXPECT_GT(cache.stats().evicted, 0u);
+    // Held still with room for it, the view converges on what the model loaded whole draws.
+    cache.set_budget(2 * model_bytes);
+    Camera camera;
+    aim(camera, *model, eye);
+    std::vector<uint32_t> drawn;
+    bool converged = false;
+    for (int frame = 0; frame < 20 && !converged; ++frame) {  // a level or more each frame
+        drawn = cull_frame(*root, *model, camera).cubes;
+        converged = !cache.has_requests();
+        if (!converged) cache.wait_for_requests();
+    }
+    EXPECT_TRUE(converged);
+    std::vector<uint32_t> expected;
+    whole->select({eye - whole->origin(), whole->kappas_for(camera)}, expected);
+    EXPECT_EQ(drawn, expected);
+}
+
+class StreamingRender : public Streaming {
+protected:
+    static void SetUpTestSuite() { context_ = gl::create_headless_context(); }
+    static void TearDownTestSuite() { context_.reset(); }
+    static inline std::unique_ptr<gl::Context> context_;
+};
+
+// The frame of `model` from just off the bunny, full detail: its colour, and what the cache then held.
+std::vector<float> full_detail_frame(const std::shared_ptr<HlodModel>& model, uint64_t* resident = nullptr) {
+    model->set_pixel_error(1.0);
+    auto root = std::make_shared<Group>();
+    root->add(model);
+    const double size = model->header().root_size;
+    Camera camera;
+    aim(camera, *model, centre_of(*model) + size * glm::dvec3(0.2, 0.15, 0.45));
+    gl::Framebuffer target({.width = camera.width, .height = camera.height, .samples = 1});
+    Renderer renderer;
+    RenderSettings settings;
+    settings.full_detail = true;
+    renderer.render(*root, camera, target, settings);
+    if (resident) *resident = StreamCache::shared().stats().resident_bytes;
+    return target.read_color();
+}
+
+TEST_F(StreamingRender, FullDetailFramesEqualTheWholeModelsFromAnyCacheThatHoldsThem) {
+    StreamCache& cache = StreamCache::shared();
+    const uint64_t budget = cache.budget();
+    const std::vector<float> reference = full_detail_frame(HlodModel::load(test::bunny_hlod()));
+    uint64_t working_set = 0;
+    {
+        const auto model = HlodModel::open(test::bunny_hlod());
+        EXPECT_EQ(full_detail_frame(model, &working_set), reference) << "from a cold cache";
+        EXPECT_EQ(full_detail_frame(model), reference) << "from a warm cache";
+        EXPECT_LT(working_set, budget);
+    }
+    EXPECT_EQ(cache.stats().resident_bytes, 0u) << "a model's cubes go with it";
+    // Just the frame's cubes (and the coarse levels it pins), and room for the largest cube's bound: a
+    // load reserves its bound until its actual size is known.
+    uint64_t largest_bound = 0;
+    {
+        const auto model = HlodModel::open(test::bunny_hlod());
+        for (const HlodCube& cube : model->cubes()) largest_bound = std::max(largest_bound, model->cube_bytes_bound(cube.node));
+    }
+    cache.set_budget(working_set + largest_bound);
+    EXPECT_EQ(full_detail_frame(HlodModel::open(test::bunny_hlod())), reference) << "within a budget that just holds it";
+    cache.set_budget(working_set / 3);
+    try {
+        full_detail_frame(HlodModel::open(test::bunny_hlod()));
+        FAIL() << "a frame three times the budget was drawn";
+    } catch (const std::runtime_error& e) {
+        EXPECT_NE(std::string(e.what()).find("budget"), std::string::npos) << e.what();
+    }
+    cache.set_budget(budget);
+}
+
+}  // namespace
+}  // namespace strata
