@@ -28,6 +28,7 @@ struct RenderOptions {
     std::string compression = "zip";
     std::vector<float> background{0, 0, 0, 0};
     SceneOptions scene;
+    std::string memory;
     bool no_morph = false;
     bool quiet = false;
 };
@@ -70,6 +71,7 @@ int run_render(const RenderOptions& o) {
         return kUsage;
     }
 
+    if (!apply_memory_option(o.memory, "render")) return kUsage;
     SceneOptions scene_options = o.scene;
     scene_options.morph = !o.no_morph;
     auto context = gl::create_headless_context();
@@ -89,6 +91,7 @@ int run_render(const RenderOptions& o) {
     Renderer renderer;
     RenderSettings settings;
     settings.background = {o.background[0], o.background[1], o.background[2], o.background[3]};
+    settings.full_detail = true;  // every cube the view selects, loaded before drawing
     const FrameStats stats = renderer.render(*scene, camera, target, settings);
     const Image image = renderer.read_image(target);
     if (extension == ".png") write_png(image, output);
@@ -127,6 +130,7 @@ Command add_render(CLI::App& app) {
         ->check(CLI::IsMember({"none", "levels", "wireframe"}))->capture_default_str();
     sub->add_flag("--boxes", o->scene.cube_boxes, "Outline the HLOD cubes drawn, coloured by level");
     sub->add_flag("--no-morph", o->no_morph, "Draw HLOD cubes without morphing toward their parents (shows cracks)");
+    sub->add_option("--memory", o->memory, kMemoryOptionHelp);
     sub->add_flag("-q,--quiet", o->quiet, "Print nothing on success");
     return {sub, [o] { return run_render(*o); }};
 }

@@ -24,6 +24,13 @@ inline CLI::Validator positive_number() {
         "POSITIVE");
 }
 
+// --memory SIZE for the commands that draw: the streaming budget (engine/stream) that every streamed
+// model shares, in the build's grammar. apply_memory_option sets it, or prints the error and says no.
+inline const char* const kMemoryOptionHelp =
+    "Memory for models' geometry, CPU and GPU together: a hard cap shared by every model (e.g. 512M, 2G; at least 16M; "
+    "default a quarter of physical memory)";
+bool apply_memory_option(const std::string& memory, const char* command);
+
 struct Command {
     CLI::App* app;
     std::function<int()> run;

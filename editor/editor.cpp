@@ -338,7 +338,7 @@ void Editor::remove(const NodePtr& node) {
 
 NodePtr Editor::add_file(const std::filesystem::path& file) {
     NodePtr node;
-    if (file.extension() == ".hlod") node = HlodModel::load(file);
+    if (file.extension() == ".hlod") node = HlodModel::open(file);
     else node = Geometry::load(file);
     node->set_name(file.stem().string());
     scene_->add(node);

@@ -4,7 +4,10 @@
 #include <filesystem>
 #include <stdexcept>
 
+#include "editor/commands.h"
+#include "engine/stream/stream_cache.h"
 #include "nodes/geometry.h"
+#include "preprocess/byte_size.h"
 #include "nodes/hlod_model.h"
 
 namespace strata::cli {
@@ -26,7 +29,7 @@ std::shared_ptr<Group> load_scene_files(const std::vector<std::string>& files, c
     const HlodDebugView debug_view = parse_debug_view(options.debug_view);
     for (const std::string& file : files) {
         if (std::filesystem::path(file).extension() == ".hlod") {
-            auto model = HlodModel::load(file);
+            auto model = HlodModel::open(file);
             model->set_pixel_error(options.pixel_error);
             model->set_morph(options.morph);
             model->set_debug_view(debug_view);
@@ -46,6 +49,19 @@ std::pair<int, int> parse_size(const std::string& size) {
         width <= 0 || height <= 0 || width > 16384 || height > 16384)
         throw std::invalid_argument("--size takes WIDTHxHEIGHT (each 1 to 16384), not '" + size + "'");
     return {width, height};
+}
+
+bool apply_memory_option(const std::string& memory, const char* command) {
+    if (memory.empty()) return true;
+    try {
+        const uint64_t budget = parse_byte_size(memory);
+        if (budget < (uint64_t(16) << 20)) throw std::invalid_argument("'" + memory + "' is less than the least, 16M");
+        StreamCache::shared()->set_budget(budget);
+        return true;
+    } catch (const std::invalid_argument& e) {
+        std::fprintf(stderr, "strata %s: --memory: %s\n", command, e.what());
+        return false;
+    }
 }
 
 }  // namespace strata::cli

@@ -163,58 +163,66 @@ uint64_t HlodModel::cube_bytes_bound(const HlodNode& node) const {
     return per_vertex * node.vertex_count + 3 * (4 + kGpuIndexBytes) * uint64_t(node.triangle_count);
 }
 
-std::shared_ptr<HlodModel> HlodModel::open(const std::filesystem::path& path, StreamCache& cache) {
+std::shared_ptr<HlodModel> HlodModel::open(const std::filesystem::path& path, std::shared_ptr<StreamCache> cache) {
     auto file = std::make_shared<const HlodFile>(path);
     std::shared_ptr<HlodModel> model(new HlodModel());
     model->read_octree(*file);
     model->set_residency(model->resident_);
-    // The bound: the finest cubes' cells, grown by the vertices' overhang (their data is not read).
+    // The bound, before any cube is read: the input's box (BNDS) grown by the coarsest lattice's
+    // rounding, else the finest cubes' cells grown by the vertices' overhang.
     const uint32_t finest = model->header_.max_level;
+    const HlodHeader& h = model->header_;
+    if (h.has_bounds) {
+        const glm::dvec3 rounding(h.lattice_step(0));
+        model->bound_.expand(glm::dvec3(h.bounds_lo[0], h.bounds_lo[1], h.bounds_lo[2]) - rounding);
+        model->bound_.expand(glm::dvec3(h.bounds_hi[0], h.bounds_hi[1], h.bounds_hi[2]) + rounding);
+    }
     for (const HlodCube& cube : model->cubes_)
-        if (cube.node.level == finest) {
+        if (!h.has_bounds && cube.node.level == finest) {
             const Box cell = model->cell(cube.node);
             const glm::dvec3 grow(model->header_.sigma0 * model->header_.cube_size(finest));
             model->bound_.expand(cell.lo - grow + model->origin());
             model->bound_.expand(cell.hi + grow + model->origin());
         }
-    model->stream_ = std::make_unique<Stream>(Stream{cache, cache.add(std::make_shared<CubeSource>(file, *model))});
+    const StreamCache::SourceId source = cache->add(std::make_shared<CubeSource>(file, *model));
+    model->stream_ = std::make_unique<Stream>(Stream{cache, source});
     // Coarse levels whose cubes fit in 5 % of the budget together stay resident.
     std::vector<uint64_t> level_bytes(finest + 1, 0);
     for (const HlodCube& cube : model->cubes_) level_bytes[cube.node.level] += model->cube_bytes_bound(cube.node);
     uint64_t pinned = 0;
     uint32_t levels = 0;
-    while (levels <= finest && pinned + level_bytes[levels] <= cache.budget() / 20) pinned += level_bytes[levels++];
+    while (levels <= finest && pinned + level_bytes[levels] <= cache->budget() / 20) pinned += level_bytes[levels++];
     for (uint32_t c = 0; c < model->cubes_.size(); ++c)
-        if (model->cubes_[c].node.level < std::max(levels, 1u)) cache.pin(model->stream_->source, c);
+        if (model->cubes_[c].node.level < std::max(levels, 1u)) cache->pin(source, c);
     return model;
 }
 
 HlodModel::~HlodModel() {
-    if (stream_) stream_->cache.remove(stream_->source);
+    if (stream_) stream_->cache->remove(stream_->source);
 }
 
 void HlodModel::sync_residency() {
-    const uint64_t version = stream_->cache.version(stream_->source);
+    const uint64_t version = stream_->cache->version(stream_->source);
     if (version == stream_->synced) return;
     stream_->synced = version;
     std::vector<uint8_t> resident(cubes_.size());
     for (uint32_t c = 0; c < cubes_.size(); ++c) {
-        cubes_[c].data = std::static_pointer_cast<const CubeData>(stream_->cache.value(stream_->source, c));
+        cubes_[c].data = std::static_pointer_cast<const CubeData>(stream_->cache->value(stream_->source, c));
         resident[c] = cubes_[c].data != nullptr;
     }
     set_residency(std::move(resident));
 }
 
 void HlodModel::request_refinement(const HlodView& view, const std::vector<uint32_t>& drawn) const {
-    if (!resident_[root_]) stream_->cache.request(stream_->source, root_, INFINITY);
+    if (!resident_[root_]) stream_->cache->request(stream_->source, root_, INFINITY);
     for (const uint32_t c : drawn) {
-        stream_->cache.touch(stream_->source, c);
+        stream_->cache->touch(stream_->source, c);
         if (!lacks_child_[c] || suitable(c, view)) continue;
         // A stand-in drawn closer than its switch distance: the nearer it is, the sooner its children.
         const double s = header_.cube_size(cubes_[c].node.level);
         const double priority = (*view.kappa)[c] * s / std::max(box_distance(view.eye, cell(cubes_[c].node)), 1e-6 * s);
         for (const uint32_t child : cubes_[c].children)
-            if (child != kNoCube && !resident_[child]) stream_->cache.request(stream_->source, child, priority);
+            if (child != kNoCube && !resident_[child]) stream_->cache->request(stream_->source, child, priority);
     }
 }
 

@@ -64,7 +64,8 @@ public:
     // on the cache's threads as views ask for them (cull() asks for the children a stand-in lacks),
     // each with its parent; meanwhile stand-ins draw (set_residency). The coarse levels whose cubes fit
     // in 5 % of the budget together stay resident. Throws std::runtime_error naming the file.
-    static std::shared_ptr<HlodModel> open(const std::filesystem::path& path, StreamCache& cache = StreamCache::shared());
+    static std::shared_ptr<HlodModel> open(const std::filesystem::path& path,
+                                           std::shared_ptr<StreamCache> cache = StreamCache::shared());
     ~HlodModel() override;
     bool streamed() const { return stream_ != nullptr; }
     // Streamed: takes in what the cache loaded or evicted since the last call (the cubes' data and
@@ -231,7 +232,7 @@ private:
     std::vector<uint32_t> finest_first_;                // cube indices, finest level first
     // Streamed: the cache, this model's source in it, and the cache's version last taken in.
     struct Stream {
-        StreamCache& cache;
+        std::shared_ptr<StreamCache> cache;
         StreamCache::SourceId source;
         uint64_t synced = ~uint64_t(0);
     };

@@ -61,6 +61,7 @@ std::optional<SurfaceHit> HlodModel::intersect(const Ray& ray, const PickContext
         // A cube's box holds its children's boxes, so nothing still queued or below it starts nearer.
         if (next.entry > lattice_ray.t_max) break;
         const HlodCube& cube = cubes_[next.cube];
+        if (!resident_[next.cube]) continue;  // only a streamed model's root, before it arrives
         if (!drawn_here(next.cube, view, capping)) {
             for (const uint32_t child : cube.children)
                 if (child != kNoCube) enqueue(child);

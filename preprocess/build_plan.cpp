@@ -19,7 +19,7 @@ namespace strata::build {
 namespace {
 
 constexpr uint32_t kPlanMagic = 0x4C504A53;  // "SJPL"
-constexpr uint32_t kPlanVersion = 1;
+constexpr uint32_t kPlanVersion = 2;  // 2: the input's bounding box
 constexpr size_t kMaxStringBytes = size_t(1) << 20;
 
 // The level-(l−1) blocks that the parents of block `block`'s level-l cubes can lie in: up to two a side,
@@ -54,6 +54,8 @@ void put_header(ByteWriter& out, const HlodHeader& h) {
     for (double o : h.origin) out.put(o);
     out.put(h.root_size), out.put(h.max_level), out.put(h.block_size), out.put(h.sigma0), out.put(h.ratio);
     out.put(h.error_limit), out.put(h.input_triangles);
+    for (double v : h.bounds_lo) out.put(v);
+    for (double v : h.bounds_hi) out.put(v);
     out.put_string(h.source), out.put_string(h.texture);
 }
 
@@ -64,6 +66,9 @@ HlodHeader get_header(ByteReader& in) {
     h.root_size = in.get<double>(), h.max_level = in.get<uint32_t>(), h.block_size = in.get<uint32_t>();
     h.sigma0 = in.get<float>(), h.ratio = in.get<float>(), h.error_limit = in.get<float>();
     h.input_triangles = in.get<uint64_t>();
+    for (double& v : h.bounds_lo) v = in.get<double>();
+    for (double& v : h.bounds_hi) v = in.get<double>();
+    h.has_bounds = true;
     h.source = in.get_string(kMaxStringBytes), h.texture = in.get_string(kMaxStringBytes);
     return h;
 }

@@ -190,6 +190,11 @@ void choose_frame(const build::InputScan& scan, const BuildInput& input, const B
     header.flags = (input.model.kept.colors ? kHasColors : 0u) | (input.model.kept.uvs ? kHasUvs : 0u) | kErrorsAreBounds;
     const std::array<double, 3> origin = input.sources.front()->origin();
     for (int a = 0; a < 3; ++a) header.origin[a] = origin[size_t(a)] + f.origin[a];  // in double: survey coordinates
+    header.has_bounds = true;
+    for (int a = 0; a < 3; ++a) {
+        header.bounds_lo[a] = origin[size_t(a)] + scan.low[size_t(a)];
+        header.bounds_hi[a] = origin[size_t(a)] + scan.high[size_t(a)];
+    }
     header.root_size = f.root_size;
     header.max_level = L;
     header.block_size = f.block;

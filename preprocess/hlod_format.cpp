@@ -33,7 +33,9 @@ constexpr size_t kChunkBytes = size_t(8) << 20;  // copies and streamed checksum
 
 constexpr uint32_t kCrc32cPolynomial = 0x82F63B78u;  // reflected
 
-constexpr char kModelTag[5] = "MODL", kNodeTag[5] = "NODE", kPayloadTag[5] = "PAYL", kGeoreferenceTag[5] = "GEOR";
+constexpr char kModelTag[5] = "MODL", kNodeTag[5] = "NODE", kPayloadTag[5] = "PAYL", kGeoreferenceTag[5] = "GEOR",
+               kBoundsTag[5] = "BNDS";
+constexpr size_t kBoundsBytes = 48;  // BNDS: six f64
 
 // ---- CRC-32C (Castagnoli): hardware instruction where there is one, table otherwise ------------
 
@@ -136,6 +138,11 @@ void write_model(ByteWriter& w, const HlodHeader& h) {
 void write_georeference(ByteWriter& w, const HlodHeader& h) {
     for (double o : h.geo_origin) w.put(o);
     w.put_string(h.crs);
+}
+
+void write_bounds(ByteWriter& w, const HlodHeader& h) {
+    for (double v : h.bounds_lo) w.put(v);
+    for (double v : h.bounds_hi) w.put(v);
 }
 
 void write_node(ByteWriter& w, const HlodNode& n) {
@@ -846,9 +853,10 @@ void HlodWriter::finish(HlodHeader header) {
     // Payloads arrive finest level first; sorting their entries is all the reordering costs in memory.
     std::vector<HlodNode> spooled = nodes_;
     std::stable_sort(spooled.begin(), spooled.end(), in_file_order);
-    ByteWriter model, node_table, georeference;
+    ByteWriter model, node_table, georeference, bounds;
     write_model(model, header);
     if (!header.crs.empty()) write_georeference(georeference, header);
+    if (header.has_bounds) write_bounds(bounds, header);
 
     // Layout (FORMAT.md §1): header, section table, the small sections on 8-byte boundaries, then the
     // payloads from a 4 KiB boundary. Sizes are known before contents: NODE is 48 bytes a cube.
@@ -865,6 +873,7 @@ void HlodWriter::finish(HlodHeader header) {
     add(kModelTag, kRequiredSection, &model.bytes, model.bytes.size());
     add(kNodeTag, kRequiredSection, &node_table.bytes, kNodeBytes * spooled.size());
     if (!georeference.bytes.empty()) add(kGeoreferenceTag, 0, &georeference.bytes, georeference.bytes.size());
+    if (!bounds.bytes.empty()) add(kBoundsTag, 0, &bounds.bytes, bounds.bytes.size());
     add(kPayloadTag, kRequiredSection, nullptr, 0);
     uint64_t at = kFixedHeaderBytes + kSectionEntryBytes * table.size();
     for (HlodSection& s : table) {
@@ -973,6 +982,7 @@ HlodFile::HlodFile(const std::filesystem::path& path)
     read_model_section(*model);
     read_node_section(*nodes, *payloads);
     if (const HlodSection* georeference = find_section(kGeoreferenceTag)) read_georeference_section(*georeference);
+    if (const HlodSection* bounds = find_section(kBoundsTag)) read_bounds_section(*bounds);
 }
 
 void HlodFile::read_at(uint64_t offset, void* data, size_t size, const std::string& what) const {
@@ -1039,7 +1049,8 @@ void HlodFile::read_section_table(std::span<const uint8_t> fixed) {
             throw std::runtime_error(name + ": sections '" + by_offset[s - 1]->name() + "' and '" + by_offset[s]->name() +
                                      "' overlap");
     for (const HlodSection& s : sections_) {
-        const bool known = is_tag(s, kModelTag) || is_tag(s, kNodeTag) || is_tag(s, kPayloadTag) || is_tag(s, kGeoreferenceTag);
+        const bool known = is_tag(s, kModelTag) || is_tag(s, kNodeTag) || is_tag(s, kPayloadTag) || is_tag(s, kGeoreferenceTag) ||
+                           is_tag(s, kBoundsTag);
         if (!known && (s.flags & kRequiredSection))
             throw std::runtime_error(name + ": needs section '" + s.name() +
                                      "', which this Strata does not know; it was written by a newer version");
@@ -1139,6 +1150,19 @@ void HlodFile::read_georeference_section(const HlodSection& section) {
     }
     header_.crs = r.get_string(kMaxCrsBytes);
     if (!r.at_end()) throw std::runtime_error(name + ": " + quoted(section) + " is longer than its fields");
+}
+
+void HlodFile::read_bounds_section(const HlodSection& section) {
+    const std::string name = path_.string();
+    const std::vector<uint8_t> bytes = read_section(section, kBoundsBytes);
+    ByteReader r(bytes, name + ": " + quoted(section));
+    for (double& v : header_.bounds_lo) v = r.get<double>();
+    for (double& v : header_.bounds_hi) v = r.get<double>();
+    if (!r.at_end()) throw std::runtime_error(name + ": " + quoted(section) + " is longer than its fields");
+    for (int a = 0; a < 3; ++a)
+        if (!std::isfinite(header_.bounds_lo[a]) || !std::isfinite(header_.bounds_hi[a]) || header_.bounds_lo[a] > header_.bounds_hi[a])
+            throw std::runtime_error(name + ": " + quoted(section) + ": the box is not finite, or its corners are swapped");
+    header_.has_bounds = true;
 }
 
 std::vector<uint8_t> HlodFile::read_payload(const HlodNode& node) const {

@@ -57,6 +57,10 @@ struct HlodHeader {
     // geo_origin + x in the coordinate reference system crs ("EPSG:32633", or WKT).
     double geo_origin[3] = {0, 0, 0};
     std::string crs;
+    // The input's bounding box in model coordinates (section BNDS), when the file has it: what a
+    // streamed model frames and clips with before any cube is read.
+    bool has_bounds = false;
+    double bounds_lo[3] = {0, 0, 0}, bounds_hi[3] = {0, 0, 0};
 
     bool has_colors() const { return flags & kHasColors; }
     bool has_uvs() const { return flags & kHasUvs; }
@@ -217,6 +221,7 @@ private:
     void read_model_section(const HlodSection& section);
     void read_node_section(const HlodSection& section, const HlodSection& payloads);
     void read_georeference_section(const HlodSection& section);
+    void read_bounds_section(const HlodSection& section);
     void read_at(uint64_t offset, void* data, size_t size, const std::string& what) const;
 
     std::filesystem::path path_;

@@ -24,6 +24,7 @@ int open_strata(lua_State* L) {
     register_build(L);
     register_video(L);
     register_measure(L);
+    register_memory(L);
     register_files(L);
     register_path(L);
     register_pick(L);

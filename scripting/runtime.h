@@ -88,6 +88,7 @@ void register_render(lua_State* L);
 void register_build(lua_State* L);
 void register_video(lua_State* L);
 void register_measure(lua_State* L);
+void register_memory(lua_State* L);
 void register_files(lua_State* L);
 void register_path(lua_State* L);
 void register_pick(lua_State* L);

@@ -62,9 +62,6 @@ int render(lua_State* L) {
     const NodePtr& scene = check_node(L, 1);
     const std::shared_ptr<Camera>& camera = check_camera(L, 2);
     lua::check_keys(L, 3, {"samples", "channels", "background", "culling", "gpu_time", "full_detail"});
-    // full_detail: draw only once every cube the view needs is resident. Models load whole today, so
-    // every frame already is; the option is accepted so capture scripts keep working when streaming comes.
-    lua::opt_boolean(L, 3, "full_detail", true);
     ImageChannels channels = ImageChannel::rgba;
     if (lua::get_option(L, 3, "channels")) channels = channels_at_top(L, "channels");
     lua_pop(L, 1);
@@ -81,6 +78,20 @@ int render(lua_State* L) {
     lua_pop(L, 1);
     settings.frustum_culling = lua::opt_boolean(L, 3, "culling", true);
     settings.measure_gpu_time = lua::opt_boolean(L, 3, "gpu_time", false);
+    // full_detail (default true): draw once every cube the view selects is resident, so that the frame
+    // does not depend on the cache; { timeout = S } fails after S seconds; false draws what is resident.
+    settings.full_detail = true;
+    if (lua::get_option(L, 3, "full_detail")) {
+        if (lua_istable(L, -1)) {
+            lua::check_keys(L, lua_gettop(L), {"timeout"});
+            settings.full_detail_timeout = lua::opt_number(L, lua_gettop(L), "timeout", 0);
+            if (!(settings.full_detail_timeout > 0)) return luaL_error(L, "option 'full_detail': timeout must be a number of seconds above 0");
+        } else {
+            luaL_argexpected(L, lua_isboolean(L, -1), 3, "full_detail: a boolean or { timeout = seconds }");
+            settings.full_detail = lua_toboolean(L, -1);
+        }
+    }
+    lua_pop(L, 1);
     const lua_Integer samples = lua::opt_integer(L, 3, "samples", 4);
     if (samples != 1 && samples != 2 && samples != 4 && samples != 8) return luaL_error(L, "option 'samples' must be 1, 2, 4 or 8");
 

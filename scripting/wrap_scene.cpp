@@ -68,7 +68,7 @@ int load(lua_State* L) {
     NodePtr node;
     try {
         if (path.size() > 5 && path.substr(path.size() - 5) == ".hlod") {
-            auto model = HlodModel::load(path);
+            auto model = HlodModel::open(path);
             model->set_pixel_error(opt_number(L, 2, "pixel_error", 1.0));
             if (lua::get_option(L, 2, "kappa0")) model->set_kappa0(opt_number(L, 2, "kappa0", 2.0));
             lua_pop(L, 1);

@@ -12,13 +12,13 @@ namespace strata {
 
 namespace {
 std::mutex shared_mutex;
-std::unique_ptr<StreamCache> shared_cache;
+std::shared_ptr<StreamCache> shared_cache;
 }  // namespace
 
-StreamCache& StreamCache::shared() {
+const std::shared_ptr<StreamCache>& StreamCache::shared() {
     const std::lock_guard lock(shared_mutex);
-    if (!shared_cache) shared_cache = std::make_unique<StreamCache>(default_memory_limit(), std::clamp(std::thread::hardware_concurrency(), 1u, 4u));
-    return *shared_cache;
+    if (!shared_cache) shared_cache = std::make_shared<StreamCache>(default_memory_limit(), std::clamp(std::thread::hardware_concurrency(), 1u, 4u));
+    return shared_cache;
 }
 
 StreamCache* StreamCache::shared_if_made() {

@@ -67,8 +67,9 @@ public:
 
     // The process's one cache, which streamed models share (one budget for the whole scene): made on
     // first use with a quarter of physical memory and up to 4 loader threads. shared_if_made() is
-    // null before that.
-    static StreamCache& shared();
+    // null before that. Models hold it too, so it outlives the last of them, whatever the order in
+    // which a process tears down.
+    static const std::shared_ptr<StreamCache>& shared();
     static StreamCache* shared_if_made();
 
     SourceId add(std::shared_ptr<StreamSource> source);

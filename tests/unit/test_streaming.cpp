@@ -60,8 +60,9 @@ TEST_F(Streaming, AFlyInDrawsOnlyResidentCubesAndNeverCracks) {
     const auto whole = HlodModel::load(test::bunny_hlod());
     uint64_t model_bytes = 0;
     for (const HlodCube& cube : whole->cubes()) model_bytes += HlodModel::cube_bytes(*cube.data);
-    StreamCache cache(model_bytes / 4, 2);  // a quarter of the model: the fly-in must evict
-    auto model = HlodModel::open(test::bunny_hlod(), cache);
+    auto shared_cache = std::make_shared<StreamCache>(model_bytes / 4, 2);  // a quarter of the model: the fly-in must evict
+    StreamCache& cache = *shared_cache;
+    auto model = HlodModel::open(test::bunny_hlod(), shared_cache);
     model->set_kappa0(2.5);
     whole->set_kappa0(2.5);
     auto root = std::make_shared<Group>();
@@ -131,12 +132,12 @@ std::vector<float> full_detail_frame(const std::shared_ptr<HlodModel>& model, ui
     RenderSettings settings;
     settings.full_detail = true;
     renderer.render(*root, camera, target, settings);
-    if (resident) *resident = StreamCache::shared().stats().resident_bytes;
+    if (resident) *resident = StreamCache::shared()->stats().resident_bytes;
     return target.read_color();
 }
 
 TEST_F(StreamingRender, FullDetailFramesEqualTheWholeModelsFromAnyCacheThatHoldsThem) {
-    StreamCache& cache = StreamCache::shared();
+    StreamCache& cache = *StreamCache::shared();
     const uint64_t budget = cache.budget();
     const std::vector<float> reference = full_detail_frame(HlodModel::load(test::bunny_hlod()));
     uint64_t working_set = 0;
