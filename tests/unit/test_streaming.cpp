@@ -6,6 +6,9 @@
 // an error that says so.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <fstream>
+
 #include <glm/gtc/matrix_transform.hpp>
 
 #include "engine/gl/context.h"
@@ -110,6 +113,78 @@ TEST_F(Streaming, AFlyInDrawsOnlyResidentCubesAndNeverCracks) {
     std::vector<uint32_t> expected;
     whole->select({eye - whole->origin(), whole->kappas_for(camera)}, expected);
     EXPECT_EQ(drawn, expected);
+}
+
+// Faults (issue 16 §4): a cube whose payload turns corrupt after the model was opened fails to load,
+// named by file and cube; its parent stands in for it (and its siblings) on every frame, with no crack
+// and no crash; a capture that needs it fails with that message; a truncated file fails alike.
+TEST_F(Streaming, ACubeThatCannotBeReadLeavesItsParentStandingInAndACaptureNamesIt) {
+    test::TempDir dir;
+    const std::filesystem::path copy = dir / "bunny.hlod";
+    std::filesystem::copy_file(test::bunny_hlod(), copy);
+    auto cache = std::make_shared<StreamCache>(uint64_t(16) << 20, 2);  // pins the coarse levels only
+    auto model = HlodModel::open(copy, cache);
+    model->set_kappa0(2.5);
+    auto root = std::make_shared<Group>();
+    root->add(model);
+    // The finest cube with the most triangles, seen from just off its cell.
+    uint32_t broken = kNoCube;
+    for (uint32_t c = 0; c < model->cubes().size(); ++c) {
+        const HlodNode& n = model->cubes()[c].node;
+        if (n.level == model->header().max_level && (broken == kNoCube || n.triangle_count > model->cubes()[broken].node.triangle_count))
+            broken = c;
+    }
+    ASSERT_NE(broken, kNoCube);
+    {  // one byte of its payload flipped: its checksum no longer matches
+        std::fstream file(copy, std::ios::in | std::ios::out | std::ios::binary);
+        const auto at = std::streamoff(model->cubes()[broken].node.offset + model->cubes()[broken].node.size / 2);
+        file.seekg(at);
+        const char byte = char(file.get());
+        file.seekp(at);
+        file.put(char(byte ^ 0x5a));
+    }
+    const Box cell = model->cell(model->cubes()[broken].node);
+    const glm::dvec3 eye = cell.center() + model->origin() + glm::dvec3(0, 0, 0.02 * model->header().root_size);
+    Camera camera;
+    aim(camera, *model, eye);
+    bool failed = false;
+    for (int frame = 0; frame < 60 && !failed; ++frame) {
+        const Culled culled = cull_frame(*root, *model, camera);
+        for (const uint32_t c : culled.cubes) ASSERT_TRUE(model->resident(c));
+        ASSERT_EQ(test::odd_edges(test::drawn_triangles(*model, culled.cubes, culled.eye, *culled.kappa)), 0u) << "frame " << frame;
+        cache->update();
+        cache->wait_for_a_load();
+        failed = cache->failure(0, broken).has_value();
+    }
+    ASSERT_TRUE(failed) << "the broken cube was never asked for";
+    const std::string message = *cache->failure(0, broken);
+    EXPECT_NE(message.find(copy.string()), std::string::npos) << message;
+    EXPECT_NE(message.find(describe_cube(model->cubes()[broken].node)), std::string::npos) << message;
+    // The parent stands in from now on: drawn, watertight, and a capture names the failure.
+    const Culled culled = cull_frame(*root, *model, camera);
+    EXPECT_NE(std::find(culled.cubes.begin(), culled.cubes.end(), model->parent(broken)), culled.cubes.end());
+    EXPECT_EQ(test::odd_edges(test::drawn_triangles(*model, culled.cubes, culled.eye, *culled.kappa)), 0u);
+    try {
+        cache->wait_for_requests();
+        FAIL() << "a capture waited for a cube that cannot be read";
+    } catch (const std::runtime_error& e) {
+        EXPECT_EQ(std::string(e.what()), message);
+    }
+    // The file cut before its payloads: every cube not yet read fails the same way, naming the file.
+    uint64_t payloads = UINT64_MAX;
+    for (const HlodCube& cube : model->cubes()) payloads = std::min(payloads, cube.node.offset);
+    std::filesystem::resize_file(copy, payloads);
+    uint32_t unread = kNoCube;
+    for (uint32_t c = 0; c < model->cubes().size() && unread == kNoCube; ++c)
+        if (!cache->resident(0, c) && !cache->failure(0, c) && model->parent(c) != kNoCube && cache->resident(0, model->parent(c))) unread = c;
+    ASSERT_NE(unread, kNoCube);
+    cache->request(0, unread, 1.0);
+    try {
+        cache->wait_for_requests();
+        FAIL() << "a cube was read past the end of the file";
+    } catch (const std::runtime_error& e) {
+        EXPECT_NE(std::string(e.what()).find(copy.string()), std::string::npos) << e.what();
+    }
 }
 
 class StreamingRender : public Streaming {
