@@ -213,17 +213,20 @@ void HlodModel::sync_residency() {
     set_residency(std::move(resident));
 }
 
-void HlodModel::request_refinement(const HlodView& view, const std::vector<uint32_t>& drawn) const {
+uint64_t HlodModel::request_refinement(const HlodView& view, const std::vector<uint32_t>& drawn) const {
     if (!resident_[root_]) stream_->cache->request(stream_->source, root_, INFINITY);
+    uint64_t stand_ins = 0;
     for (const uint32_t c : drawn) {
         stream_->cache->touch(stream_->source, c);
         if (!lacks_child_[c] || suitable(c, view)) continue;
+        ++stand_ins;
         // A stand-in drawn closer than its switch distance: the nearer it is, the sooner its children.
         const double s = header_.cube_size(cubes_[c].node.level);
         const double priority = (*view.kappa)[c] * s / std::max(box_distance(view.eye, cell(cubes_[c].node)), 1e-6 * s);
         for (const uint32_t child : cubes_[c].children)
             if (child != kNoCube && !resident_[child]) stream_->cache->request(stream_->source, child, priority);
     }
+    return stand_ins;
 }
 
 void HlodModel::set_residency(std::vector<uint8_t> resident) {
@@ -517,7 +520,7 @@ void HlodModel::cull(CullVisitor& cull) {
     }
     Kappas morph;
     select(view, selection_, &morph);
-    if (stream_) request_refinement(view, selection_);
+    if (stream_) cull.count_stand_ins(request_refinement(view, selection_));
     if (!selection_.empty()) cull.add(*this, selection_.data(), uint32_t(selection_.size()), std::move(morph));
 }
 

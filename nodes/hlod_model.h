@@ -239,8 +239,9 @@ private:
     std::unique_ptr<Stream> stream_;
     // The octree from the node table (links, neighbours, errors); cube data is not read.
     void read_octree(const HlodFile& file);
-    // Streamed: asks the cache for what the selection lacks, and marks what it draws as used.
-    void request_refinement(const HlodView& view, const std::vector<uint32_t>& drawn) const;
+    // Streamed: asks the cache for what the selection lacks, and marks what it draws as used. Returns
+    // how many drawn cubes stand in for missing children.
+    uint64_t request_refinement(const HlodView& view, const std::vector<uint32_t>& drawn) const;
     std::vector<uint8_t> resident_, lacks_child_;      // per cube: lacks_child_, resident without a child
     uint64_t residency_version_ = 0;                     // counts set_residency calls
     // The last κ computed, with what it was computed from (a gain, or −κ0 for a uniform κ).

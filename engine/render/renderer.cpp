@@ -86,10 +86,16 @@ FrameStats Renderer::render(Node& scene, const Camera& camera, gl::Framebuffer& 
         cull.set_frustum_culling(s.frustum_culling);
         scene.accept(cull);
         stats.nodes_culled = cull.stats().nodes_culled;
+        stats.stand_ins = cull.stats().stand_ins;
         if (!stream || !s.full_detail || !stream->has_requests()) break;
         stream->wait_for_requests(s.full_detail_timeout);  // then cull again: the view may now refine further
     }
-    if (stream) stream->update();  // takes in finished loads, starts what this frame asked for
+    if (stream) {
+        stream->update();  // takes in finished loads, starts what this frame asked for
+        const StreamCache::Stats streaming = stream->stats();
+        stats.loads_pending = streaming.in_flight + streaming.waiting;
+        stats.memory_resident = streaming.resident_bytes;
+    }
     list_.sort();
     stats.cull_ms = milliseconds_since(cull_start);
 

@@ -18,6 +18,7 @@ struct CullStats {
     uint64_t nodes_visited = 0;
     uint64_t nodes_culled = 0;  // subtrees dropped by the frustum
     uint64_t bound_tests = 0;   // bounds tested against planes (none below a wholly visible node)
+    uint64_t stand_ins = 0;     // streamed cubes drawn in place of children not yet loaded
 };
 
 class CullVisitor : public NodeVisitor {
@@ -47,6 +48,7 @@ public:
     // Adds a draw item for `drawable` in the current frame; `data` becomes its item_data range.
     void add(Drawable& drawable, const uint32_t* data = nullptr, uint32_t count = 0, std::shared_ptr<const void> state = nullptr);
     RenderList& list() { return out_; }
+    void count_stand_ins(uint64_t count) { stats_.stand_ins += count; }
     const CullStats& stats() const { return stats_; }
 
 private:
