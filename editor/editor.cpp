@@ -28,6 +28,7 @@
 #include "engine/scene/visitor.h"
 #include "nodes/geometry.h"
 #include "nodes/hlod_model.h"
+#include "preprocess/byte_size.h"
 
 namespace strata {
 
@@ -588,8 +589,10 @@ void Editor::draw_stats_overlay() {
     const ImGuiWindowFlags flags = ImGuiWindowFlags_NoDecoration | ImGuiWindowFlags_AlwaysAutoResize | ImGuiWindowFlags_NoSavedSettings |
                                    ImGuiWindowFlags_NoFocusOnAppearing | ImGuiWindowFlags_NoNav | ImGuiWindowFlags_NoInputs;
     if (ImGui::Begin("stats", nullptr, flags))
-        ImGui::Text("%.0f fps  %.1f ms  |  %.2f M triangles  %llu cubes  |  ui %.2f ms", fps_, 1000.0 / std::max(fps_, 1e-6),
-                    stats_.triangles / 1e6, (unsigned long long)stats_.cubes, timings_.ui_ms);
+        ImGui::Text("%.0f fps  %.1f ms  |  %.2f M triangles  %llu cubes  |  streamed %s, %llu loading, %llu stand-ins  |  ui %.2f ms",
+                    fps_, 1000.0 / std::max(fps_, 1e-6), stats_.triangles / 1e6, (unsigned long long)stats_.cubes,
+                    describe_bytes(stats_.memory_resident).c_str(), (unsigned long long)stats_.loads_pending,
+                    (unsigned long long)stats_.stand_ins, timings_.ui_ms);
     ImGui::End();
 }
 
