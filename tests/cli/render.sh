@@ -117,6 +117,13 @@ expect_success "eight samples" "$STRATA" render "$WORK/bunny.hlod" -o "$WORK/sam
 read -r differing off_edge <<<"$(pixels changed "$WORK/shaded.png" "$WORK/samples8.png")"
 check_that "samples change edge pixels ($differing) and no others ($off_edge)" "$differing > 20 && $off_edge == 0"
 
+# Streaming: a render reads only what its view needs and waits for all of it, so the least budget that
+# holds the view gives the default's very bytes.
+expect_success "a small streaming budget" "$STRATA" render "$WORK/bunny.hlod" -o "$WORK/shaded16.png" "${small[@]}" --memory 16M
+checks=$((checks + 1)); cmp -s "$WORK/shaded.png" "$WORK/shaded16.png" || fail "--memory 16M changed the image"
+expect_usage "budget below the least" "less than the least, 16M" "$STRATA" render "$WORK/bunny.hlod" -o "$WORK/x.png" --memory 3M
+expect_usage "budget not a size" "not a size" "$STRATA" render "$WORK/bunny.hlod" -o "$WORK/x.png" --memory 2X
+
 expect_failure "missing file" "missing.hlod" "$STRATA" render "$WORK/missing.hlod" -o "$WORK/x.png"
 expect_usage "bad extension" ".png or .exr" "$STRATA" render "$WORK/bunny.hlod" -o "$WORK/x.jpg"
 expect_usage "bad size" "WIDTHxHEIGHT" "$STRATA" render "$WORK/bunny.hlod" -o "$WORK/x.png" --size 12by3

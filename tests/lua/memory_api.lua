@@ -1,0 +1,38 @@
+-- The streaming budget from Lua (README, "Streaming"): strata.memory sets and reports it, a render
+-- waits for its view by default (full_detail) and reports what streamed models hold; an interactive
+-- frame (full_detail = false) from a cold model draws what is there and says what is still loading.
+-- arg[1] is a .hlod, arg[2] a folder to write in.
+local strata = require "strata"
+local hlod_path = assert(arg[1])
+
+local limits = strata.memory{ total = "64M" }
+assert(limits.total == 64 * 2 ^ 20, "the budget as set: " .. tostring(limits.total))
+assert(strata.memory{ total = 48 * 2 ^ 20 }.total == 48 * 2 ^ 20, "a number of bytes")
+for _, bad in ipairs{ "1M", "2X", -5, 0 } do
+  local ok, message = pcall(strata.memory, { total = bad })
+  assert(not ok and message:find("strata.memory: total", 1, true), tostring(message))
+end
+assert(not pcall(strata.memory, { gpu = "1G" }), "unknown keys are refused")
+assert(strata.memory().total == 48 * 2 ^ 20, "a refused call changes nothing")
+
+local scene = strata.scene()
+scene:add(strata.load(hlod_path))
+local cam = strata.camera{ width = 160, height = 120, fov = 45 }
+cam:frame(scene)
+
+-- A cold model, drawn at once: cubes are still loading.
+local first = strata.render(scene, cam, { full_detail = false, samples = 1 }):stats()
+assert(first.loads_pending > 0, "a cold frame has loads pending")
+
+-- Full detail (the default) waits for the view: nothing pending, nothing standing in.
+local full = strata.render(scene, cam, { samples = 1 }):stats()
+assert(full.loads_pending == 0 and full.stand_ins == 0, "a full-detail frame waits for its cubes")
+assert(full.memory_resident > 0 and full.memory_resident <= 48 * 2 ^ 20)
+local held = strata.memory()
+assert(held.resident == full.memory_resident and held.resident <= held.total)
+assert(held.loaded >= held.cubes and held.cubes > 0 and held.failed == 0)
+assert(strata.render(scene, cam, { samples = 1, full_detail = { timeout = 30 } }):stats().loads_pending == 0)
+for _, bad in ipairs{ { timeout = 0 }, { timeout = "soon" }, { wait = 1 }, "yes" } do
+  assert(not pcall(strata.render, scene, cam, { full_detail = bad }), "full_detail refuses " .. tostring(bad))
+end
+print("memory_api: ok")
