@@ -166,8 +166,7 @@ uint64_t HlodModel::cube_bytes_bound(const HlodNode& node) const {
 std::shared_ptr<HlodModel> HlodModel::open(const std::filesystem::path& path, std::shared_ptr<StreamCache> cache) {
     auto file = std::make_shared<const HlodFile>(path);
     std::shared_ptr<HlodModel> model(new HlodModel());
-    model->read_octree(*file);
-    model->set_residency(model->resident_);
+    model->read_octree(*file);  // nothing resident yet
     // The bound, before any cube is read: the input's box (BNDS) grown by the coarsest lattice's
     // rounding, else the finest cubes' cells grown by the vertices' overhang.
     const uint32_t finest = model->header_.max_level;
@@ -176,17 +175,19 @@ std::shared_ptr<HlodModel> HlodModel::open(const std::filesystem::path& path, st
         const glm::dvec3 rounding(h.lattice_step(0));
         model->bound_.expand(glm::dvec3(h.bounds_lo[0], h.bounds_lo[1], h.bounds_lo[2]) - rounding);
         model->bound_.expand(glm::dvec3(h.bounds_hi[0], h.bounds_hi[1], h.bounds_hi[2]) + rounding);
+    } else {
+        const glm::dvec3 grow(h.sigma0 * h.cube_size(finest));
+        for (const HlodCube& cube : model->cubes_)
+            if (cube.node.level == finest) {
+                const Box cell = model->cell(cube.node);
+                model->bound_.expand(cell.lo - grow + model->origin());
+                model->bound_.expand(cell.hi + grow + model->origin());
+            }
     }
-    for (const HlodCube& cube : model->cubes_)
-        if (!h.has_bounds && cube.node.level == finest) {
-            const Box cell = model->cell(cube.node);
-            const glm::dvec3 grow(model->header_.sigma0 * model->header_.cube_size(finest));
-            model->bound_.expand(cell.lo - grow + model->origin());
-            model->bound_.expand(cell.hi + grow + model->origin());
-        }
     const StreamCache::SourceId source = cache->add(std::make_shared<CubeSource>(file, *model));
     model->stream_ = std::make_unique<Stream>(Stream{cache, source});
-    // Coarse levels whose cubes fit in 5 % of the budget together stay resident.
+    // Coarse levels whose cubes fit in 5 % of the budget together stay resident; the root always,
+    // since nothing is drawn without it.
     std::vector<uint64_t> level_bytes(finest + 1, 0);
     for (const HlodCube& cube : model->cubes_) level_bytes[cube.node.level] += model->cube_bytes_bound(cube.node);
     uint64_t pinned = 0;
