@@ -67,7 +67,6 @@ public:
     static std::shared_ptr<HlodModel> open(const std::filesystem::path& path,
                                            std::shared_ptr<StreamCache> cache = StreamCache::shared());
     ~HlodModel() override;
-    bool streamed() const { return stream_ != nullptr; }
     // Streamed: takes in what the cache loaded or evicted since the last call (the cubes' data and
     // set_residency); cull() calls it. Render thread.
     void sync_residency();

@@ -169,6 +169,14 @@ void push_quat(lua_State* L, const glm::dquat& q) {
     }
 }
 
+void push_numbers(lua_State* L, std::span<const std::pair<const char*, double>> fields) {
+    lua_createtable(L, 0, int(fields.size()));
+    for (const auto& [name, value] : fields) {
+        lua_pushnumber(L, value);
+        lua_setfield(L, -2, name);
+    }
+}
+
 void push_pose(lua_State* L, const glm::dvec3& position, const glm::dquat& orientation, double fov_degrees) {
     lua_createtable(L, 0, 3);
     push_vec3(L, position);

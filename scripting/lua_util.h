@@ -4,7 +4,9 @@
 #pragma once
 
 #include <memory>
+#include <span>
 #include <string>
+#include <utility>
 
 #include <glm/glm.hpp>
 #include <glm/gtc/quaternion.hpp>
@@ -121,6 +123,8 @@ void push_vec3(lua_State* L, const glm::dvec3& v);
 void push_quat(lua_State* L, const glm::dquat& q);
 // A camera pose as scripts see it: {position = {x,y,z}, orientation = {w,x,y,z}, fov = degrees}.
 void push_pose(lua_State* L, const glm::dvec3& position, const glm::dquat& orientation, double fov_degrees);
+// A table of named numbers ({triangles = 12, cull_ms = 0.4, ...}): statistics, summaries, limits.
+void push_numbers(lua_State* L, std::span<const std::pair<const char*, double>> fields);
 
 // Options tables: `table.key` if present (of the right type, else an error naming the option), else
 // `fallback`. The table is at `index` and may be absent (none or nil).

@@ -58,11 +58,7 @@ int summary(lua_State* L) {
     const std::pair<const char*, double> fields[] = {{"count", double(values.size())}, {"min", values.front()},
                                                      {"max", values.back()},           {"mean", sum / double(values.size())},
                                                      {"median", quantile(values, 0.5)}, {"p95", quantile(values, 0.95)}};
-    lua_createtable(L, 0, 6);
-    for (const auto& [name, value] : fields) {
-        lua_pushnumber(L, value);
-        lua_setfield(L, -2, name);
-    }
+    lua::push_numbers(L, fields);
     return 1;
 }
 

@@ -53,11 +53,7 @@ int memory(lua_State* L) {
         {"peak", double(s.peak_bytes)}, {"cubes", double(s.resident_items)},    {"in_flight", double(s.in_flight)},
         {"waiting", double(s.waiting)}, {"loaded", double(s.loaded)},          {"evicted", double(s.evicted)},
         {"failed", double(s.failed)}};
-    lua_createtable(L, 0, int(std::size(fields)));
-    for (const auto& [name, value] : fields) {
-        lua_pushnumber(L, value);
-        lua_setfield(L, -2, name);
-    }
+    lua::push_numbers(L, fields);
     return 1;
 }
 

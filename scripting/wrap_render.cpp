@@ -173,17 +173,13 @@ int frame_pixel(lua_State* L) {
 
 int frame_stats(lua_State* L) {
     const FrameStats& s = check_frame(L, 1).stats;
-    lua_createtable(L, 0, 12);
     const std::pair<const char*, double> fields[] = {
         {"triangles", double(s.triangles)}, {"cubes", double(s.cubes)}, {"draw_calls", double(s.draw_calls)},
         {"draw_items", double(s.draw_items)}, {"nodes_culled", double(s.nodes_culled)}, {"cull_ms", s.cull_ms},
         {"draw_ms", s.draw_ms}, {"gpu_ms", s.gpu_ms}, {"bytes_resident", double(s.bytes_resident)},
         {"stand_ins", double(s.stand_ins)}, {"loads_pending", double(s.loads_pending)},
         {"memory_resident", double(s.memory_resident)}};
-    for (const auto& [name, value] : fields) {
-        lua_pushnumber(L, value);
-        lua_setfield(L, -2, name);
-    }
+    lua::push_numbers(L, fields);
     return 1;
 }
 
