@@ -26,6 +26,10 @@ expect_failure "bad scene script" "missing.lua" "$STRATA" shell "$WORK/missing.l
 socket="strata-test-$$"
 tmux_() { tmux -L "$socket" "$@"; }
 trap 'tmux_ kill-server 2>/dev/null; rm -rf "$WORK"' EXIT
+# A session that lives as long as the test keeps the server up: killing the last session makes tmux
+# exit asynchronously, and a new-session that reaches the dying server fails ("server exited
+# unexpectedly"), as CI saw.
+tmux_ new-session -d -s hold -x 20 -y 5 cat
 screen() { tmux_ capture-pane -p -t shell; }
 # wait_for TEXT: polls the screen for a line containing TEXT, up to a minute (a busy machine is slow).
 wait_for() {
