@@ -140,27 +140,21 @@ private:
     std::vector<uint64_t> bounds_;
 };
 
-// Bytes per vertex of the GPU records hlod_model_draw.cpp uploads: a 16-byte record for each vertex
-// and each parent, a colour word each where the model has colours, and 4 bytes per index.
-constexpr uint64_t kGpuRecordBytes = 16, kGpuColorBytes = 4, kGpuIndexBytes = 4;
-
 }  // namespace
 
 uint64_t HlodModel::cube_bytes(const CubeData& d) {
     auto held = [](const auto& v) { return uint64_t(v.capacity()) * sizeof(v[0]); };
     auto arrays = [&](const VertexArrays& a) { return held(a.positions) + held(a.normals) + held(a.colors) + held(a.uvs); };
     const uint64_t cpu = arrays(d.vertices) + arrays(d.parents) + held(d.parent_vertex) + held(d.indices) + held(d.parent_of);
-    const uint64_t colors = d.vertices.colors.empty() ? 0 : kGpuColorBytes * (d.vertices.size() + d.parents.size());
-    const uint64_t gpu = kGpuRecordBytes * (d.vertices.size() + d.parents.size()) + colors + kGpuIndexBytes * d.indices.size();
-    return cpu + gpu;
+    return cpu + gpu_block_bytes(d.vertices.size(), d.parents.size(), d.indices.size(), !d.vertices.colors.empty());
 }
 
 uint64_t HlodModel::cube_bytes_bound(const HlodNode& node) const {
     // Per vertex, for itself and for its parent's copy (at most one per vertex): positions, normals,
-    // colours, UVs; then its parent index and entry, the indices, and the GPU records.
+    // colours, UVs; then its parent index and entry, the indices, and the GPU block.
     const uint64_t attributes = 3 * 2 + 2 * 2 + (header_.has_colors() ? 4 : 0) + (header_.has_uvs() ? 8 : 0);
-    const uint64_t per_vertex = 2 * attributes + 4 + 4 + 2 * kGpuRecordBytes + (header_.has_colors() ? 2 * kGpuColorBytes : 0);
-    return per_vertex * node.vertex_count + 3 * (4 + kGpuIndexBytes) * uint64_t(node.triangle_count);
+    const uint64_t cpu = (2 * attributes + 4 + 4) * uint64_t(node.vertex_count) + 3 * 4 * uint64_t(node.triangle_count);
+    return cpu + gpu_block_bytes(node.vertex_count, node.vertex_count, 3 * uint64_t(node.triangle_count), header_.has_colors());
 }
 
 std::shared_ptr<HlodModel> HlodModel::open(const std::filesystem::path& path, std::shared_ptr<StreamCache> cache) {

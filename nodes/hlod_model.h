@@ -74,6 +74,10 @@ public:
     // counts, and the exact figure for decoded data. The streaming budget counts these.
     uint64_t cube_bytes_bound(const HlodNode& node) const;
     static uint64_t cube_bytes(const CubeData& data);
+    // What a cube's block in the GPU pool takes (hlod_model_draw.cpp lays it out).
+    static uint64_t gpu_block_bytes(uint64_t vertices, uint64_t parents, uint64_t indices, bool colors);
+    // The cache a streamed model loads through; null for a model loaded whole.
+    const StreamCache* stream_cache() const { return stream_ ? stream_->cache.get() : nullptr; }
 
     const HlodHeader& header() const { return header_; }
     const std::vector<HlodCube>& cubes() const { return cubes_; }

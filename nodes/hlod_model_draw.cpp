@@ -1,11 +1,13 @@
-// The HLOD model on the GPU (DESIGN.md §3): cube vertices and parent tables in storage buffers,
-// pulled by gl_VertexID; one multi-draw per storage chunk with a command per selected cube; the morph
-// in the vertex shader, in the same float operations as HlodModel::morphed_positions.
+// The HLOD model on the GPU (DESIGN.md §3): each resident cube one block of a buffer pool (its vertex
+// and parent records, colours and indices, pulled by gl_VertexID), placed when the cube arrives and
+// freed when it leaves; one multi-draw per pool page with a command per selected cube; the morph in the
+// vertex shader, in the same float operations as HlodModel::morphed_positions.
 #include <algorithm>
 #include <array>
 #include <string>
 
 #include "engine/gl/buffer.h"
+#include "engine/gl/buffer_pool.h"
 #include "engine/gl/framebuffer.h"
 #include "engine/gl/program.h"
 #include "engine/gl/vertex_array.h"
@@ -28,12 +30,15 @@ const vec3 level_palette[8] = vec3[8](vec3(0.90, 0.25, 0.20), vec3(0.95, 0.60, 0
 
 const char* const kVertexGlsl = R"(
 // Per cube: level, cell i, j, k. Per vertex: x | y << 16, z, octahedral normal (u | v << 16), index
-// of its parent in the chunk's parent table. Per parent: the same, without the index.
+// of its parent's record in the page. Per parent: the same, without the index. Bindings 2 to 5 are one
+// pool page seen as records and as colour words (cube_block in hlod_model_draw.cpp).
 layout(std430, binding = 1) readonly buffer Cubes { uvec4 cubes[]; };
 layout(std430, binding = 2) readonly buffer Vertices { uvec4 vertices[]; };
 layout(std430, binding = 3) readonly buffer Parents { uvec4 parents[]; };
 layout(std430, binding = 4) readonly buffer VertexColors { uint vertex_colors[]; };
 layout(std430, binding = 5) readonly buffer ParentColors { uint parent_colors[]; };
+// Per cube: what to add to a vertex's and to a parent's record index for its colour word.
+layout(std430, binding = 10) readonly buffer ColorOffsets { ivec2 color_offsets[]; };
 layout(std430, binding = 7) writeonly buffer Capture { vec4 captured[]; };  // HlodModel::set_capture_morph
 // Per cube: its 27 neighbours of its level (HlodModel::neighbours), then its parent; 0xffffffff: none.
 layout(std430, binding = 8) readonly buffer Links { uint links[]; };
@@ -131,7 +136,9 @@ void main() {
     v_normal = world_from_lattice_normal * n;
     vec4 color = base_color;
     if (has_colors) {  // scans store sRGB-encoded 8-bit colours
-        vec4 c = mix(unpackUnorm4x8(parent_colors[own.w]), unpackUnorm4x8(vertex_colors[gl_VertexID]), lambda);
+        ivec2 offsets = color_offsets[index];
+        vec4 c = mix(unpackUnorm4x8(parent_colors[int(own.w) + offsets.y]),
+                     unpackUnorm4x8(vertex_colors[gl_VertexID + offsets.x]), lambda);
         color *= vec4(srgb_to_linear(c.rgb), c.a);
     }
     if (color_by_level) color = vec4(level_palette[level % 8u], 1.0);
@@ -202,14 +209,6 @@ struct DrawCommand {  // glMultiDrawElementsIndirect's layout
     uint32_t base_instance;
 };
 
-// Cubes are packed into chunks whose buffers each fit one storage-buffer binding.
-struct Chunk {
-    gl::Buffer vertices, parents, vertex_colors, parent_colors, indices;
-    gl::VertexArray vertex_array;  // holds the index buffer
-    gl::Buffer commands;
-    std::vector<DrawCommand> frame_commands;
-};
-
 // The programs every HLOD model shares, kept in the GPU cache under one key.
 constexpr uint32_t kProgramsKey = 2;
 struct HlodPrograms : GpuCache::Entry {
@@ -218,64 +217,117 @@ struct HlodPrograms : GpuCache::Entry {
                                               std::string("#version 450\n") + gl::fragment_outputs_glsl + kBoxFragmentGlsl);
 };
 
-struct HlodGpu : GpuCache::Entry {
-    uint64_t residency = 0;  // the model's residency version the buffers hold
-    uint64_t bytes = 0;      // every buffer below
-    gl::Buffer cubes;
-    gl::Buffer links;      // per cube: neighbours and parent
-    gl::Buffer band_ends;  // per cube, of `kappas`
-    Kappas kappas;
-    gl::Buffer drawn;  // this frame's cubes, for the boxes view
-    std::vector<Chunk> chunks;
-    std::vector<uint32_t> chunk_of;         // per cube
-    std::vector<DrawCommand> command_of;    // per cube, within its chunk
+// Where a cube's block holds each part, in pool units from its start: its vertex records, its parent
+// records, then (with colours) a colour word per vertex and per parent, then its indices, each part
+// starting on a whole unit.
+struct CubeBlock {
+    uint64_t parents, vertex_colors, parent_colors, indices, units;
 };
 
-struct ChunkData {
-    std::vector<std::array<uint32_t, 4>> vertices, parents;
-    std::vector<uint32_t> vertex_colors, parent_colors, indices;
+CubeBlock cube_block(uint64_t vertices, uint64_t parents, uint64_t indices, bool colors) {
+    constexpr uint64_t per_unit = gl::BufferPool::kUnitBytes / 4;  // colour words and indices per unit
+    CubeBlock b{};
+    b.parents = vertices;
+    b.vertex_colors = b.parents + parents;
+    b.parent_colors = b.vertex_colors + (colors ? (vertices + per_unit - 1) / per_unit : 0);
+    b.indices = b.parent_colors + (colors ? (parents + per_unit - 1) / per_unit : 0);
+    b.units = b.indices + std::max<uint64_t>(1, (indices + per_unit - 1) / per_unit);
+    return b;
+}
+
+// A resident cube on the GPU: the data its block was made from, the block and its draw command.
+struct PlacedCube {
+    const CubeData* data = nullptr;
+    gl::BufferPool::Block block;
+    DrawCommand command{};
+};
+
+struct HlodGpu : GpuCache::Entry {
+    explicit HlodGpu(uint64_t page_bytes) : pool(page_bytes) {}
+    uint64_t residency = ~uint64_t(0);  // the model's residency version the pool holds
+    gl::BufferPool pool;
+    std::vector<PlacedCube> placed;  // per cube
+    gl::Buffer cubes;
+    gl::Buffer links;          // per cube: neighbours and parent
+    gl::Buffer band_ends;      // per cube, of `kappas`
+    gl::Buffer color_offsets;  // per cube
+    Kappas kappas;
+    gl::Buffer drawn;     // this frame's cubes, for the boxes view
+    gl::Buffer commands;  // this frame's, grouped by page
+    gl::VertexArray vertex_array = gl::VertexArray::create();  // its index buffer: the page drawn
+    std::vector<std::vector<DrawCommand>> page_commands;         // this frame's, per page
+    uint64_t fixed_bytes() const {
+        return cubes.size() + links.size() + band_ends.size() + color_offsets.size() + drawn.size() + commands.size();
+    }
 };
 
 uint32_t pack_pair(uint32_t low, uint32_t high) { return (low & 0xffffu) | high << 16; }
 
-void append_cube(const HlodCube& cube, uint32_t index, ChunkData& data, DrawCommand& command) {
-    const CubeData& c = *cube.data;
-    const uint32_t parent_base = uint32_t(data.parents.size());
-    command = {uint32_t(c.indices.size()), 1, uint32_t(data.indices.size()), int32_t(data.vertices.size()), index};
+// Uploads a resident cube into a new block of the pool and makes its draw command.
+void place_cube(HlodGpu& gpu, const CubeData& c, uint32_t index, bool colors) {
+    const CubeBlock layout = cube_block(c.vertex_count(), c.parents.size(), c.indices.size(), colors);
+    PlacedCube& placed = gpu.placed[index];
+    placed.block = gpu.pool.allocate(layout.units);
+    placed.data = &c;
+    const uint64_t base = placed.block.offset;
+    std::vector<std::array<uint32_t, 4>> units(layout.units, {0, 0, 0, 0});
     for (uint32_t v = 0; v < c.vertex_count(); ++v) {
         const uint16_t* q = &c.vertices.positions[3 * size_t(v)];
         const int16_t* n = &c.vertices.normals[2 * size_t(v)];
-        data.vertices.push_back({pack_pair(q[0], q[1]), q[2], pack_pair(uint16_t(n[0]), uint16_t(n[1])), parent_base + c.parent_of[v]});
+        units[v] = {pack_pair(q[0], q[1]), q[2], pack_pair(uint16_t(n[0]), uint16_t(n[1])), uint32_t(base + layout.parents + c.parent_of[v])};
     }
     for (uint32_t p = 0; p < c.parents.size(); ++p) {
         const uint16_t* q = &c.parents.positions[3 * size_t(p)];
         const int16_t* n = &c.parents.normals[2 * size_t(p)];
-        data.parents.push_back({pack_pair(q[0], q[1]), q[2], pack_pair(uint16_t(n[0]), uint16_t(n[1])), 0});
+        units[layout.parents + p] = {pack_pair(q[0], q[1]), q[2], pack_pair(uint16_t(n[0]), uint16_t(n[1])), 0};
     }
-    auto append_colors = [](const std::vector<uint8_t>& rgba, std::vector<uint32_t>& out) {
+    uint32_t* words = units.front().data();
+    auto put_colors = [&](const std::vector<uint8_t>& rgba, uint64_t first_unit) {
         for (size_t i = 0; i + 3 < rgba.size(); i += 4)
-            out.push_back(rgba[i] | rgba[i + 1] << 8 | rgba[i + 2] << 16 | uint32_t(rgba[i + 3]) << 24);
+            words[4 * first_unit + i / 4] = rgba[i] | rgba[i + 1] << 8 | rgba[i + 2] << 16 | uint32_t(rgba[i + 3]) << 24;
     };
-    append_colors(c.vertices.colors, data.vertex_colors);
-    append_colors(c.parents.colors, data.parent_colors);
-    data.indices.insert(data.indices.end(), c.indices.begin(), c.indices.end());
+    std::array<int32_t, 2> color_offsets{0, 0};
+    if (colors) {
+        put_colors(c.vertices.colors, layout.vertex_colors);
+        put_colors(c.parents.colors, layout.parent_colors);
+        color_offsets = {int32_t(4 * (base + layout.vertex_colors) - base), int32_t(4 * (base + layout.parent_colors) - (base + layout.parents))};
+    }
+    std::copy(c.indices.begin(), c.indices.end(), words + 4 * layout.indices);
+    gpu.pool.upload(placed.block, 0, units.data(), units.size() * gl::BufferPool::kUnitBytes);
+    gpu.color_offsets.upload(index * sizeof(color_offsets), &color_offsets, sizeof(color_offsets));
+    placed.command = {uint32_t(c.indices.size()), 1, uint32_t(4 * (base + layout.indices)), int32_t(base), index};
 }
 
-Chunk upload_chunk(ChunkData& data) {
-    // A model without colours still binds colour buffers: one word each, never read.
-    if (data.vertex_colors.empty()) data.vertex_colors = data.parent_colors = {0xffffffffu};
-    if (data.indices.empty()) data.indices = {0};
-    Chunk chunk{gl::Buffer(data.vertices, 0),      gl::Buffer(data.parents, 0),
-                gl::Buffer(data.vertex_colors, 0), gl::Buffer(data.parent_colors, 0),
-                gl::Buffer(data.indices, 0),       gl::VertexArray::create(),
-                gl::Buffer(), {}};
-    glVertexArrayElementBuffer(chunk.vertex_array.id(), chunk.indices.id());
-    return chunk;
+// Brings the pool to the model's residency: blocks for cubes that arrived (or whose data changed),
+// freed for cubes that left. Only the cubes that changed are uploaded.
+void sync_pool(const HlodModel& model, HlodGpu& gpu) {
+    if (gpu.residency == model.residency_version()) return;
+    gpu.residency = model.residency_version();
+    const auto& cubes = model.cubes();
+    for (uint32_t c = 0; c < cubes.size(); ++c) {
+        PlacedCube& placed = gpu.placed[c];
+        if (placed.data == cubes[c].data.get()) continue;
+        gpu.pool.free(placed.block);
+        placed.data = nullptr;
+        if (cubes[c].data) place_cube(gpu, *cubes[c].data, c, model.header().has_colors());
+    }
+    gl::check_gl("uploading HLOD cubes");
 }
 
-std::unique_ptr<HlodGpu> upload(const HlodModel& model) {
-    auto gpu = std::make_unique<HlodGpu>();
-    gpu->residency = model.residency_version();
+// The pool's page: a model loaded whole takes pages that hold all its cubes (up to 128 MiB, fewer
+// draws); a streamed one takes pages of a sixteenth of its budget (1 to 32 MiB), so that what its
+// pages hold beyond the cubes' own bytes stays small beside the budget.
+uint64_t pool_page_bytes(const HlodModel& model) {
+    constexpr uint64_t MiB = uint64_t(1) << 20;
+    if (const StreamCache* cache = model.stream_cache()) return std::clamp(cache->budget() / 16, MiB, 32 * MiB);
+    uint64_t bytes = 0;
+    for (const HlodCube& c : model.cubes())
+        if (c.data) bytes += HlodModel::gpu_block_bytes(c.data->vertex_count(), c.data->parents.size(), c.data->indices.size(), model.header().has_colors());
+    return std::min(bytes, 128 * MiB);
+}
+
+std::unique_ptr<HlodGpu> make_gpu(const HlodModel& model) {
+    auto gpu = std::make_unique<HlodGpu>(pool_page_bytes(model));
     const auto& cubes = model.cubes();
     std::vector<std::array<uint32_t, 4>> records;
     for (const HlodCube& c : cubes) records.push_back({c.node.level, c.node.i, c.node.j, c.node.k});
@@ -288,32 +340,11 @@ std::unique_ptr<HlodGpu> upload(const HlodModel& model) {
     }
     gpu->links = gl::Buffer(links, 0);
     gpu->band_ends = gl::Buffer(cubes.size() * sizeof(std::array<float, 2>), GL_DYNAMIC_STORAGE_BIT);
-
-    GLint max_block = 0;
-    glGetIntegerv(GL_MAX_SHADER_STORAGE_BLOCK_SIZE, &max_block);
-    const size_t limit = std::min<size_t>(size_t(max_block), size_t(256) << 20) / 16;  // records per binding
-    gpu->chunk_of.resize(cubes.size());
-    gpu->command_of.resize(cubes.size());
-    ChunkData data;
-    for (uint32_t c = 0; c < cubes.size(); ++c) {
-        if (!cubes[c].data) continue;  // not resident: never selected
-        const CubeData& cube = *cubes[c].data;
-        if (!data.vertices.empty() && (data.vertices.size() + cube.vertex_count() > limit ||
-                                       data.parents.size() + cube.parents.size() > limit)) {
-            gpu->chunks.push_back(upload_chunk(data));
-            data = {};
-        }
-        gpu->chunk_of[c] = uint32_t(gpu->chunks.size());
-        append_cube(cubes[c], c, data, gpu->command_of[c]);
-    }
-    gpu->chunks.push_back(upload_chunk(data));
-    for (Chunk& chunk : gpu->chunks) chunk.commands = gl::Buffer(cubes.size() * sizeof(DrawCommand), GL_DYNAMIC_STORAGE_BIT);
+    gpu->color_offsets = gl::Buffer(cubes.size() * sizeof(std::array<int32_t, 2>), GL_DYNAMIC_STORAGE_BIT);
+    gpu->commands = gl::Buffer(cubes.size() * sizeof(DrawCommand), GL_DYNAMIC_STORAGE_BIT);
     gpu->drawn = gl::Buffer(cubes.size() * sizeof(uint32_t), GL_DYNAMIC_STORAGE_BIT);
-    gpu->bytes = gpu->cubes.size() + gpu->links.size() + gpu->band_ends.size() + gpu->drawn.size();
-    for (const Chunk& c : gpu->chunks)
-        gpu->bytes += c.vertices.size() + c.parents.size() + c.vertex_colors.size() + c.parent_colors.size() +
-                      c.indices.size() + c.commands.size();
-    gl::check_gl("uploading an HLOD model");
+    gpu->placed.resize(cubes.size());
+    gl::check_gl("making an HLOD model's buffers");
     return gpu;
 }
 
@@ -364,48 +395,59 @@ void draw_boxes(const HlodModel& model, const gl::Program& p, HlodGpu& gpu, Draw
 
 }  // namespace
 
+uint64_t HlodModel::gpu_block_bytes(uint64_t vertices, uint64_t parents, uint64_t indices, bool colors) {
+    return cube_block(vertices, parents, indices, colors).units * gl::BufferPool::kUnitBytes;
+}
+
 void HlodModel::draw(DrawContext& context, const DrawItem& item) {
     const HlodPrograms& programs = context.cache.get_shared<HlodPrograms>(kProgramsKey, [] { return std::make_unique<HlodPrograms>(); });
-    HlodGpu& gpu = context.cache.get<HlodGpu>(*this, [&] { return upload(*this); });
-    // Streamed: what is resident changed. Everything resident goes up again (a pool that takes a
-    // cube at a time is the next step).
-    if (gpu.residency != residency_version_) gpu = std::move(*upload(*this));
+    HlodGpu& gpu = context.cache.get<HlodGpu>(*this, [&] { return make_gpu(*this); });
+    sync_pool(*this, gpu);
     set_view_uniforms(*this, programs.surface, gpu, context, item);
     programs.surface.use();
     gpu.cubes.bind_base(GL_SHADER_STORAGE_BUFFER, 1);
     gpu.links.bind_base(GL_SHADER_STORAGE_BUFFER, 8);
     gpu.band_ends.bind_base(GL_SHADER_STORAGE_BUFFER, 9);
+    gpu.color_offsets.bind_base(GL_SHADER_STORAGE_BUFFER, 10);
 
-    for (Chunk& chunk : gpu.chunks) chunk.frame_commands.clear();
+    // This frame's commands, grouped by page into one indirect buffer.
+    gpu.page_commands.resize(gpu.pool.page_count());
+    for (auto& commands : gpu.page_commands) commands.clear();
     for (uint32_t k = 0; k < item.count; ++k) {
-        const uint32_t c = context.list.item_data[item.first + k];
-        gpu.chunks[gpu.chunk_of[c]].frame_commands.push_back(gpu.command_of[c]);
-        context.stats.triangles += gpu.command_of[c].count / 3;
+        const PlacedCube& placed = gpu.placed[context.list.item_data[item.first + k]];
+        gpu.page_commands[placed.block.page].push_back(placed.command);
+        context.stats.triangles += placed.command.count / 3;
     }
+    std::vector<DrawCommand> commands;
+    commands.reserve(item.count);
+    for (const auto& page : gpu.page_commands) commands.insert(commands.end(), page.begin(), page.end());
+    if (!commands.empty()) gpu.commands.upload(commands);
     context.stats.cubes += item.count;
-    context.stats.bytes_resident += gpu.bytes;
+    context.stats.bytes_resident += gpu.pool.capacity_bytes() + gpu.fixed_bytes();
     if (capture_morph_) captured_.clear();
     if (debug_view_ == HlodDebugView::wireframe) glPolygonMode(GL_FRONT_AND_BACK, GL_LINE);
-    for (Chunk& chunk : gpu.chunks) {
-        if (chunk.frame_commands.empty()) continue;
-        chunk.vertices.bind_base(GL_SHADER_STORAGE_BUFFER, 2);
-        chunk.parents.bind_base(GL_SHADER_STORAGE_BUFFER, 3);
-        chunk.vertex_colors.bind_base(GL_SHADER_STORAGE_BUFFER, 4);
-        chunk.parent_colors.bind_base(GL_SHADER_STORAGE_BUFFER, 5);
+    gpu.vertex_array.bind();
+    glBindBuffer(GL_DRAW_INDIRECT_BUFFER, gpu.commands.id());
+    size_t first_command = 0;
+    for (uint32_t p = 0; p < gpu.page_commands.size(); ++p) {
+        const auto& page_commands = gpu.page_commands[p];
+        if (page_commands.empty()) continue;
+        const gl::Buffer& page = gpu.pool.page(p);
+        for (GLuint binding : {2, 3, 4, 5}) page.bind_base(GL_SHADER_STORAGE_BUFFER, binding);
+        glVertexArrayElementBuffer(gpu.vertex_array.id(), page.id());
         gl::Buffer capture;
         if (capture_morph_) {
-            capture = gl::Buffer(chunk.vertices.size(), GL_DYNAMIC_STORAGE_BIT);  // a vec4 per 16-byte vertex record
+            capture = gl::Buffer(page.size(), GL_DYNAMIC_STORAGE_BIT);  // a vec4 per 16-byte unit
             capture.bind_base(GL_SHADER_STORAGE_BUFFER, 7);
         }
-        chunk.commands.upload(chunk.frame_commands);
-        chunk.vertex_array.bind();
-        glBindBuffer(GL_DRAW_INDIRECT_BUFFER, chunk.commands.id());
-        glMultiDrawElementsIndirect(GL_TRIANGLES, GL_UNSIGNED_INT, nullptr, GLsizei(chunk.frame_commands.size()), 0);
+        glMultiDrawElementsIndirect(GL_TRIANGLES, GL_UNSIGNED_INT, reinterpret_cast<const void*>(first_command * sizeof(DrawCommand)),
+                                    GLsizei(page_commands.size()), 0);
+        first_command += page_commands.size();
         ++context.stats.draw_calls;
         if (capture_morph_) {
             glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
             const auto values = capture.download<glm::vec4>(capture.size() / sizeof(glm::vec4));
-            for (const DrawCommand& command : chunk.frame_commands) {
+            for (const DrawCommand& command : page_commands) {
                 const auto first = values.begin() + command.base_vertex;
                 captured_[command.base_instance].assign(first, first + cubes_[command.base_instance].data->vertex_count());
             }

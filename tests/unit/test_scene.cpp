@@ -213,7 +213,7 @@ TEST(RenderList, SortIsStableFrontToBackOverAnyDepths) {
     RenderList list;
     for (uint32_t i = 0; i < 5000; ++i) {
         const double depth = i % 3 ? std::uniform_real_distribution<double>(-1e3, 1e3)(rng) : pool[rng() % std::size(pool)];
-        list.opaque.push_back({nullptr, glm::dmat4(double(i)), depth, i, 1});
+        list.opaque.push_back({nullptr, glm::dmat4(double(i)), depth, i, 1, {}});
     }
     std::vector<DrawItem> expected = list.opaque;
     std::stable_sort(expected.begin(), expected.end(), [](const DrawItem& a, const DrawItem& b) { return a.depth < b.depth; });
@@ -224,7 +224,7 @@ TEST(RenderList, SortIsStableFrontToBackOverAnyDepths) {
         EXPECT_EQ(list.opaque[i].model[0][0], double(expected[i].first));  // the item moved whole
     }
     RenderList one;
-    one.opaque.push_back({nullptr, glm::dmat4(1.0), std::nan(""), 0, 0});
+    one.opaque.push_back({nullptr, glm::dmat4(1.0), std::nan(""), 0, 0, {}});
     one.sort();
     EXPECT_EQ(one.opaque.size(), 1u);
 }

@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <fstream>
+#include <set>
 
 #include <glm/gtc/matrix_transform.hpp>
 
@@ -255,6 +256,87 @@ TEST_F(StreamingRender, FullDetailFramesEqualTheWholeModelsFromAnyCacheThatHolds
         EXPECT_NE(std::string(e.what()).find("budget"), std::string::npos) << e.what();
     }
     cache.set_budget(budget);
+}
+
+// Faults (issue 16 §4): a file deleted while open, or replaced by another (renamed over it, as tools
+// that save atomically do), goes on being read as the file the model opened: its full-detail frames
+// are the model's, from a cold cache.
+TEST_F(StreamingRender, AFileDeletedOrReplacedWhileOpenIsStillReadAsOpened) {
+    const std::vector<float> reference = full_detail_frame(HlodModel::load(test::bunny_hlod()));
+    test::TempDir dir;
+    const std::filesystem::path path = dir / "bunny.hlod", other = dir / "other.hlod";
+    std::filesystem::copy_file(test::bunny_hlod(), path);
+    {
+        const auto model = HlodModel::open(path);
+        std::filesystem::remove(path);
+        EXPECT_EQ(full_detail_frame(model), reference) << "deleted";
+    }
+    std::filesystem::copy_file(test::bunny_hlod(), path);
+    std::filesystem::copy_file(std::filesystem::path(STRATA_SOURCE_DIR) / "tests/data/octahedron_v1.hlod", other);
+    const auto model = HlodModel::open(path);
+    std::filesystem::rename(other, path);
+    EXPECT_EQ(full_detail_frame(model), reference) << "replaced";
+}
+
+// The GPU pool follows residency cube by cube (hlod_model_draw.cpp): one renderer through a fly-in
+// under a quarter of the model's bytes, its cubes placed in and freed from the pool's pages over and
+// over. On every frame the pool holds every resident cube's block and little more (a pool that never
+// freed would hold every cube ever placed, far more); after the churn a full-detail frame from the
+// same renderer equals the model loaded whole.
+TEST_F(StreamingRender, OneRendererThroughAFlyInThatEvictsKeepsItsPoolToTheResidentCubes) {
+    StreamCache& cache = *StreamCache::shared();
+    const uint64_t budget = cache.budget();
+    const std::vector<float> reference = full_detail_frame(HlodModel::load(test::bunny_hlod()));
+    uint64_t model_bytes = 0;
+    {
+        const auto whole = HlodModel::load(test::bunny_hlod());
+        for (const HlodCube& cube : whole->cubes()) model_bytes += HlodModel::cube_bytes(*cube.data);
+    }
+    cache.set_budget(model_bytes / 4);
+    const auto model = HlodModel::open(test::bunny_hlod());
+    model->set_pixel_error(1.0);
+    auto root = std::make_shared<Group>();
+    root->add(model);
+    const double size = model->header().root_size;
+    const bool colors = model->header().has_colors();
+    auto gpu_bytes = [&](const CubeData& d) { return HlodModel::gpu_block_bytes(d.vertex_count(), d.parents.size(), d.indices.size(), colors); };
+    // The pool's own buffers beside the blocks: per cube its record, links, band ends, colour
+    // offsets, a drawn index and a draw command; and its pages' unused room, at most a page (1 MiB
+    // at this budget) and the fragments between blocks.
+    const uint64_t fixed = model->cubes().size() * (16 + 28 * 4 + 8 + 8 + 4 + 20);
+    const uint64_t slack = uint64_t(2) << 20;
+    Renderer renderer;
+    RenderSettings interactive;
+    uint64_t ever_placed = 0, largest = 0;
+    std::set<const CubeData*> seen;
+    for (int frame = 0; frame < 100; ++frame) {
+        const double t = std::min(frame, 80) / 80.0, angle = 4.0 * t, distance = size * (3.0 * (1 - t) + 0.55 * t);
+        Camera camera;
+        aim(camera, *model, centre_of(*model) + distance * glm::dvec3(std::sin(angle), 0.3, std::cos(angle)));
+        gl::Framebuffer target({.width = camera.width, .height = camera.height, .samples = 1});
+        const FrameStats stats = renderer.render(*root, camera, target, interactive);
+        uint64_t placed = 0;
+        for (const HlodCube& cube : model->cubes()) {
+            if (!cube.data) continue;
+            placed += gpu_bytes(*cube.data);
+            if (seen.insert(cube.data.get()).second) ever_placed += gpu_bytes(*cube.data);
+        }
+        if (stats.cubes == 0) continue;  // nothing drawn yet: no pool
+        ASSERT_GE(stats.bytes_resident, placed + fixed) << "frame " << frame;
+        ASSERT_LE(stats.bytes_resident, placed + fixed + slack) << "frame " << frame;
+        largest = std::max(largest, stats.bytes_resident);
+        cache.wait_for_a_load();
+    }
+    EXPECT_GT(cache.stats().evicted, 0u);
+    EXPECT_GT(ever_placed, largest + slack) << "the fly-in placed too little to tell a pool that frees from one that does not";
+    cache.set_budget(budget);
+    Camera camera;
+    aim(camera, *model, centre_of(*model) + size * glm::dvec3(0.2, 0.15, 0.45));
+    gl::Framebuffer target({.width = camera.width, .height = camera.height, .samples = 1});
+    RenderSettings full;
+    full.full_detail = true;
+    renderer.render(*root, camera, target, full);
+    EXPECT_EQ(target.read_color(), reference);
 }
 
 }  // namespace
