@@ -70,7 +70,8 @@ std::optional<SurfaceHit> HlodModel::intersect(const Ray& ray, const PickContext
         drawn_positions(next.cube, inputs, positions);
         const auto hit = nearest_triangle(lattice_ray, cube.data->indices, [&](uint32_t v) { return glm::dvec3(positions[v]); });
         if (!hit) continue;
-        nearest = SurfaceHit{hit->t, hit->normal, next.cube};
+        // Drawn here without being suitable: a stand-in, or capped beside one.
+        nearest = SurfaceHit{hit->t, hit->normal, next.cube, !suitable(next.cube, view)};
         lattice_ray.t_max = hit->t;
     }
     return nearest;

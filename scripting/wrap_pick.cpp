@@ -1,6 +1,7 @@
 // strata.pick(scene, camera, x, y): what pixel (x, y) of the camera's image of the scene shows. nil for
-// the background, else { node = <node>, point = {x,y,z}, normal = {x,y,z}, distance = d } in the world
-// frame: the nearest surface as drawn (an HLOD model's selection and morph for that camera).
+// the background, else { node = <node>, point = {x,y,z}, normal = {x,y,z}, distance = d, provisional = b }
+// in the world frame: the nearest surface as drawn (an HLOD model's selection and morph for that
+// camera); provisional when a streamed model drew a stand-in there, finer data still to come.
 #include <optional>
 
 #include <lua.hpp>
@@ -31,7 +32,7 @@ int pick(lua_State* L) {
         lua_pushnil(L);
         return 1;
     }
-    lua_createtable(L, 0, 4);
+    lua_createtable(L, 0, 5);
     push_node(L, find_node(scene, hit->node));  // a hit names its node by address
     lua_setfield(L, -2, "node");
     lua::push_vec3(L, hit->point);
@@ -40,6 +41,8 @@ int pick(lua_State* L) {
     lua_setfield(L, -2, "normal");
     lua_pushnumber(L, hit->distance);
     lua_setfield(L, -2, "distance");
+    lua_pushboolean(L, hit->provisional);
+    lua_setfield(L, -2, "provisional");
     return 1;
 }
 

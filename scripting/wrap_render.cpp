@@ -178,8 +178,11 @@ int frame_stats(lua_State* L) {
         {"draw_items", double(s.draw_items)}, {"nodes_culled", double(s.nodes_culled)}, {"cull_ms", s.cull_ms},
         {"draw_ms", s.draw_ms}, {"gpu_ms", s.gpu_ms}, {"bytes_resident", double(s.bytes_resident)},
         {"stand_ins", double(s.stand_ins)}, {"loads_pending", double(s.loads_pending)},
-        {"memory_resident", double(s.memory_resident)}};
+        {"memory_resident", double(s.memory_resident)}, {"loaded", double(s.loaded)}, {"evicted", double(s.evicted)},
+        {"frames_unconverged", double(s.frames_unconverged)}};
     lua::push_numbers(L, fields);
+    lua_pushboolean(L, s.frames_unconverged == 0);
+    lua_setfield(L, -2, "converged");
     return 1;
 }
 

@@ -90,12 +90,19 @@ FrameStats Renderer::render(Node& scene, const Camera& camera, gl::Framebuffer& 
         if (!stream || !s.full_detail || !stream->has_requests()) break;
         stream->wait_for_requests(s.full_detail_timeout);  // then cull again: the view may now refine further
     }
+    bool converged = true;
     if (stream) {
+        converged = stats.stand_ins == 0 && !stream->has_requests();
+        const StreamCache::Stats before = stream->stats();
         stream->update();  // takes in finished loads, starts what this frame asked for
         const StreamCache::Stats streaming = stream->stats();
         stats.loads_pending = streaming.in_flight + streaming.waiting;
         stats.memory_resident = streaming.resident_bytes;
+        stats.loaded = streaming.loaded - before.loaded;
+        stats.evicted = streaming.evicted - before.evicted;
     }
+    frames_unconverged_ = converged ? 0 : frames_unconverged_ + 1;
+    stats.frames_unconverged = frames_unconverged_;
     list_.sort();
     stats.cull_ms = milliseconds_since(cull_start);
 

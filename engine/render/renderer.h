@@ -49,6 +49,7 @@ private:
     gl::VertexArray empty_vertex_array_;
     double near_ = 0, far_ = 0;  // of the last frame, for depth read-back
     bool orthographic_ = false;
+    uint64_t frames_unconverged_ = 0;  // FrameStats::frames_unconverged of the last frame
 };
 
 }  // namespace strata

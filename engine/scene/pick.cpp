@@ -43,7 +43,8 @@ void PickVisitor::apply(Drawable& drawable) {
     glm::dvec3 normal = glm::normalize(glm::transpose(glm::inverse(glm::dmat3(frame.world_from_frame))) * hit->normal);
     if (glm::dot(normal, world_ray.direction) > 0) normal = -normal;
     nearest_t_ = hit->t;
-    nearest_ = PickHit{&drawable, world_ray.at(hit->t), normal, hit->t * glm::length(world_ray.direction), hit->cube};
+    nearest_ = PickHit{&drawable, world_ray.at(hit->t), normal, hit->t * glm::length(world_ray.direction), hit->cube,
+                       hit->provisional};
 }
 
 // Cameras in the graph are poses to look through, not things to pick.

@@ -22,6 +22,7 @@ struct PickHit {
     glm::dvec3 normal;    // world frame, unit, on the side the ray comes from
     double distance;      // from the ray's origin to the point, in world units
     uint32_t cube;        // the HLOD cube drawn there (an index into HlodModel::cubes()), or kNoHitCube
+    bool provisional;     // what is drawn there is a stand-in for data still loading (SurfaceHit)
 };
 
 class PickVisitor : public NodeVisitor {

@@ -45,6 +45,9 @@ struct SurfaceHit {
     double t;
     glm::dvec3 normal;             // the face normal of the triangle hit: any length, either side
     uint32_t cube = kNoHitCube;    // the HLOD model's cube drawn there
+    // Drawn coarser than the view wants because finer data is not resident yet (a streamed model's
+    // stand-in): a full-detail frame would draw something finer there.
+    bool provisional = false;
 };
 
 // The nearest crossing of `ray` with indexed triangles (three indices each), and its face normal.

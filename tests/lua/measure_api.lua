@@ -32,7 +32,7 @@ for line in io.lines(out .. "/frames.csv") do lines[#lines + 1] = line end
 assert(#lines == 6 and lines[1] == "frame,triangles,cubes,gpu_ms,cull_ms", lines[1])
 assert(lines[2]:match("^1,%d+,%d+,[%d.e+-]+,[%d.e+-]+$"), lines[2])
 strata.write_csv(out .. "/all.csv", rows)  -- every key of the first row, sorted
-assert(io.open(out .. "/all.csv"):read("l"):find("bytes_resident,cubes,cull_ms"))
+assert(io.open(out .. "/all.csv"):read("l"):find("bytes_resident,converged,cubes,cull_ms"))
 local ok, err = pcall(strata.write_csv, out .. "/missing/dir/x.csv", rows)
 assert(not ok and err:find("cannot write"), err)
 strata.write_json(out .. "/summary.json", { triangles = t, frames = rows, note = "sweep", ok = true })

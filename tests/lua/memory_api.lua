@@ -23,11 +23,16 @@ cam:frame(scene)
 -- A cold model, drawn at once: cubes are still loading.
 local first = strata.render(scene, cam, { full_detail = false, samples = 1 }):stats()
 assert(first.loads_pending > 0, "a cold frame has loads pending")
+assert(first.converged == false and first.frames_unconverged >= 1, "a cold frame has not converged")
 
 -- Full detail (the default) waits for the view: nothing pending, nothing standing in.
 local full = strata.render(scene, cam, { samples = 1 }):stats()
 assert(full.loads_pending == 0 and full.stand_ins == 0, "a full-detail frame waits for its cubes")
 assert(full.memory_resident > 0 and full.memory_resident <= 48 * 2 ^ 20)
+assert(full.converged == true and full.frames_unconverged == 0, "a full-detail frame has converged")
+assert(full.loaded >= 0 and full.evicted == 0, "nothing left a budget that holds the view")
+local hit = assert(strata.pick(scene, cam, 80, 60), "the model covers the middle of the image")
+assert(hit.provisional == false, "a pick on a converged view is final")
 local held = strata.memory()
 assert(held.resident == full.memory_resident and held.resident <= held.total)
 assert(held.loaded >= held.cubes and held.cubes > 0 and held.failed == 0)

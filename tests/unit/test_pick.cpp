@@ -242,6 +242,50 @@ TEST_F(PickHlod, TheSearchAlongTheRayFindsWhatTheWholeSelectionGives) {
     EXPECT_GT(moved_by_morph, 10u) << "the views should catch surfaces mid-morph";
 }
 
+// A pick says when what it hit stands in for data not yet resident (hit.provisional): with the
+// finest level missing, every pixel whose full-detail pick lands on that level is provisional, and a
+// pick that is not provisional hits the very cube the full-detail pick hits. A model with every cube
+// resident gives no provisional pick.
+TEST_F(PickHlod, HitsOnStandInsAreProvisional) {
+    auto model = HlodModel::load(test::bunny_hlod());
+    model->set_pixel_error(1.0);
+    Group scene;
+    scene.add(model);
+    const Box bound = scene.bound();
+    Camera camera;
+    camera.width = 160;
+    camera.height = 120;
+    camera.look_at(bound.center() + 1.2 * bound.radius() * glm::normalize(glm::dvec3(1, 0.5, 2)), bound.center());
+    std::vector<std::optional<PickHit>> full;
+    for (int y = 3; y < camera.height; y += 6)
+        for (int x = 5; x < camera.width; x += 6) full.push_back(pick(scene, camera, x, y));
+    const uint32_t finest = model->header().max_level;
+    std::vector<uint8_t> resident(model->cubes().size());
+    for (uint32_t c = 0; c < resident.size(); ++c) resident[c] = model->cubes()[c].node.level < finest;
+    model->set_residency(resident);
+    size_t k = 0, provisional = 0, settled = 0, finest_hits = 0;
+    for (int y = 3; y < camera.height; y += 6)
+        for (int x = 5; x < camera.width; x += 6, ++k) {
+            const std::optional<PickHit> partial = pick(scene, camera, x, y);
+            if (full[k]) {
+                EXPECT_FALSE(full[k]->provisional) << "every cube resident, at pixel " << x << ", " << y;
+            }
+            if (!full[k] || !partial) continue;
+            if (model->cubes()[full[k]->cube].node.level == finest) {
+                ++finest_hits;
+                EXPECT_TRUE(partial->provisional) << "pixel " << x << ", " << y;
+            }
+            if (partial->provisional) ++provisional;
+            else {
+                ++settled;
+                EXPECT_EQ(partial->cube, full[k]->cube) << "pixel " << x << ", " << y;
+            }
+        }
+    EXPECT_GT(finest_hits, 10u) << "the view should draw the finest level in places";
+    EXPECT_GT(provisional, 10u);
+    EXPECT_GT(settled, 10u) << "the view should draw coarser levels in places";
+}
+
 // ---- against rendered images ---------------------------------------------------------------------
 
 class PickRender : public PickHlod {
