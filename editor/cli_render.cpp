@@ -126,8 +126,8 @@ Command add_render(CLI::App& app) {
     sub->add_option("--samples", o->samples, "Multisampling: 1, 2, 4 or 8 samples per pixel")->check(CLI::IsMember({1, 2, 4, 8}))
         ->capture_default_str();
     sub->add_option("--background", o->background, "Background colour r,g,b,a (linear)")->delimiter(',')->expected(4);
-    sub->add_option("--debug", o->scene.debug_view, "HLOD debug view: none, levels (colour by level), wireframe")
-        ->check(CLI::IsMember({"none", "levels", "wireframe"}))->capture_default_str();
+    sub->add_option("--debug", o->scene.debug_view, "HLOD debug view: none, levels (colour by level), wireframe, residency (stand-ins for cubes still loading in orange)")
+        ->check(CLI::IsMember({"none", "levels", "wireframe", "residency"}))->capture_default_str();
     sub->add_flag("--boxes", o->scene.cube_boxes, "Outline the HLOD cubes drawn, coloured by level");
     sub->add_flag("--no-morph", o->no_morph, "Draw HLOD cubes without morphing toward their parents (shows cracks)");
     sub->add_option("--memory", o->memory, kMemoryOptionHelp);

@@ -33,7 +33,7 @@ const char* const kHelpText =
     "mouse: left drag orbits (looks around in fly mode), a left click selects, right drag or wheel zooms,\n"
     "       middle drag pans\n"
     "keys:  F fly/orbit, W A S D Q E move in fly mode (Shift: faster), R reset the view\n"
-    "       1 shaded, 2 colour by level, 3 wireframe, B cube boxes, M morph on/off (every model)\n"
+    "       1 shaded, 2 colour by level, 3 wireframe, 4 residency, B cube boxes, M morph on/off (every model)\n"
     "panels: outliner, inspector, camera and bookmarks, path (keys, timeline), Lua console; Tab hides them\n";
 
 bool is_scene_script(const std::vector<std::string>& files) {

@@ -141,6 +141,7 @@ void on_key(GLFWwindow*, int key, int, int action, int) {
     case GLFW_KEY_1: view(HlodDebugView::none); break;
     case GLFW_KEY_2: view(HlodDebugView::levels); break;
     case GLFW_KEY_3: view(HlodDebugView::wireframe); break;
+    case GLFW_KEY_4: view(HlodDebugView::residency); break;
     case GLFW_KEY_B: for_each_model(scene, [](HlodModel& m) { m.set_show_cube_boxes(!m.show_cube_boxes()); }); break;
     case GLFW_KEY_M: for_each_model(scene, [](HlodModel& m) { m.set_morph(!m.morph()); }); break;
     case GLFW_KEY_TAB: the_editor->show_panels(!the_editor->panels_shown()); break;
@@ -543,7 +544,7 @@ void Editor::draw_inspector() {
         bool boxes = model->show_cube_boxes();
         if (ImGui::Checkbox("cube boxes", &boxes)) model->set_show_cube_boxes(boxes);
         int view = int(model->debug_view());
-        if (ImGui::Combo("view", &view, "shaded\0colour by level\0wireframe\0")) model->set_debug_view(HlodDebugView(view));
+        if (ImGui::Combo("view", &view, "shaded\0colour by level\0wireframe\0residency\0")) model->set_debug_view(HlodDebugView(view));
         ImGui::Text("%s", model->path().c_str());
         ImGui::Text("%u levels, %zu cubes", model->header().max_level + 1, model->cubes().size());
     }
@@ -589,10 +590,12 @@ void Editor::draw_stats_overlay() {
     const ImGuiWindowFlags flags = ImGuiWindowFlags_NoDecoration | ImGuiWindowFlags_AlwaysAutoResize | ImGuiWindowFlags_NoSavedSettings |
                                    ImGuiWindowFlags_NoFocusOnAppearing | ImGuiWindowFlags_NoNav | ImGuiWindowFlags_NoInputs;
     if (ImGui::Begin("stats", nullptr, flags))
-        ImGui::Text("%.0f fps  %.1f ms  |  %.2f M triangles  %llu cubes  |  streamed %s, %llu loading, %llu stand-ins  |  ui %.2f ms",
+        ImGui::Text("%.0f fps  %.1f ms  |  %.2f M triangles  %llu cubes  |  streamed %s, %llu loading, %llu stand-ins, %s  |  ui %.2f ms",
                     fps_, 1000.0 / std::max(fps_, 1e-6), stats_.triangles / 1e6, (unsigned long long)stats_.cubes,
                     describe_bytes(stats_.memory_resident).c_str(), (unsigned long long)stats_.loads_pending,
-                    (unsigned long long)stats_.stand_ins, timings_.ui_ms);
+                    (unsigned long long)stats_.stand_ins,
+                    stats_.frames_unconverged == 0 ? "converged" : ("converging for " + std::to_string(stats_.frames_unconverged) + " frames").c_str(),
+                    timings_.ui_ms);
     ImGui::End();
 }
 

@@ -15,10 +15,8 @@ namespace strata::cli {
 namespace {
 
 HlodDebugView parse_debug_view(const std::string& name) {
-    if (name == "none") return HlodDebugView::none;
-    if (name == "levels") return HlodDebugView::levels;
-    if (name == "wireframe") return HlodDebugView::wireframe;
-    throw std::invalid_argument("unknown debug view '" + name + "' (none, levels, wireframe)");
+    if (const auto view = debug_view_named(name)) return *view;
+    throw std::invalid_argument("unknown debug view '" + name + "' (" + kHlodDebugViewNames + ")");
 }
 
 }  // namespace

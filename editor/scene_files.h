@@ -14,7 +14,7 @@ namespace strata::cli {
 struct SceneOptions {
     double pixel_error = 1.0;  // target screen-space error of the HLOD models, in pixels
     bool morph = true;
-    std::string debug_view = "none";  // none | levels | wireframe
+    std::string debug_view = "none";  // none | levels | wireframe | residency
     bool cube_boxes = false;
 };
 

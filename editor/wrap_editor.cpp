@@ -254,9 +254,11 @@ int editor_screenshot(lua_State* L) {
     });
 }
 
-int editor_stats(lua_State* L) {  // → { triangles, cubes, ui_ms, ui_build_ms, scene_ms, pick_ms, frames }
+// ed:stats() → { triangles, cubes, ui_ms, ui_build_ms, scene_ms, pick_ms, frames, converged,
+// frames_unconverged } (the last two: FrameStats::frames_unconverged of the last frame)
+int editor_stats(lua_State* L) {
     Editor& editor = check_editor(L);
-    lua_createtable(L, 0, 7);
+    lua_createtable(L, 0, 9);
     lua_pushinteger(L, lua_Integer(editor.stats().triangles));
     lua_setfield(L, -2, "triangles");
     lua_pushinteger(L, lua_Integer(editor.stats().cubes));
@@ -271,6 +273,10 @@ int editor_stats(lua_State* L) {  // → { triangles, cubes, ui_ms, ui_build_ms,
     lua_setfield(L, -2, "pick_ms");
     lua_pushinteger(L, lua_Integer(editor.frames()));
     lua_setfield(L, -2, "frames");
+    lua_pushboolean(L, editor.stats().frames_unconverged == 0);
+    lua_setfield(L, -2, "converged");
+    lua_pushinteger(L, lua_Integer(editor.stats().frames_unconverged));
+    lua_setfield(L, -2, "frames_unconverged");
     return 1;
 }
 
@@ -283,8 +289,9 @@ int editor_save(lua_State* L) {  // ed:save(file.lua): the scene script that reo
     });
 }
 
-// ed:click(x, y) → the node picked (now selected) and the point, or nil on the background: a click
-// at pixel (x, y) of the window, from the top-left.
+// ed:click(x, y) → the node picked (now selected), the point and whether the hit is provisional (a
+// stand-in for data still loading), or nil on the background: a click at pixel (x, y) of the window,
+// from the top-left.
 int editor_click(lua_State* L) {
     Editor& editor = check_editor(L);
     const double x = luaL_checknumber(L, 2), y = luaL_checknumber(L, 3);
@@ -294,7 +301,8 @@ int editor_click(lua_State* L) {
     if (!hit) return 0;
     push_node(L, editor.selected());
     lua::push_vec3(L, hit->point);
-    return 2;
+    lua_pushboolean(L, hit->provisional);
+    return 3;
 }
 
 int editor_measure(lua_State* L) {  // ed:measure(on): exact split of the scene's and the panels' time

@@ -192,6 +192,17 @@ std::shared_ptr<HlodModel> HlodModel::open(const std::filesystem::path& path, st
     return model;
 }
 
+const char* debug_view_name(HlodDebugView view) {
+    static const char* const names[] = {"none", "levels", "wireframe", "residency"};
+    return names[int(view)];
+}
+
+std::optional<HlodDebugView> debug_view_named(std::string_view name) {
+    for (const HlodDebugView view : {HlodDebugView::none, HlodDebugView::levels, HlodDebugView::wireframe, HlodDebugView::residency})
+        if (name == debug_view_name(view)) return view;
+    return std::nullopt;
+}
+
 HlodModel::~HlodModel() {
     if (stream_) stream_->cache->remove(stream_->source);
 }

@@ -8,6 +8,8 @@
 #include <filesystem>
 #include <memory>
 #include <mutex>
+#include <optional>
+#include <string_view>
 #include <unordered_map>
 #include <vector>
 
@@ -22,7 +24,12 @@
 namespace strata {
 
 // Colour-by-level and the like: what the shader shows instead of (or over) the shaded surface.
-enum class HlodDebugView { none, levels, wireframe };
+// residency: cubes that stand in for data still loading (and those held back beside them) in orange,
+// the rest in blue-grey.
+enum class HlodDebugView { none, levels, wireframe, residency };
+inline constexpr const char* kHlodDebugViewNames = "none, levels, wireframe, residency";
+const char* debug_view_name(HlodDebugView view);
+std::optional<HlodDebugView> debug_view_named(std::string_view name);
 
 struct HlodCube {
     HlodNode node;

@@ -56,6 +56,7 @@ uniform float morph_span[16];  // HlodModel::morph_span_limit
 uniform bool morph;
 uniform bool has_colors;
 uniform bool color_by_level;
+uniform bool color_by_residency;
 uniform vec4 base_color;  // linear
 uniform bool capture;
 
@@ -142,6 +143,8 @@ void main() {
         color *= vec4(srgb_to_linear(c.rgb), c.a);
     }
     if (color_by_level) color = vec4(level_palette[level % 8u], 1.0);
+    // A capped cube (a stand-in, or held back beside one) has a band end of 0 (HlodModel::select).
+    if (color_by_residency) color = band_ends[index].y == 0.0 ? vec4(0.95, 0.45, 0.08, 1.0) : vec4(0.30, 0.45, 0.60, 1.0);
     v_color = color;
     v_level = float(level);
 }
@@ -375,6 +378,7 @@ void set_view_uniforms(const HlodModel& model, const gl::Program& program, HlodG
     program.set("morph", int(model.morphs_for(context.camera)));
     program.set("has_colors", int(h.has_colors()));
     program.set("color_by_level", int(model.debug_view() == HlodDebugView::levels));
+    program.set("color_by_residency", int(model.debug_view() == HlodDebugView::residency));
     program.set("base_color", glm::vec4(0.6f, 0.57f, 0.52f, 1.0f));  // linear: a warm stone grey
     program.set("node_id", unsigned(model.id()));
     program.set("capture", int(model.capture_morph()));

@@ -176,11 +176,10 @@ void SceneWriter::children(const Node& node, const std::string& var, int depth) 
 // What the constructors do not take: level of detail, user values, visibility.
 void SceneWriter::settings(const Node& node, const std::string& var, int depth) {
     if (const auto* model = dynamic_cast<const HlodModel*>(&node)) {
-        static const char* const views[] = {"none", "levels", "wireframe"};
         const std::string detail = model->pixel_error() > 0 ? "pixel_error = " + number(model->pixel_error())
                                                             : "kappa0 = " + number(model->kappa0());
         line(depth, var + ":set_lod{ " + detail + ", morph = " + boolean(model->morph()) +
-                        ", debug = " + lua_string(views[int(model->debug_view())]) +
+                        ", debug = " + lua_string(debug_view_name(model->debug_view())) +
                         ", boxes = " + boolean(model->show_cube_boxes()) + " }");
     }
     for (const auto& [key, value] : node.user_values()) {

@@ -348,10 +348,8 @@ int hlod_set(lua_State* L) {  // model:set_lod{pixel_error=…} / {kappa0=…, m
     model.set_morph(lua::opt_boolean(L, 2, "morph", model.morph()));
     model.set_show_cube_boxes(lua::opt_boolean(L, 2, "boxes", model.show_cube_boxes()));
     const std::string debug = opt_string(L, 2, "debug", "");
-    if (debug == "none") model.set_debug_view(HlodDebugView::none);
-    else if (debug == "levels") model.set_debug_view(HlodDebugView::levels);
-    else if (debug == "wireframe") model.set_debug_view(HlodDebugView::wireframe);
-    else if (!debug.empty()) return luaL_error(L, "option 'debug' must be none, levels or wireframe, not '%s'", debug.c_str());
+    if (const auto view = debug_view_named(debug)) model.set_debug_view(*view);
+    else if (!debug.empty()) return luaL_error(L, "option 'debug' must be %s, not '%s'", kHlodDebugViewNames, debug.c_str());
     return 0;
 }
 

@@ -55,6 +55,10 @@ expect_success "shaded" "$STRATA" render "$WORK/bunny.hlod" -o "$WORK/shaded.png
 checks=$((checks + 1)); [ ! -s "$WORK/out.txt" ] || fail "-q printed something"
 expect_success "levels view" "$STRATA" render "$WORK/bunny.hlod" -o "$WORK/levels.png" "${small[@]}" --debug levels
 expect_success "cube boxes" "$STRATA" render "$WORK/bunny.hlod" -o "$WORK/boxes.png" "${small[@]}" --boxes
+# The residency view of a full-detail render: the same pixels covered (its colours: test_render.cpp).
+expect_success "residency view" "$STRATA" render "$WORK/bunny.hlod" -o "$WORK/residency.png" "${small[@]}" --debug residency
+check "residency view covers what the shaded view covers" "$(pixels box "$WORK/residency.png" 0,0,0,0)" "$(pixels box "$WORK/shaded.png" 0,0,0,0)"
+expect_usage "unknown debug view" "--debug" "$STRATA" render "$WORK/bunny.hlod" -o "$WORK/x.png" "${small[@]}" --debug nosuch
 # The levels view: the model's pixels are level-palette colours under the headlight, the shaded view's
 # are not; the boxes: lines in the exact palette colours, which the shaded view never shows.
 palette_source=$root/nodes/hlod_model_draw.cpp

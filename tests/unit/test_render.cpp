@@ -182,6 +182,43 @@ TEST_F(Render, ExrChannelsHoldDepthNormalsLevelsAndIds) {
     EXPECT_GT(background, 0u);
 }
 
+// --debug residency: cubes that stand in for missing children (and those capped beside them) are
+// orange, the rest blue-grey; with every cube resident nothing is orange, with the finest level
+// missing the view that wants it shows orange.
+TEST_F(Render, TheResidencyViewShowsStandInsInOrange) {
+    auto model = HlodModel::load(test::bunny_hlod());
+    model->set_pixel_error(1.0);
+    model->set_debug_view(HlodDebugView::residency);
+    auto root = std::make_shared<Group>();
+    root->add(model);
+    Camera camera;
+    camera.width = 160;
+    camera.height = 120;
+    const Box bound = root->bound();
+    camera.look_at(bound.center() + 1.2 * bound.radius() * glm::normalize(glm::dvec3(1, 0.5, 2)), bound.center());
+    Renderer renderer;
+    auto count = [&](size_t& orange, size_t& blue) {
+        gl::Framebuffer target({.width = camera.width, .height = camera.height, .samples = 1});
+        renderer.render(*root, camera, target);
+        const std::vector<float> rgba = target.read_color();
+        orange = blue = 0;
+        for (size_t p = 0; p < rgba.size(); p += 4) {
+            if (rgba[p + 3] < 0.5f) continue;  // background
+            orange += rgba[p] > 2 * rgba[p + 2];
+            blue += rgba[p + 2] > rgba[p];
+        }
+    };
+    size_t orange = 0, blue = 0;
+    count(orange, blue);
+    EXPECT_EQ(orange, 0u);
+    EXPECT_GT(blue, 2000u);
+    std::vector<uint8_t> resident(model->cubes().size());
+    for (uint32_t c = 0; c < resident.size(); ++c) resident[c] = model->cubes()[c].node.level < model->header().max_level;
+    model->set_residency(resident);
+    count(orange, blue);
+    EXPECT_GT(orange, 1000u);
+}
+
 // Lemma 2 on the GPU: a cube drawn just outside its switch distance and its children drawn just
 // inside it give the same image; the morph is what makes it so.
 TEST_F(Render, NoPopWhenACubeIsReplacedByItsChildren) {
