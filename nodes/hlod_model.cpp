@@ -219,20 +219,35 @@ void HlodModel::sync_residency() {
     set_residency(std::move(resident));
 }
 
-uint64_t HlodModel::request_refinement(const HlodView& view, const std::vector<uint32_t>& drawn) const {
-    if (!resident_[root_]) stream_->cache->request(stream_->source, root_, INFINITY);
+uint64_t HlodModel::request_refinement(const HlodView& view, const std::vector<uint32_t>& drawn, Ask ask) const {
+    StreamCache& cache = *stream_->cache;
+    auto ask_for = [&](uint32_t cube, double priority) {
+        if (ask == Ask::request) cache.request(stream_->source, cube, priority);
+        else cache.prefetch(stream_->source, cube, priority);
+    };
+    if (!resident_[root_]) ask_for(root_, INFINITY);
     uint64_t stand_ins = 0;
     for (const uint32_t c : drawn) {
-        stream_->cache->touch(stream_->source, c);
+        if (ask == Ask::request) cache.touch(stream_->source, c);
         if (!lacks_child_[c] || suitable(c, view)) continue;
         ++stand_ins;
         // A stand-in drawn closer than its switch distance: the nearer it is, the sooner its children.
         const double s = header_.cube_size(cubes_[c].node.level);
         const double priority = (*view.kappa)[c] * s / std::max(box_distance(view.eye, cell(cubes_[c].node)), 1e-6 * s);
         for (const uint32_t child : cubes_[c].children)
-            if (child != kNoCube && !resident_[child]) stream_->cache->request(stream_->source, child, priority);
+            if (child != kNoCube && !resident_[child]) ask_for(child, priority);
     }
     return stand_ins;
+}
+
+void HlodModel::prefetch_for(const Lookahead& ahead, const glm::dmat4& world_from_node) const {
+    const glm::dvec3 eye(glm::inverse(world_from_node) * glm::dvec4(ahead.camera->position, 1.0));
+    HlodView view = view_for(*ahead.camera, eye);
+    const Frustum frustum = Frustum::from_matrix(ahead.clip_from_world * world_from_node * lattice_to_node());
+    view.frustum = &frustum;
+    std::vector<uint32_t> drawn;
+    select(view, drawn);
+    request_refinement(view, drawn, Ask::prefetch);
 }
 
 void HlodModel::set_residency(std::vector<uint8_t> resident) {
@@ -526,7 +541,10 @@ void HlodModel::cull(CullVisitor& cull) {
     }
     Kappas morph;
     select(view, selection_, &morph);
-    if (stream_) cull.count_stand_ins(request_refinement(view, selection_));
+    if (stream_) {
+        cull.count_stand_ins(request_refinement(view, selection_, Ask::request));
+        for (const Lookahead& ahead : cull.lookahead()) prefetch_for(ahead, cull.model());
+    }
     if (!selection_.empty()) cull.add(*this, selection_.data(), uint32_t(selection_.size()), std::move(morph));
 }
 

@@ -23,6 +23,8 @@
 
 namespace strata {
 
+struct Lookahead;  // engine/scene/cull_visitor.h
+
 // Colour-by-level and the like: what the shader shows instead of (or over) the shaded surface.
 // residency: cubes that stand in for data still loading (and those held back beside them) in orange,
 // the rest in blue-grey.
@@ -249,9 +251,13 @@ private:
     std::unique_ptr<Stream> stream_;
     // The octree from the node table (links, neighbours, errors); cube data is not read.
     void read_octree(const HlodFile& file);
-    // Streamed: asks the cache for what the selection lacks, and marks what it draws as used. Returns
-    // how many drawn cubes stand in for missing children.
-    uint64_t request_refinement(const HlodView& view, const std::vector<uint32_t>& drawn) const;
+    // Streamed: asks the cache for what the selection lacks (requests, with what it draws marked as
+    // used; or prefetches, for a view to come). Returns how many drawn cubes stand in for missing
+    // children.
+    enum class Ask { request, prefetch };
+    uint64_t request_refinement(const HlodView& view, const std::vector<uint32_t>& drawn, Ask ask) const;
+    // Streamed: prefetches what a coming view's selection lacks (one level a frame, as for the view).
+    void prefetch_for(const Lookahead& ahead, const glm::dmat4& world_from_node) const;
     std::vector<uint8_t> resident_, lacks_child_;      // per cube: lacks_child_, resident without a child
     uint64_t residency_version_ = 0;                     // counts set_residency calls
     // The last κ computed, with what it was computed from (a gain, or −κ0 for a uniform κ).

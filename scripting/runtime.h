@@ -11,6 +11,8 @@
 #include <utility>
 #include <vector>
 
+#include "engine/render/renderer.h"
+
 struct lua_State;
 
 namespace strata {
@@ -18,7 +20,6 @@ namespace strata {
 namespace gl {
 class Context;
 }
-class Renderer;
 class ImageWriter;
 
 struct RuntimeOptions {
@@ -69,6 +70,10 @@ public:
     // The runtime that owns `L`.
     static Runtime& of(lua_State* L);
 
+    // The poses a camera path's next frames will have, set as a script steps through path:frames and
+    // cleared when the loop ends: strata.render tells streamed models to prefetch for them.
+    std::vector<RenderSettings::Pose>& upcoming_poses() { return upcoming_poses_; }
+
 private:
     int call(int arguments);
 
@@ -79,6 +84,7 @@ private:
     std::unique_ptr<ImageWriter> writer_;
     OutputSink sink_;
     std::vector<std::function<bool()>> live_windows_;
+    std::vector<RenderSettings::Pose> upcoming_poses_;
 };
 
 // Registers the `strata` module's functions (wrap_*.cpp, one per area) into the table on top of the stack.

@@ -157,16 +157,38 @@ int path_frame_count(lua_State* L) {
     return 1;
 }
 
-// for i, pose in path:frames{ fps = 30 } do … end — frame i (from 1) at (i − 1)/fps seconds.
+// How far ahead of a path's frame strata.render prefetches: the frames this many seconds on.
+constexpr double kPrefetchSeconds[] = {0.25, 0.5, 1.0};
+
+// for i, pose in path:frames{ fps = 30 } do … end — frame i (from 1) at (i − 1)/fps seconds. Each step
+// also tells the runtime the poses of the frames a quarter, a half and a whole second on (the last
+// frame at most), which strata.render prefetches for; the loop's end clears them.
 int frames_step(lua_State* L) {
     const CameraPath& path = check_path(L, lua_upvalueindex(1));
     const double fps = lua_tonumber(L, lua_upvalueindex(2));
     const lua_Integer previous = luaL_checkinteger(L, 2);  // the control value: a script may pass any
-    if (previous < 0 || uint64_t(previous) >= path.frame_count(fps)) return 0;
+    std::vector<RenderSettings::Pose>& upcoming = Runtime::of(L).upcoming_poses();
+    upcoming.clear();
+    const uint64_t count = path.frame_count(fps);
+    if (previous < 0 || uint64_t(previous) >= count) return 0;
     const lua_Integer i = previous + 1;
     lua_pushinteger(L, i);
     push_pose(L, path.sample(double(i - 1) / fps));
+    double last = double(i - 1);  // frames counted from 0
+    for (const double ahead : kPrefetchSeconds) {
+        const double frame = std::min(double(i - 1) + std::ceil(ahead * fps), double(count - 1));
+        if (frame <= last) continue;
+        last = frame;
+        const Pose pose = path.sample(frame / fps);
+        upcoming.push_back({pose.position, pose.orientation, pose.fov_degrees});
+    }
     return 2;
+}
+
+// The loop's closing value: its __close (at the end, a break or an error) clears the poses to come.
+int clear_upcoming(lua_State* L) {
+    Runtime::of(L).upcoming_poses().clear();
+    return 0;
 }
 
 int path_frames(lua_State* L) {
@@ -178,7 +200,15 @@ int path_frames(lua_State* L) {
     lua_pushcclosure(L, frames_step, 2);
     lua_pushnil(L);
     lua_pushinteger(L, 0);
-    return 3;
+    lua_newtable(L);
+    if (luaL_newmetatable(L, "strata.PathFramesEnd")) {
+        lua_pushcfunction(L, clear_upcoming);
+        lua_setfield(L, -2, "__close");
+        lua_pushboolean(L, false);
+        lua_setfield(L, -2, "__metatable");  // scripts cannot take its __close away
+    }
+    lua_setmetatable(L, -2);
+    return 4;
 }
 
 int path_save(lua_State* L) {

@@ -96,6 +96,7 @@ int render(lua_State* L) {
     if (samples != 1 && samples != 2 && samples != 4 && samples != 8) return luaL_error(L, "option 'samples' must be 1, 2, 4 or 8");
 
     Runtime& runtime = Runtime::of(L);
+    settings.upcoming = runtime.upcoming_poses();
     auto frame = std::make_shared<Frame>();
     try {
         Renderer& renderer = runtime.renderer();

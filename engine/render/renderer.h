@@ -2,13 +2,19 @@
 // and reads frames back as Images. Needs a current OpenGL 4.5 context (engine/gl/context.h).
 #pragma once
 
+#include <optional>
+#include <utility>
+#include <vector>
+
 #include <glm/glm.hpp>
+#include <glm/gtc/quaternion.hpp>
 
 #include "engine/gl/buffer.h"
 #include "engine/gl/framebuffer.h"
 #include "engine/gl/vertex_array.h"
 #include "engine/io/image.h"
 #include "engine/render/draw_context.h"
+#include "engine/scene/cull_visitor.h"
 #include "engine/scene/node.h"
 #include "engine/scene/render_list.h"
 
@@ -25,6 +31,17 @@ struct RenderSettings {
     // seconds). Otherwise the frame draws what is resident, its stand-ins for the rest, and never waits.
     bool full_detail = false;
     double full_detail_timeout = 0;
+    // Poses coming frames will have (a camera path's next frames), each seen with this frame's lens:
+    // streamed models prefetch what those views select, into room the budget has free.
+    struct Pose {
+        glm::dvec3 position;
+        glm::dquat orientation;
+        double fov_y_degrees;
+    };
+    std::vector<Pose> upcoming{};
+    // Also prefetch for where the eye is heading: this frame's motion since the last one, carried
+    // kMotionLeadFrames ahead.
+    bool predict_motion = true;
 };
 
 class Renderer {
@@ -50,6 +67,9 @@ private:
     double near_ = 0, far_ = 0;  // of the last frame, for depth read-back
     bool orthographic_ = false;
     uint64_t frames_unconverged_ = 0;  // FrameStats::frames_unconverged of the last frame
+    // The last frame's camera pose, for predict_motion.
+    std::optional<std::pair<glm::dvec3, glm::dquat>> last_pose_;
+    std::vector<Lookahead> lookahead_for(const Camera& camera, const RenderSettings& settings, const glm::dmat4& projection);
 };
 
 }  // namespace strata

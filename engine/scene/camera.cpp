@@ -11,6 +11,18 @@ namespace strata {
 
 void Camera::accept(NodeVisitor& visitor) { visitor.apply(*this); }
 
+void Camera::set_view(const Camera& other) {
+    position = other.position;
+    orientation = other.orientation;
+    projection = other.projection;
+    fov_y_degrees = other.fov_y_degrees;
+    ortho_height = other.ortho_height;
+    near_clip = other.near_clip;
+    far_clip = other.far_clip;
+    width = other.width;
+    height = other.height;
+}
+
 void Camera::look_at(const glm::dvec3& eye, const glm::dvec3& target, const glm::dvec3& up_hint) {
     position = eye;
     glm::dvec3 direction = target - eye;

@@ -27,6 +27,8 @@ public:
     double far_clip = 0.0;
     int width = 1280, height = 720;  // the image, in pixels
 
+    // Takes `other`'s pose, lens and image size (a camera is a node of the graph: it is not copied).
+    void set_view(const Camera& other);
     // Points the camera at `target` from `eye`, with `up` as close to its +Y as it can be.
     void look_at(const glm::dvec3& eye, const glm::dvec3& target, const glm::dvec3& up = {0, 1, 0});
     // Moves the camera back along its view direction until `box` fits the view (keeps orientation).

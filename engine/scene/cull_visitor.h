@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include <glm/glm.hpp>
@@ -13,6 +14,13 @@
 #include "engine/scene/visitor.h"
 
 namespace strata {
+
+// A view a coming frame will have (a camera path's next pose, the eye's motion carried ahead): its
+// camera and the clip-from-world matrix it would draw with. Streamed drawables prefetch for it.
+struct Lookahead {
+    std::shared_ptr<const Camera> camera;
+    glm::dmat4 clip_from_world;
+};
 
 struct CullStats {
     uint64_t nodes_visited = 0;
@@ -49,6 +57,8 @@ public:
     void add(Drawable& drawable, const uint32_t* data = nullptr, uint32_t count = 0, std::shared_ptr<const void> state = nullptr);
     RenderList& list() { return out_; }
     void count_stand_ins(uint64_t count) { stats_.stand_ins += count; }
+    void set_lookahead(std::vector<Lookahead> views) { lookahead_ = std::move(views); }
+    const std::vector<Lookahead>& lookahead() const { return lookahead_; }
     const CullStats& stats() const { return stats_; }
 
 private:
@@ -67,6 +77,7 @@ private:
     uint32_t traversal_mask_ = ~0u;
     bool culling_ = true;
     std::vector<Frame> state_;
+    std::vector<Lookahead> lookahead_;
     CullStats stats_;
 };
 

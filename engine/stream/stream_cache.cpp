@@ -76,6 +76,12 @@ void StreamCache::request(SourceId source, uint32_t index, double priority) {
     }
 }
 
+void StreamCache::prefetch(SourceId source, uint32_t index, double priority) {
+    const StreamSource& s = *sources_.at(source).source;
+    for (uint32_t i = index; i != StreamSource::kNoItem; i = s.parent(i))
+        if (item(source, i).state != State::resident) prefetches_.push_back({source, i, priority});
+}
+
 void StreamCache::touch(SourceId source, uint32_t index) { item(source, index).last_used = frame_; }
 
 void StreamCache::pin(SourceId source, uint32_t index) {
@@ -204,14 +210,46 @@ void StreamCache::start_loads() {
             ++waiting_;
             continue;
         }
-        it.state = State::loading;
-        it.bytes = bound;
-        reserved_bytes_ += bound;
-        peak_bytes_ = std::max(peak_bytes_, used());
-        ++in_flight_;
-        if (parent != StreamSource::kNoItem) ++s.items[parent].children_held;
-        jobs.push_back({r.source, r.item, s.source, parent == StreamSource::kNoItem ? nullptr : s.items[parent].value});
+        start_load(r.source, r.item, bound, jobs);
     }
+    queue_jobs(jobs);
+}
+
+void StreamCache::start_prefetches() {
+    std::stable_sort(prefetches_.begin(), prefetches_.end(), [](const Request& a, const Request& b) { return a.priority > b.priority; });
+    prefetch_waiting_ = 0;
+    std::vector<Job> jobs;
+    for (const Request& r : prefetches_) {
+        Source& s = sources_[r.source];
+        if (s.removed || s.items[r.item].state != State::absent) continue;
+        const uint32_t parent = s.source->parent(r.item);
+        const uint64_t bound = s.source->item_bytes(r.item);
+        if ((parent != StreamSource::kNoItem && s.items[parent].state != State::resident) || used() + bound > budget_) {
+            ++prefetch_waiting_;
+            continue;
+        }
+        // Counted as used now, so that the next frame's requests do not evict it first as the least
+        // recently used of all.
+        s.items[r.item].last_used = frame_;
+        start_load(r.source, r.item, bound, jobs);
+    }
+    queue_jobs(jobs);
+}
+
+void StreamCache::start_load(SourceId source, uint32_t index, uint64_t bound, std::vector<Job>& jobs) {
+    Source& s = sources_[source];
+    Item& it = s.items[index];
+    const uint32_t parent = s.source->parent(index);
+    it.state = State::loading;
+    it.bytes = bound;
+    reserved_bytes_ += bound;
+    peak_bytes_ = std::max(peak_bytes_, used());
+    ++in_flight_;
+    if (parent != StreamSource::kNoItem) ++s.items[parent].children_held;
+    jobs.push_back({source, index, s.source, parent == StreamSource::kNoItem ? nullptr : s.items[parent].value});
+}
+
+void StreamCache::queue_jobs(std::vector<Job>& jobs) {
     if (jobs.empty()) return;
     {
         const std::lock_guard lock(mutex_);
@@ -224,7 +262,9 @@ void StreamCache::update() {
     take_in_finished();
     make_room(0);  // a lowered budget
     start_loads();
+    start_prefetches();
     requests_.clear();
+    prefetches_.clear();
     ++frame_;
 }
 
@@ -262,6 +302,7 @@ void StreamCache::wait_for_requests(double timeout_seconds) {
         }
     }
     requests_.clear();
+    prefetches_.clear();  // the frame is over: its next cull asks again
     ++frame_;
 }
 
@@ -299,6 +340,7 @@ StreamCache::Stats StreamCache::stats() const {
     s.waiting = waiting_;
     s.in_flight = in_flight_;
     s.loaded = loaded_, s.evicted = evicted_, s.failed = failed_, s.shortfall = shortfall_;
+    s.prefetch_waiting = prefetch_waiting_;
     return s;
 }
 

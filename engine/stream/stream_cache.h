@@ -12,6 +12,8 @@
 //   what a frame sees stays put. Loads run on the loader threads.
 // - Priority: each frame's requests start highest first; to make room, update() evicts the least
 //   recently used items that this frame neither touched nor requested.
+// - Prefetches (what coming frames will want) start after the requests, only into room the budget has
+//   free: they never evict, are never waited for, and do not count as requests.
 #pragma once
 
 #include <condition_variable>
@@ -57,6 +59,7 @@ public:
         uint64_t in_flight = 0;
         uint64_t loaded = 0, evicted = 0, failed = 0;  // since the cache was made
         uint64_t shortfall = 0;       // bytes the last update could not find room for (0: all fitted)
+        uint64_t prefetch_waiting = 0;  // prefetched items the last update left unloaded
     };
 
     // `loader_threads` ≥ 1. Throws std::invalid_argument on a zero budget.
@@ -79,6 +82,10 @@ public:
     // Asks for an item for this frame, with a priority (higher first). Its missing ancestors are
     // asked for first, with the same priority. A request lasts until the next update().
     void request(SourceId source, uint32_t item, double priority);
+    // Asks for an item a coming frame will want, with a priority among prefetches: it loads after this
+    // frame's requests, ancestors first, only where the budget has room free (nothing is evicted for
+    // it), and is neither counted by has_requests() nor waited for. Lasts until the next update().
+    void prefetch(SourceId source, uint32_t item, double priority);
     // Marks a resident item as used by this frame: not evicted by the next update().
     void touch(SourceId source, uint32_t item);
     // Never evicted (a model's coarse levels): pinned items are loaded first and count in the budget.
@@ -152,6 +159,10 @@ private:
     void take_in_finished();
     bool make_room(uint64_t bytes);
     void start_loads();
+    void start_prefetches();
+    // Starts loading an absent item whose parent is resident, reserving `bound`; adds its job.
+    void start_load(SourceId source, uint32_t item, uint64_t bound, std::vector<Job>& jobs);
+    void queue_jobs(std::vector<Job>& jobs);
     void evict(SourceId source, uint32_t item);
     Item& item(SourceId source, uint32_t item);
     const Item& item(SourceId source, uint32_t item) const;
@@ -159,11 +170,11 @@ private:
 
     uint64_t budget_;
     std::vector<Source> sources_;  // by SourceId; removed ones stay as empty slots
-    std::vector<Request> requests_;
+    std::vector<Request> requests_, prefetches_;
     std::vector<std::pair<SourceId, uint32_t>> pinned_;
     uint64_t frame_ = 1;
     uint64_t resident_bytes_ = 0, reserved_bytes_ = 0, peak_bytes_ = 0, resident_items_ = 0;
-    uint64_t loaded_ = 0, evicted_ = 0, failed_ = 0, shortfall_ = 0, in_flight_ = 0, waiting_ = 0;
+    uint64_t loaded_ = 0, evicted_ = 0, failed_ = 0, shortfall_ = 0, in_flight_ = 0, waiting_ = 0, prefetch_waiting_ = 0;
 
     // Shared with the loader threads.
     mutable std::mutex mutex_;

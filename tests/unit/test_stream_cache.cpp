@@ -172,6 +172,50 @@ TEST(StreamCache, HigherPriorityLoadsFirstWhenOnlyOneFits) {
     EXPECT_FALSE(cache.resident(id, 3));
 }
 
+// Prefetches: ancestors first, after the frame's requests, only into free room (never evicting), and
+// neither counted as requests nor waited for.
+TEST(StreamCache, PrefetchesFillFreeRoomAfterTheRequestsAndNeverEvict) {
+    auto tree = std::make_shared<TreeSource>(3);
+    StreamCache cache(4 * 1100, 1);  // the root, its first child and two leaves under it
+    const auto id = cache.add(tree);
+    cache.request(id, 0, 1.0);
+    cache.wait_for_requests();
+    const uint32_t mid = tree->first_of_level(1), leaf = tree->first_of_level(2);  // leaf's parent is mid
+    // Two frames of the same prefetch: its parent loads first, then it.
+    for (int frame = 0; frame < 2; ++frame) {
+        cache.prefetch(id, leaf, 1.0);
+        EXPECT_FALSE(cache.has_requests()) << "a prefetch is not a request";
+        cache.update();
+        EXPECT_EQ(cache.stats().prefetch_waiting, frame == 0 ? 1u : 0u) << "frame " << frame;
+        cache.wait_for_a_load();
+        cache.update();
+    }
+    EXPECT_TRUE(cache.resident(id, mid));
+    EXPECT_TRUE(cache.resident(id, leaf));
+    // One item of room left: a request takes it before a prefetch of higher priority.
+    cache.request(id, leaf + 1, 1.0);
+    cache.prefetch(id, leaf + 2, 100.0);
+    cache.update();
+    EXPECT_EQ(cache.stats().prefetch_waiting, 1u);
+    cache.request(id, leaf + 1, 1.0);
+    cache.wait_for_requests();
+    EXPECT_TRUE(cache.resident(id, leaf + 1));
+    // The budget is full: a prefetch evicts nothing, though least recently used leaves could go, and
+    // is not waited for (a wait for it would find no room and throw).
+    cache.prefetch(id, leaf + 3, 1.0);
+    EXPECT_NO_THROW(cache.wait_for_requests());
+    for (int frame = 0; frame < 3; ++frame) {
+        cache.prefetch(id, leaf + 3, 1.0);
+        cache.update();
+        cache.wait_for_a_load();
+    }
+    cache.update();
+    EXPECT_FALSE(cache.resident(id, leaf + 3));
+    EXPECT_EQ(cache.stats().evicted, 0u);
+    EXPECT_EQ(cache.stats().prefetch_waiting, 0u) << "the last update had no prefetch";
+    expect_consistent(cache, id, *tree);
+}
+
 TEST(StreamCache, LoadsInFlightCountAgainstTheBudget) {
     auto tree = std::make_shared<TreeSource>(2);
     StreamCache cache(4 * 1100, 2);

@@ -278,6 +278,49 @@ TEST_F(StreamingRender, AFileDeletedOrReplacedWhileOpenIsStillReadAsOpened) {
     EXPECT_EQ(full_detail_frame(model), reference) << "replaced";
 }
 
+// Prefetch (issue 16 §1): frames at one view told the pose a coming frame will have load what that
+// view selects, so that its first frame draws no stand-in; without being told, that first frame does.
+// Each view is held until the cache is idle: nothing taken in, started or waiting for a frame.
+TEST_F(StreamingRender, AViewToldThePoseToComeHasItResidentWhenItArrives) {
+    StreamCache& cache = *StreamCache::shared();
+    const uint64_t budget = cache.budget();
+    uint64_t model_bytes = 0;
+    {
+        const auto whole = HlodModel::load(test::bunny_hlod());
+        for (const HlodCube& cube : whole->cubes()) model_bytes += HlodModel::cube_bytes(*cube.data);
+    }
+    cache.set_budget(2 * model_bytes);  // both views fit; 5 % of it pins the coarse levels only
+    auto first_frame_there = [&](bool told) {
+        const auto model = HlodModel::open(test::bunny_hlod());
+        model->set_pixel_error(1.0);
+        auto root = std::make_shared<Group>();
+        root->add(model);
+        const double size = model->header().root_size;
+        Camera far, near;
+        aim(far, *model, centre_of(*model) + size * glm::dvec3(2.0, 0.6, 2.4));
+        aim(near, *model, centre_of(*model) + size * glm::dvec3(-0.25, 0.1, 0.3));
+        gl::Framebuffer target({.width = far.width, .height = far.height, .samples = 1});
+        Renderer renderer;
+        RenderSettings settings;
+        if (told) settings.upcoming = {{near.position, near.orientation, near.fov_y_degrees}};
+        bool idle = false;
+        for (int frame = 0; frame < 1000 && !idle; ++frame) {
+            const FrameStats stats = renderer.render(*root, far, target, settings);
+            const StreamCache::Stats s = cache.stats();
+            idle = stats.frames_unconverged == 0 && stats.loaded == 0 && s.in_flight == 0 && s.prefetch_waiting == 0;
+            cache.wait_for_a_load();
+        }
+        EXPECT_TRUE(idle);
+        return renderer.render(*root, near, target, RenderSettings{});
+    };
+    const FrameStats untold = first_frame_there(false), told = first_frame_there(true);
+    EXPECT_GT(untold.stand_ins, 0u) << "the near view needs cubes the far one does not";
+    EXPECT_GT(untold.frames_unconverged, 0u);
+    EXPECT_EQ(told.stand_ins, 0u);
+    EXPECT_EQ(told.frames_unconverged, 0u);
+    cache.set_budget(budget);
+}
+
 // The GPU pool follows residency cube by cube (hlod_model_draw.cpp): one renderer through a fly-in
 // under a quarter of the model's bytes, its cubes placed in and freed from the pool's pages over and
 // over. On every frame the pool holds every resident cube's block and little more (a pool that never
