@@ -261,17 +261,28 @@ void HlodModel::set_residency(std::vector<uint8_t> resident) {
     }
     resident_ = std::move(resident);
     lacks_child_ = std::move(lacks_child);
+    if (fade_.size() != cubes_.size()) fade_.assign(cubes_.size(), 1.0f);
     ++residency_version_;
+}
+
+void HlodModel::advance_fades(const std::vector<uint32_t>& capped) {
+    for (const uint32_t c : fading_) fade_[c] = std::min(1.0f, fade_[c] + 1.0f / float(kFadeFrames));  // exact steps
+    std::erase_if(fading_, [&](uint32_t c) { return fade_[c] >= 1.0f; });
+    for (const uint32_t c : capped) {
+        if (fade_[c] >= 1.0f) fading_.push_back(c);
+        fade_[c] = 0.0f;
+    }
 }
 
 bool HlodModel::Capping::capped(uint32_t c) {
     if (const auto it = memo_.find(c); it != memo_.end()) return it->second;
     bool capped = model_.lacks_child_[c] && !model_.suitable(c, view_);
     // A capped cube of the parent's level next to this one keeps it from refining, so that nothing drawn
-    // beside that cube is two levels finer.
+    // beside that cube is two levels finer; so does one whose children are still fading in, so that
+    // nothing finer is drawn beside vertices that are not yet at λ = 1.
     if (const uint32_t parent = model_.parent_[c]; !capped && parent != kNoCube)
         for (const uint32_t n : model_.neighbours_[parent])
-            if (n != kNoCube && this->capped(n)) {
+            if (n != kNoCube && ((view_.fade && (*view_.fade)[n] < 1.0f) || this->capped(n))) {
                 capped = true;
                 break;
             }
@@ -279,13 +290,20 @@ bool HlodModel::Capping::capped(uint32_t c) {
     return capped;
 }
 
-Kappas HlodModel::Capping::morph_kappas() const {
+std::vector<uint32_t> HlodModel::Capping::capped_cubes() const {
     std::vector<uint32_t> capped;
     for (const auto& [cube, is_capped] : memo_)
         if (is_capped) capped.push_back(cube);
-    if (capped.empty()) return view_.kappa;
+    return capped;
+}
+
+Kappas HlodModel::Capping::morph_kappas() const {
+    const std::vector<uint32_t> capped = capped_cubes();
+    const bool fading = view_.fade && !model_.fading_.empty();
+    if (capped.empty() && !fading) return view_.kappa;
     auto out = std::make_shared<CubeKappas>(*view_.kappa);
     for (const uint32_t c : capped) out->band_ends[c][1] = 0.0f;  // what it holds stays on its parents
+    if (fading) out->fade = *view_.fade;
     return out;
 }
 
@@ -397,11 +415,12 @@ bool HlodModel::suitable(uint32_t cube, const HlodView& view) const {
     return box_distance(view.eye, cell(node)) >= (*view.kappa)[cube] * header_.cube_size(node.level);
 }
 
-void HlodModel::select(const HlodView& view, std::vector<uint32_t>& out, Kappas* morph) const {
+void HlodModel::select(const HlodView& view, std::vector<uint32_t>& out, Kappas* morph, std::vector<uint32_t>* capped) const {
     out.clear();
     Capping capping(*this, view);
     select_from(root_, view, capping, view.plane_mask, out);
     if (morph) *morph = capping.morph_kappas();
+    if (capped) *capped = capping.capped_cubes();
 }
 
 void HlodModel::select_from(uint32_t c, const HlodView& view, Capping& capping, uint8_t mask, std::vector<uint32_t>& out) const {
@@ -472,13 +491,17 @@ HlodModel::MorphBand HlodModel::morph_band(uint32_t c, const glm::ivec3& q, cons
     const uint32_t parent = parent_[c];
     if (parent == kNoCube) return {kappa.band_ends[c][0], INFINITY};  // the root: nothing to morph toward
     // The vertex's own cube and its parent always hold it; their neighbours may too.
-    MorphBand band{kappa.band_ends[c][0], kappa.band_ends[parent][1]};
+    auto fade = [&](uint32_t m) { return kappa.fade.empty() ? 1.0f : kappa.fade[m]; };
+    MorphBand band{kappa.band_ends[c][0], kappa.band_ends[parent][1], fade(parent)};
     const glm::ivec3 cell(n.i, n.j, n.k);
     for_each_cell_holding(q, overhang_steps(), kLatticeBits, cell, [&](int slot) {
         if (const uint32_t m = neighbours_[c][size_t(slot)]; m != kNoCube) band.start = std::max(band.start, kappa.band_ends[m][0]);
     });
     for_each_cell_holding(q, overhang_steps(), kLatticeBits + 1, cell >> 1, [&](int slot) {
-        if (const uint32_t m = neighbours_[parent][size_t(slot)]; m != kNoCube) band.end = std::min(band.end, kappa.band_ends[m][1]);
+        if (const uint32_t m = neighbours_[parent][size_t(slot)]; m != kNoCube) {
+            band.end = std::min(band.end, kappa.band_ends[m][1]);
+            band.fade = std::min(band.fade, fade(m));
+        }
     });
     return band;
 }
@@ -489,7 +512,7 @@ float HlodModel::morph_lambda(uint32_t c, const glm::ivec3& q, float d, const Cu
     int exponent = 0;
     // span = m·2^exponent, m in [0.5, 1)
     std::frexp(std::min(band.end - band.start, morph_span_limit(cubes_[c].node.level)), &exponent);
-    return std::clamp((band.end - d) * std::ldexp(1.0f, 1 - exponent), 0.0f, 1.0f);  // as the shader
+    return std::clamp((band.end - d) * std::ldexp(1.0f, 1 - exponent), 0.0f, 1.0f) * band.fade;  // as the shader
 }
 
 void HlodModel::morphed_positions(uint32_t c, const glm::vec3& eye, const CubeKappas& kappa, std::vector<glm::vec3>& out) const {
@@ -539,11 +562,20 @@ void HlodModel::cull(CullVisitor& cull) {
         view.frustum = &frustum;
         view.plane_mask = cull.plane_mask();
     }
+    // Interactive frames of a streamed model fade in what arrives; full-detail ones draw the cut a
+    // model loaded whole draws.
+    const bool fades = !cull.full_detail();
+    if (fades) view.fade = &fade_;
     Kappas morph;
-    select(view, selection_, &morph);
+    std::vector<uint32_t> capped;
+    select(view, selection_, &morph, fades ? &capped : nullptr);
     if (stream_) {
         cull.count_stand_ins(request_refinement(view, selection_, Ask::request));
         for (const Lookahead& ahead : cull.lookahead()) prefetch_for(ahead, cull.model());
+    }
+    if (fades) {
+        advance_fades(capped);
+        cull.count_fading(fading_.size());
     }
     if (!selection_.empty()) cull.add(*this, selection_.data(), uint32_t(selection_.size()), std::move(morph));
 }

@@ -50,6 +50,9 @@ inline constexpr uint32_t kMaxHlodLevels = 16;  // the format allows levels 0 �
 struct CubeKappas {
     std::vector<double> kappa;
     std::vector<std::array<float, 2>> band_ends;
+    // Per cube, how far its children's vertices near it have faded in (nodes/README.md, "Stand-ins"):
+    // a vertex's λ is scaled by the least fade of the cubes that set its band's end. Empty: all 1.
+    std::vector<float> fade;
     double operator[](uint32_t cube) const { return kappa[cube]; }
 };
 using Kappas = std::shared_ptr<const CubeKappas>;
@@ -63,6 +66,10 @@ struct HlodView {
     // ≥ 0: every cube of this level (or the finest there is) instead of the distance rule: what an
     // orthographic view needs, whose pixels have one size at any distance.
     int fixed_level = -1;
+    // An interactive view of a streamed model: the model's fades (HlodModel::fade), below 1 for cubes
+    // whose children are still fading in; such cubes hold their neighbours' children back as stand-ins
+    // do. nullptr: none (full detail, a model loaded whole).
+    const std::vector<float>* fade = nullptr;
 };
 
 class HlodModel : public Drawable {
@@ -117,6 +124,11 @@ public:
     void set_residency(std::vector<uint8_t> resident);
     bool resident(uint32_t cube) const { return resident_[cube] != 0; }
     uint64_t residency_version() const { return residency_version_; }  // counts set_residency calls
+    // Streamed, interactive frames: per cube, 1 once settled; 0 while capped; then 1/kFadeFrames more
+    // each frame, so that children that arrive late (and cubes no longer held back) fade in
+    // (nodes/README.md, "Stand-ins"). cull() advances it; full-detail frames ignore it.
+    const std::vector<float>& fade() const { return fade_; }
+    static constexpr int kFadeFrames = 8;
     // The cube's neighbours of its own level, the 3 × 3 × 3 around it (itself in the middle) at
     // (di + 1) + 3(dj + 1) + 9(dk + 1), kNoCube where there is none; and its parent (kNoCube: the root).
     const std::array<uint32_t, 27>& neighbours(uint32_t cube) const { return neighbours_[cube]; }
@@ -137,7 +149,9 @@ public:
     // The coarsest suitable cubes (DESIGN.md §3) that meet the frustum, front to back, and the stand-ins
     // for cubes not resident. `morph`, if given, receives the κ to morph them with: view.kappa, with the
     // band ends of the cubes the view caps set to 0 (the same pointer when it caps none).
-    void select(const HlodView& view, std::vector<uint32_t>& out, Kappas* morph = nullptr) const;
+    // `capped`, if given, receives the cubes the view capped.
+    void select(const HlodView& view, std::vector<uint32_t>& out, Kappas* morph = nullptr,
+                std::vector<uint32_t>* capped = nullptr) const;
     // A cube's cell in the lattice frame.
     Box cell(const HlodNode& node) const;
     // The box around everything a cube draws, morphed or not: its cell grown by 1.5·σ0·s_l (the
@@ -158,12 +172,14 @@ public:
     // sharing the vertex morphs it alike.
     struct MorphBand {
         float start, end;
+        float fade = 1.0f;  // the least fade of the cubes that set `end`
     };
     MorphBand morph_band(uint32_t cube, const glm::ivec3& q, const CubeKappas& kappa) const;
     // λ at d∞ distance d from the eye: clamp((end − d)·2^−k, 0, 1), 2^k the largest power of two within
     // both the band's span and morph_span_limit, so that the morph happens at the band's far end,
     // where the parent is nearly suitable itself, and the product is exact on CPU and GPU alike
-    // (GLSL's division is not correctly rounded). 1 at the root, which has no parent.
+    // (GLSL's division is not correctly rounded); times the band's fade. 1 at the root, which has no
+    // parent.
     float morph_lambda(uint32_t cube, const glm::ivec3& q, float d, const CubeKappas& kappa) const;
     // The morph's longest run, kMorphCubes·s_l: a vertex of level l morphs over at most that much of
     // the eye's distance, just before its parent's cube becomes suitable.
@@ -218,8 +234,9 @@ private:
     public:
         Capping(const HlodModel& model, const HlodView& view) : model_(model), view_(view) {}
         bool capped(uint32_t cube);
-        // view.kappa with the band ends of the capped cubes found so far set to 0.
+        // view.kappa with the band ends of the capped cubes found so far set to 0, and the view's fades.
         Kappas morph_kappas() const;
+        std::vector<uint32_t> capped_cubes() const;
 
     private:
         const HlodModel& model_;
@@ -259,6 +276,10 @@ private:
     // Streamed: prefetches what a coming view's selection lacks (one level a frame, as for the view).
     void prefetch_for(const Lookahead& ahead, const glm::dmat4& world_from_node) const;
     std::vector<uint8_t> resident_, lacks_child_;      // per cube: lacks_child_, resident without a child
+    std::vector<float> fade_;                            // per cube, see fade()
+    std::vector<uint32_t> fading_;                       // the cubes whose fade is below 1
+    // Ends an interactive frame's fades: the cubes capped in it to 0, the others fading a step on.
+    void advance_fades(const std::vector<uint32_t>& capped);
     uint64_t residency_version_ = 0;                     // counts set_residency calls
     // The last κ computed, with what it was computed from (a gain, or −κ0 for a uniform κ).
     mutable std::mutex kappas_mutex_;

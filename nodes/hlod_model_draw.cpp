@@ -45,6 +45,8 @@ layout(std430, binding = 8) readonly buffer Links { uint links[]; };
 // Per cube: where its level's vertices may start to morph, and where its children's must have ended
 // (CubeKappas::band_ends).
 layout(std430, binding = 9) readonly buffer BandEnds { vec2 band_ends[]; };
+// Per cube: how far its children's vertices near it have faded in (CubeKappas::fade).
+layout(std430, binding = 11) readonly buffer Fades { float fades[]; };
 
 uniform mat4 clip_from_lattice;
 uniform mat3 world_from_lattice_normal;
@@ -81,7 +83,7 @@ uint slot(ivec3 cell, ivec3 home) {
 float morph_lambda(uint cube, uint level, uvec3 cell, ivec3 q, float d) {
     uint parent = links[cube * 28u + 27u];
     if (parent == no_cube) return 1.0;
-    float start = band_ends[cube].x, end = band_ends[parent].y;
+    float start = band_ends[cube].x, end = band_ends[parent].y, fade = fades[parent];
     ivec3 home = ivec3(cell), lo = (q - overhang) >> 15, hi = (q + overhang) >> 15;
     for (int z = lo.z; z <= hi.z; ++z)
         for (int y = lo.y; y <= hi.y; ++y)
@@ -94,11 +96,14 @@ float morph_lambda(uint cube, uint level, uvec3 cell, ivec3 q, float d) {
         for (int y = lo.y; y <= hi.y; ++y)
             for (int x = lo.x; x <= hi.x; ++x) {
                 uint m = links[parent * 28u + slot(ivec3(x, y, z), home)];
-                if (m != no_cube) end = min(end, band_ends[m].y);
+                if (m != no_cube) {
+                    end = min(end, band_ends[m].y);
+                    fade = min(fade, fades[m]);
+                }
             }
     int exponent;
     frexp(min(end - start, morph_span[level]), exponent);
-    precise float lambda = clamp((end - d) * ldexp(1.0, 1 - exponent), 0.0, 1.0);
+    precise float lambda = clamp((end - d) * ldexp(1.0, 1 - exponent), 0.0, 1.0) * fade;
     return lambda;
 }
 
@@ -253,6 +258,7 @@ struct HlodGpu : GpuCache::Entry {
     gl::Buffer cubes;
     gl::Buffer links;          // per cube: neighbours and parent
     gl::Buffer band_ends;      // per cube, of `kappas`
+    gl::Buffer fades;          // per cube, of `kappas` (all 1 where it has none)
     gl::Buffer color_offsets;  // per cube
     Kappas kappas;
     gl::Buffer drawn;     // this frame's cubes, for the boxes view
@@ -260,7 +266,7 @@ struct HlodGpu : GpuCache::Entry {
     gl::VertexArray vertex_array = gl::VertexArray::create();  // its index buffer: the page drawn
     std::vector<std::vector<DrawCommand>> page_commands;         // this frame's, per page
     uint64_t fixed_bytes() const {
-        return cubes.size() + links.size() + band_ends.size() + color_offsets.size() + drawn.size() + commands.size();
+        return cubes.size() + links.size() + band_ends.size() + fades.size() + color_offsets.size() + drawn.size() + commands.size();
     }
 };
 
@@ -343,6 +349,7 @@ std::unique_ptr<HlodGpu> make_gpu(const HlodModel& model) {
     }
     gpu->links = gl::Buffer(links, 0);
     gpu->band_ends = gl::Buffer(cubes.size() * sizeof(std::array<float, 2>), GL_DYNAMIC_STORAGE_BIT);
+    gpu->fades = gl::Buffer(cubes.size() * sizeof(float), GL_DYNAMIC_STORAGE_BIT);
     gpu->color_offsets = gl::Buffer(cubes.size() * sizeof(std::array<int32_t, 2>), GL_DYNAMIC_STORAGE_BIT);
     gpu->commands = gl::Buffer(cubes.size() * sizeof(DrawCommand), GL_DYNAMIC_STORAGE_BIT);
     gpu->drawn = gl::Buffer(cubes.size() * sizeof(uint32_t), GL_DYNAMIC_STORAGE_BIT);
@@ -362,6 +369,7 @@ void set_view_uniforms(const HlodModel& model, const gl::Program& program, HlodG
     // image size, field of view, target or capping.
     if (Kappas kappas = std::static_pointer_cast<const CubeKappas>(item.state); kappas != gpu.kappas) {
         gpu.band_ends.upload(kappas->band_ends);
+        gpu.fades.upload(kappas->fade.empty() ? std::vector<float>(kappas->band_ends.size(), 1.0f) : kappas->fade);
         gpu.kappas = std::move(kappas);
     }
     const HlodHeader& h = model.header();
@@ -412,6 +420,7 @@ void HlodModel::draw(DrawContext& context, const DrawItem& item) {
     gpu.cubes.bind_base(GL_SHADER_STORAGE_BUFFER, 1);
     gpu.links.bind_base(GL_SHADER_STORAGE_BUFFER, 8);
     gpu.band_ends.bind_base(GL_SHADER_STORAGE_BUFFER, 9);
+    gpu.fades.bind_base(GL_SHADER_STORAGE_BUFFER, 11);
     gpu.color_offsets.bind_base(GL_SHADER_STORAGE_BUFFER, 10);
 
     // This frame's commands, grouped by page into one indirect buffer.

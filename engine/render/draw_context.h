@@ -19,11 +19,12 @@ struct FrameStats {
     uint64_t cubes = 0;          // HLOD cubes drawn
     uint64_t nodes_culled = 0;
     uint64_t stand_ins = 0;        // streamed HLOD cubes drawn in place of children not yet loaded
+    uint64_t fading = 0;           // streamed HLOD cubes whose children are fading in, or held back beside them
     uint64_t loads_pending = 0;    // streamed cubes the view asked for that are loading or waiting for room
     uint64_t memory_resident = 0;  // bytes streamed models hold (CPU and GPU), after this frame's update
     uint64_t loaded = 0, evicted = 0;  // streamed cubes that arrived and that left in this frame's update
-    // Frames since the view last converged: 0 when this frame drew no stand-in and asked for nothing
-    // (what a full-detail frame would draw), else one more than the last frame's count.
+    // Frames since the view last converged: 0 when this frame drew no stand-in, had nothing fading in
+    // and asked for nothing (what a full-detail frame would draw), else one more than the last frame's.
     uint64_t frames_unconverged = 0;
     double cull_ms = 0;          // CPU: traversal, selection and sorting; full detail: and waiting for the cubes
     double draw_ms = 0;          // CPU: issuing the draws (the GPU may still be working)

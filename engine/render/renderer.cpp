@@ -111,15 +111,16 @@ FrameStats Renderer::render(Node& scene, const Camera& camera, gl::Framebuffer& 
         CullVisitor cull(camera, view, projection, list_);
         cull.set_frustum_culling(s.frustum_culling);
         cull.set_lookahead(lookahead);
+        cull.set_full_detail(s.full_detail);
         scene.accept(cull);
         stats.nodes_culled = cull.stats().nodes_culled;
         stats.stand_ins = cull.stats().stand_ins;
+        stats.fading = cull.stats().fading;
         if (!stream || !s.full_detail || !stream->has_requests()) break;
         stream->wait_for_requests(s.full_detail_timeout);  // then cull again: the view may now refine further
     }
-    bool converged = true;
+    const bool converged = stats.stand_ins == 0 && stats.fading == 0 && !(stream && stream->has_requests());
     if (stream) {
-        converged = stats.stand_ins == 0 && !stream->has_requests();
         const StreamCache::Stats before = stream->stats();
         stream->update();  // takes in finished loads, starts what this frame asked for
         const StreamCache::Stats streaming = stream->stats();

@@ -27,6 +27,7 @@ struct CullStats {
     uint64_t nodes_culled = 0;  // subtrees dropped by the frustum
     uint64_t bound_tests = 0;   // bounds tested against planes (none below a wholly visible node)
     uint64_t stand_ins = 0;     // streamed cubes drawn in place of children not yet loaded
+    uint64_t fading = 0;        // streamed cubes whose children are still fading in, or held back
 };
 
 class CullVisitor : public NodeVisitor {
@@ -57,7 +58,12 @@ public:
     void add(Drawable& drawable, const uint32_t* data = nullptr, uint32_t count = 0, std::shared_ptr<const void> state = nullptr);
     RenderList& list() { return out_; }
     void count_stand_ins(uint64_t count) { stats_.stand_ins += count; }
+    void count_fading(uint64_t count) { stats_.fading += count; }
     void set_lookahead(std::vector<Lookahead> views) { lookahead_ = std::move(views); }
+    // A full-detail frame (RenderSettings::full_detail): streamed drawables draw what a model loaded
+    // whole draws once resident, without the transitions of interactive frames.
+    void set_full_detail(bool on) { full_detail_ = on; }
+    bool full_detail() const { return full_detail_; }
     const std::vector<Lookahead>& lookahead() const { return lookahead_; }
     const CullStats& stats() const { return stats_; }
 
@@ -76,6 +82,7 @@ private:
     RenderList& out_;
     uint32_t traversal_mask_ = ~0u;
     bool culling_ = true;
+    bool full_detail_ = false;
     std::vector<Frame> state_;
     std::vector<Lookahead> lookahead_;
     CullStats stats_;

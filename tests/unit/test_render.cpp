@@ -219,6 +219,60 @@ TEST_F(Render, TheResidencyViewShowsStandInsInOrange) {
     EXPECT_GT(orange, 1000u);
 }
 
+// Children that arrive late fade in (nodes/README.md, "Stand-ins"): the first frame after a stood-in
+// group arrives draws what the stand-ins drew, the next frames carry the change a step at a time, and
+// once nothing fades the frame is the one every cube resident draws. With the fade the arrival would
+// show at once.
+TEST_F(Render, ChildrenThatArriveLateFadeInWithoutAPop) {
+    auto model = HlodModel::load(test::bunny_hlod());
+    model->set_pixel_error(1.0);
+    auto root = std::make_shared<Group>();
+    root->add(model);
+    Camera camera;
+    camera.width = 160;
+    camera.height = 120;
+    const Box bound = root->bound();
+    camera.look_at(bound.center() + 1.2 * bound.radius() * glm::normalize(glm::dvec3(1, 0.5, 2)), bound.center());
+    gl::Framebuffer target({.width = camera.width, .height = camera.height, .samples = 1});
+    Renderer renderer;
+    auto frame = [&](bool full_detail, FrameStats* stats = nullptr) {
+        RenderSettings settings;
+        settings.full_detail = full_detail;
+        const FrameStats s = renderer.render(*root, camera, target, settings);
+        if (stats) *stats = s;
+        return target.read_color();
+    };
+    auto mean_difference = [](const std::vector<float>& a, const std::vector<float>& b) {
+        double sum = 0;
+        for (size_t i = 0; i < a.size(); ++i) sum += std::abs(a[i] - b[i]);
+        return sum / double(a.size());
+    };
+    const std::vector<float> reference = frame(true);
+    std::vector<uint8_t> resident(model->cubes().size());
+    for (uint32_t c = 0; c < resident.size(); ++c) resident[c] = model->cubes()[c].node.level < model->header().max_level;
+    model->set_residency(resident);
+    std::vector<float> stood_in;
+    for (int k = 0; k < 3; ++k) stood_in = frame(false);
+    const double change = mean_difference(stood_in, reference);
+    ASSERT_GT(differing(stood_in, reference, 1.0f / 255), 0.02) << "the finest level shows: something to fade in";
+    model->set_residency(std::vector<uint8_t>(model->cubes().size(), 1));
+    std::vector<float> previous = frame(false);
+    EXPECT_LE(differing(stood_in, previous, 1.0f / 255), 0.001) << "the frame the children arrive draws what the stand-ins drew";
+    FrameStats stats;
+    double largest_step = 0;
+    int frames = 1;
+    for (; frames < 20 * HlodModel::kFadeFrames; ++frames) {
+        const std::vector<float> next = frame(false, &stats);
+        largest_step = std::max(largest_step, mean_difference(previous, next));
+        previous = next;
+        if (stats.frames_unconverged == 0) break;
+    }
+    EXPECT_EQ(stats.frames_unconverged, 0u);
+    EXPECT_GE(frames, HlodModel::kFadeFrames);
+    EXPECT_LT(largest_step, 0.35 * change) << "no frame carries much of the change";
+    EXPECT_EQ(previous, reference) << "faded in, the frame is the one every cube resident draws";
+}
+
 // Lemma 2 on the GPU: a cube drawn just outside its switch distance and its children drawn just
 // inside it give the same image; the morph is what makes it so.
 TEST_F(Render, NoPopWhenACubeIsReplacedByItsChildren) {

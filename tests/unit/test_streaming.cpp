@@ -40,13 +40,14 @@ struct Culled {
     Kappas kappa;
     glm::dvec3 eye;  // lattice frame
     uint64_t stand_ins = 0;
+    uint64_t fading = 0;
 };
 Culled cull_frame(Node& root, const HlodModel& model, const Camera& camera) {
     RenderList list;
     CullVisitor cull(camera, camera.view_matrix(), camera.projection_matrix(camera.near_clip, camera.far_clip), list);
     cull.set_frustum_culling(false);
     root.accept(cull);
-    Culled out{{}, model.kappas_for(camera), camera.position - model.origin(), cull.stats().stand_ins};
+    Culled out{{}, model.kappas_for(camera), camera.position - model.origin(), cull.stats().stand_ins, cull.stats().fading};
     for (const DrawItem& item : list.opaque) {
         out.cubes.assign(list.item_data.begin() + item.first, list.item_data.begin() + item.first + item.count);
         out.kappa = std::static_pointer_cast<const CubeKappas>(item.state);
@@ -103,16 +104,18 @@ TEST_F(Streaming, AFlyInDrawsOnlyResidentCubesAndNeverCracks) {
     EXPECT_GT(frames_drawn, steps);
     EXPECT_GT(frames_with_stand_ins, 3) << "frames drew stand-ins while their children loaded";
     EXPECT_GT(cache.stats().evicted, 0u);
-    // Held still with room for it, the view converges on what the model loaded whole draws.
+    // Held still with room for it, the view converges on what the model loaded whole draws: a level or
+    // more a frame, each level's arrival faded in over HlodModel::kFadeFrames frames.
     cache.set_budget(2 * model_bytes);
     Camera camera;
     aim(camera, *model, eye);
     std::vector<uint32_t> drawn;
     bool converged = false;
-    for (int frame = 0; frame < 20 && !converged; ++frame) {  // a level or more each frame
-        drawn = cull_frame(*root, *model, camera).cubes;
-        converged = !cache.has_requests();
-        if (!converged) cache.wait_for_requests();
+    for (int frame = 0; frame < 20 * HlodModel::kFadeFrames && !converged; ++frame) {
+        const Culled culled = cull_frame(*root, *model, camera);
+        drawn = culled.cubes;
+        converged = !cache.has_requests() && culled.fading == 0 && culled.stand_ins == 0;
+        cache.wait_for_requests();
     }
     EXPECT_TRUE(converged);
     std::vector<uint32_t> expected;
@@ -343,14 +346,14 @@ TEST_F(StreamingRender, OneRendererThroughAFlyInThatEvictsKeepsItsPoolToTheResid
     const double size = model->header().root_size;
     const bool colors = model->header().has_colors();
     auto gpu_bytes = [&](const CubeData& d) { return HlodModel::gpu_block_bytes(d.vertex_count(), d.parents.size(), d.indices.size(), colors); };
-    // The pool's own buffers beside the blocks: per cube its record, links, band ends, colour
+    // The pool's own buffers beside the blocks: per cube its record, links, band ends, fade, colour
     // offsets, a drawn index and a draw command; and its pages' unused room, at most a page (1 MiB
     // at this budget) and the fragments between blocks.
-    const uint64_t fixed = model->cubes().size() * (16 + 28 * 4 + 8 + 8 + 4 + 20);
+    const uint64_t fixed = model->cubes().size() * (16 + 28 * 4 + 8 + 4 + 8 + 4 + 20);
     const uint64_t slack = uint64_t(2) << 20;
     Renderer renderer;
     RenderSettings interactive;
-    uint64_t ever_placed = 0, largest = 0;
+    uint64_t ever_placed = 0;
     std::set<const CubeData*> seen;
     for (int frame = 0; frame < 100; ++frame) {
         const double t = std::min(frame, 80) / 80.0, angle = 4.0 * t, distance = size * (3.0 * (1 - t) + 0.55 * t);
@@ -367,11 +370,24 @@ TEST_F(StreamingRender, OneRendererThroughAFlyInThatEvictsKeepsItsPoolToTheResid
         if (stats.cubes == 0) continue;  // nothing drawn yet: no pool
         ASSERT_GE(stats.bytes_resident, placed + fixed) << "frame " << frame;
         ASSERT_LE(stats.bytes_resident, placed + fixed + slack) << "frame " << frame;
-        largest = std::max(largest, stats.bytes_resident);
         cache.wait_for_a_load();
     }
     EXPECT_GT(cache.stats().evicted, 0u);
-    EXPECT_GT(ever_placed, largest + slack) << "the fly-in placed too little to tell a pool that frees from one that does not";
+    // A budget of one byte evicts all but the pinned coarse levels, which were placed first, in the
+    // first page: the pool gives the rest of its pages back. A pool that never freed would hold every
+    // block ever placed.
+    cache.set_budget(1);
+    Camera far;
+    aim(far, *model, centre_of(*model) + 3 * size * glm::dvec3(0, 0.3, 1));
+    gl::Framebuffer far_target({.width = far.width, .height = far.height, .samples = 1});
+    renderer.render(*root, far, far_target, interactive);  // its update evicts
+    const FrameStats shrunk = renderer.render(*root, far, far_target, interactive);  // its draw frees
+    uint64_t placed = 0;
+    for (const HlodCube& cube : model->cubes())
+        if (cube.data) placed += gpu_bytes(*cube.data);
+    EXPECT_LE(shrunk.bytes_resident, fixed + (uint64_t(1) << 20)) << "one page left";
+    EXPECT_GE(shrunk.bytes_resident, placed + fixed);
+    EXPECT_GT(ever_placed, (uint64_t(5) << 18)) << "the fly-in placed too little to tell a pool that frees (one page left) from one that does not";
     cache.set_budget(budget);
     Camera camera;
     aim(camera, *model, centre_of(*model) + size * glm::dvec3(0.2, 0.15, 0.45));
