@@ -110,7 +110,15 @@ void StreamCache::loader_loop() {
             if (done.failure.empty()) done.failure = "a load failed";
         }
         {
-            const std::lock_guard lock(mutex_);
+            std::unique_lock lock(mutex_);
+            if (load_rate_ > 0) {  // the loads take turns on one "disk", each for its bytes' time
+                const auto now = std::chrono::steady_clock::now();
+                disk_free_ = std::max(disk_free_, now) +
+                             std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                 std::chrono::duration<double>(double(done.loaded.bytes) / load_rate_));
+                const auto until = disk_free_;
+                if (work_ready_.wait_until(lock, until, [&] { return stopping_; })) return;
+            }
             done_.push_back(std::move(done));
         }
         work_done_.notify_all();
@@ -342,6 +350,11 @@ StreamCache::Stats StreamCache::stats() const {
     s.loaded = loaded_, s.evicted = evicted_, s.failed = failed_, s.shortfall = shortfall_;
     s.prefetch_waiting = prefetch_waiting_;
     return s;
+}
+
+void StreamCache::set_load_rate(double bytes_per_second) {
+    const std::lock_guard lock(mutex_);
+    load_rate_ = std::isfinite(bytes_per_second) && bytes_per_second > 0 ? bytes_per_second : 0;
 }
 
 void StreamCache::set_budget(uint64_t budget_bytes) {

@@ -16,6 +16,7 @@
 //   free: they never evict, are never waited for, and do not count as requests.
 #pragma once
 
+#include <chrono>
 #include <condition_variable>
 #include <cstdint>
 #include <deque>
@@ -119,6 +120,9 @@ public:
     uint64_t budget() const { return budget_; }
     // A new budget; what no longer fits is evicted by the next update() as room is needed.
     void set_budget(uint64_t budget_bytes);
+    // Limits the loaders together to `bytes_per_second` of loaded values (0: no limit), as a disk of
+    // that speed would: what a benchmark or a test needs to see loads arrive late.
+    void set_load_rate(double bytes_per_second);
 
 private:
     enum class State : uint8_t { absent, loading, resident, failed };
@@ -182,6 +186,8 @@ private:
     std::deque<Job> jobs_;
     std::vector<Done> done_;
     bool stopping_ = false;
+    double load_rate_ = 0;
+    std::chrono::steady_clock::time_point disk_free_;  // when the throttled "disk" is next free
     std::vector<std::thread> threads_;
 };
 
