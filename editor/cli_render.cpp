@@ -28,7 +28,7 @@ struct RenderOptions {
     std::string compression = "zip";
     std::vector<float> background{0, 0, 0, 0};
     SceneOptions scene;
-    std::string memory;
+    MemoryOptions memory;
     bool no_morph = false;
     bool quiet = false;
 };
@@ -71,7 +71,7 @@ int run_render(const RenderOptions& o) {
         return kUsage;
     }
 
-    if (!apply_memory_option(o.memory, "render")) return kUsage;
+    if (!apply_memory_options(o.memory, "render")) return kUsage;
     SceneOptions scene_options = o.scene;
     scene_options.morph = !o.no_morph;
     auto context = gl::create_headless_context();
@@ -130,7 +130,7 @@ Command add_render(CLI::App& app) {
         ->check(CLI::IsMember({"none", "levels", "wireframe", "residency"}))->capture_default_str();
     sub->add_flag("--boxes", o->scene.cube_boxes, "Outline the HLOD cubes drawn, coloured by level");
     sub->add_flag("--no-morph", o->no_morph, "Draw HLOD cubes without morphing toward their parents (shows cracks)");
-    sub->add_option("--memory", o->memory, kMemoryOptionHelp);
+    add_memory_options(*sub, o->memory);
     sub->add_flag("-q,--quiet", o->quiet, "Print nothing on success");
     return {sub, [o] { return run_render(*o); }};
 }

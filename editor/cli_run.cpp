@@ -11,7 +11,7 @@ namespace {
 
 struct RunOptions {
     std::string script;
-    std::string memory;
+    MemoryOptions memory;
     bool window = false;
 };
 
@@ -22,11 +22,11 @@ Command add_run(CLI::App& app) {
     CLI::App* sub = app.add_subcommand("run", "Run a Lua script (the strata module: scenes, cameras, rendering).");
     sub->add_option("script", o->script, "The .lua file")->required();
     sub->add_flag("--window", o->window, "Show each rendered frame in a window while the script runs");
-    sub->add_option("--memory", o->memory, kMemoryOptionHelp);
+    add_memory_options(*sub, o->memory);
     sub->footer("Everything after SCRIPT goes to the script, options included: in its `arg` table and `...`.");
     sub->prefix_command();
     return {sub, [o, sub] {
-                if (!apply_memory_option(o->memory, "run")) return kUsage;
+                if (!apply_memory_options(o->memory, "run")) return kUsage;
                 Runtime runtime({.window = o->window});
                 register_editor(runtime.state());
                 const int status = runtime.run_file(o->script, sub->remaining());

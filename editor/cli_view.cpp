@@ -23,7 +23,7 @@ struct ViewOptions {
     std::vector<std::string> files;
     std::string size = "1280x720";
     SceneOptions scene;
-    std::string memory;
+    MemoryOptions memory;
     std::string script;      // run once the editor is open, with the global `editor`
     int frames = 0;          // > 0: quit after that many frames (scripts and tests)
     std::string screenshot;  // with --frames: the window's last frame (panels and all) as PNG
@@ -51,7 +51,7 @@ SceneState load_state(Runtime& runtime, const ViewOptions& o) {
 }
 
 int run_view(const ViewOptions& o) {
-    if (!apply_memory_option(o.memory, "view")) return kUsage;
+    if (!apply_memory_options(o.memory, "view")) return kUsage;
     int width = 0, height = 0;
     try {
         std::tie(width, height) = parse_size(o.size);
@@ -112,7 +112,7 @@ Command add_view(CLI::App& app) {
     sub->add_option("--script", o->script, "A Lua script run once the window is open, with the global `editor`");
     sub->add_option("--frames", o->frames, "Quit after this many frames (for scripts and tests)")->check(positive_number());
     sub->add_option("--screenshot", o->screenshot, "With --frames: write the window's last frame to this PNG")->needs("--frames");
-    sub->add_option("--memory", o->memory, kMemoryOptionHelp);
+    add_memory_options(*sub, o->memory);
     return {sub, [o] { return run_view(*o); }};
 }
 

@@ -24,12 +24,14 @@ inline CLI::Validator positive_number() {
         "POSITIVE");
 }
 
-// --memory SIZE for the commands that draw: the streaming budget (engine/stream) that every streamed
-// model shares, in the build's grammar. apply_memory_option sets it, or prints the error and says no.
-inline const char* const kMemoryOptionHelp =
-    "Memory for models' geometry, CPU and GPU together: a hard cap shared by every model (e.g. 512M, 2G; at least 16M; "
-    "default a quarter of physical memory)";
-bool apply_memory_option(const std::string& memory, const char* command);
+// --memory SIZE and --gpu-memory SIZE for the commands that draw: the streaming budget (engine/stream)
+// that every streamed model shares, and a cap on its GPU share alone, in the build's grammar.
+// apply_memory_options sets them, or prints the error and says no.
+struct MemoryOptions {
+    std::string total, gpu;
+};
+void add_memory_options(CLI::App& command, MemoryOptions& options);
+bool apply_memory_options(const MemoryOptions& options, const char* command);
 
 struct Command {
     CLI::App* app;

@@ -49,17 +49,30 @@ std::pair<int, int> parse_size(const std::string& size) {
     return {width, height};
 }
 
-bool apply_memory_option(const std::string& memory, const char* command) {
-    if (memory.empty()) return true;
-    try {
-        const uint64_t budget = parse_byte_size(memory);
-        if (budget < (uint64_t(16) << 20)) throw std::invalid_argument("'" + memory + "' is less than the least, 16M");
-        StreamCache::shared()->set_budget(budget);
-        return true;
-    } catch (const std::invalid_argument& e) {
-        std::fprintf(stderr, "strata %s: --memory: %s\n", command, e.what());
-        return false;
+void add_memory_options(CLI::App& command, MemoryOptions& options) {
+    command.add_option("--memory", options.total,
+                       "Memory for models' geometry, CPU and GPU together: a hard cap shared by every model (e.g. 512M, 2G; "
+                       "at least 16M; default a quarter of physical memory)");
+    command.add_option("--gpu-memory", options.gpu, "A cap on the GPU's share of --memory on its own (e.g. 1G; at least 16M; default none)");
+}
+
+bool apply_memory_options(const MemoryOptions& options, const char* command) {
+    uint64_t budgets[2] = {0, 0};
+    const std::pair<const std::string*, const char*> given[] = {{&options.total, "--memory"}, {&options.gpu, "--gpu-memory"}};
+    for (int k = 0; k < 2; ++k) {
+        const std::string& text = *given[k].first;
+        if (text.empty()) continue;
+        try {
+            budgets[k] = parse_byte_size(text);
+            if (budgets[k] < (uint64_t(16) << 20)) throw std::invalid_argument("'" + text + "' is less than the least, 16M");
+        } catch (const std::invalid_argument& e) {
+            std::fprintf(stderr, "strata %s: %s: %s\n", command, given[k].second, e.what());
+            return false;
+        }
     }
+    if (budgets[0]) StreamCache::shared()->set_budget(budgets[0]);
+    if (budgets[1]) StreamCache::shared()->set_gpu_budget(budgets[1]);
+    return true;
 }
 
 }  // namespace strata::cli

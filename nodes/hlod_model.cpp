@@ -114,11 +114,13 @@ public:
         for (uint32_t c = 0; c < model.cubes().size(); ++c) {
             parents_.push_back(model.parent(c));
             bounds_.push_back(model.cube_bytes_bound(model.cubes()[c].node));
+            gpu_bounds_.push_back(model.cube_gpu_bytes_bound(model.cubes()[c].node));
         }
     }
     uint32_t item_count() const override { return uint32_t(parents_.size()); }
     uint32_t parent(uint32_t cube) const override { return parents_[cube]; }
     uint64_t item_bytes(uint32_t cube) const override { return bounds_[cube]; }
+    uint64_t item_gpu_bytes(uint32_t cube) const override { return gpu_bounds_[cube]; }
     Loaded load(uint32_t cube, const std::shared_ptr<const void>& parent) override {
         const HlodNode& node = file_->nodes()[cube];
         auto data = std::make_shared<CubeData>(file_->read_cube(node));
@@ -130,14 +132,14 @@ public:
             arrays->colors.shrink_to_fit(), arrays->uvs.shrink_to_fit();
         }
         data->parent_of.shrink_to_fit(), data->parent_vertex.shrink_to_fit(), data->indices.shrink_to_fit();
-        const uint64_t bytes = HlodModel::cube_bytes(*data);
-        return {std::shared_ptr<const CubeData>(std::move(data)), bytes};
+        const uint64_t bytes = HlodModel::cube_bytes(*data), gpu_bytes = HlodModel::cube_gpu_bytes(*data);
+        return {std::shared_ptr<const CubeData>(std::move(data)), bytes, gpu_bytes};
     }
 
 private:
     std::shared_ptr<const HlodFile> file_;
     std::vector<uint32_t> parents_;
-    std::vector<uint64_t> bounds_;
+    std::vector<uint64_t> bounds_, gpu_bounds_;
 };
 
 }  // namespace
@@ -146,7 +148,15 @@ uint64_t HlodModel::cube_bytes(const CubeData& d) {
     auto held = [](const auto& v) { return uint64_t(v.capacity()) * sizeof(v[0]); };
     auto arrays = [&](const VertexArrays& a) { return held(a.positions) + held(a.normals) + held(a.colors) + held(a.uvs); };
     const uint64_t cpu = arrays(d.vertices) + arrays(d.parents) + held(d.parent_vertex) + held(d.indices) + held(d.parent_of);
-    return cpu + gpu_block_bytes(d.vertices.size(), d.parents.size(), d.indices.size(), !d.vertices.colors.empty());
+    return cpu + cube_gpu_bytes(d);
+}
+
+uint64_t HlodModel::cube_gpu_bytes(const CubeData& d) {
+    return gpu_block_bytes(d.vertices.size(), d.parents.size(), d.indices.size(), !d.vertices.colors.empty());
+}
+
+uint64_t HlodModel::cube_gpu_bytes_bound(const HlodNode& node) const {
+    return gpu_block_bytes(node.vertex_count, node.vertex_count, 3 * uint64_t(node.triangle_count), header_.has_colors());
 }
 
 uint64_t HlodModel::cube_bytes_bound(const HlodNode& node) const {
@@ -154,7 +164,7 @@ uint64_t HlodModel::cube_bytes_bound(const HlodNode& node) const {
     // colours, UVs; then its parent index and entry, the indices, and the GPU block.
     const uint64_t attributes = 3 * 2 + 2 * 2 + (header_.has_colors() ? 4 : 0) + (header_.has_uvs() ? 8 : 0);
     const uint64_t cpu = (2 * attributes + 4 + 4) * uint64_t(node.vertex_count) + 3 * 4 * uint64_t(node.triangle_count);
-    return cpu + gpu_block_bytes(node.vertex_count, node.vertex_count, 3 * uint64_t(node.triangle_count), header_.has_colors());
+    return cpu + cube_gpu_bytes_bound(node);
 }
 
 std::shared_ptr<HlodModel> HlodModel::open(const std::filesystem::path& path, std::shared_ptr<StreamCache> cache) {

@@ -90,6 +90,9 @@ public:
     // counts, and the exact figure for decoded data. The streaming budget counts these.
     uint64_t cube_bytes_bound(const HlodNode& node) const;
     static uint64_t cube_bytes(const CubeData& data);
+    // Of those, what it takes on the GPU: a bound from the node table, and exactly once decoded.
+    uint64_t cube_gpu_bytes_bound(const HlodNode& node) const;
+    static uint64_t cube_gpu_bytes(const CubeData& data);
     // What a cube's block in the GPU pool takes (hlod_model_draw.cpp lays it out).
     static uint64_t gpu_block_bytes(uint64_t vertices, uint64_t parents, uint64_t indices, bool colors);
     // The cache a streamed model loads through; null for a model loaded whole.

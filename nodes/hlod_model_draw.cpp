@@ -1,7 +1,8 @@
 // The HLOD model on the GPU (DESIGN.md §3): each resident cube one block of a buffer pool (its vertex
 // and parent records, colours and indices, pulled by gl_VertexID), placed when the cube arrives and
-// freed when it leaves; one multi-draw per pool page with a command per selected cube; the morph in the
-// vertex shader, in the same float operations as HlodModel::morphed_positions.
+// freed when it leaves; the selected cubes drawn in the selection's order, a multi-draw per run of
+// them on one pool page; the morph in the vertex shader, in the same float operations as
+// HlodModel::morphed_positions.
 #include <algorithm>
 #include <array>
 #include <string>
@@ -264,7 +265,7 @@ struct HlodGpu : GpuCache::Entry {
     gl::Buffer drawn;     // this frame's cubes, for the boxes view
     gl::Buffer commands;  // this frame's, grouped by page
     gl::VertexArray vertex_array = gl::VertexArray::create();  // its index buffer: the page drawn
-    std::vector<std::vector<DrawCommand>> page_commands;         // this frame's, per page
+    std::vector<std::pair<uint32_t, uint32_t>> runs;             // this frame's draws: page, commands
     uint64_t fixed_bytes() const {
         return cubes.size() + links.size() + band_ends.size() + fades.size() + color_offsets.size() + drawn.size() + commands.size();
     }
@@ -324,11 +325,11 @@ void sync_pool(const HlodModel& model, HlodGpu& gpu) {
 }
 
 // The pool's page: a model loaded whole takes pages that hold all its cubes (up to 128 MiB, fewer
-// draws); a streamed one takes pages of a sixteenth of its budget (1 to 32 MiB), so that what its
-// pages hold beyond the cubes' own bytes stays small beside the budget.
+// draws); a streamed one takes pages of a 64th of its budget (1 to 16 MiB), so that what the pages of
+// a scene of many models hold beyond their cubes' own bytes stays small beside the budget.
 uint64_t pool_page_bytes(const HlodModel& model) {
     constexpr uint64_t MiB = uint64_t(1) << 20;
-    if (const StreamCache* cache = model.stream_cache()) return std::clamp(cache->budget() / 16, MiB, 32 * MiB);
+    if (const StreamCache* cache = model.stream_cache()) return std::clamp(cache->budget() / 64, MiB, 16 * MiB);
     uint64_t bytes = 0;
     for (const HlodCube& c : model.cubes())
         if (c.data) bytes += HlodModel::gpu_block_bytes(c.data->vertex_count(), c.data->parents.size(), c.data->indices.size(), model.header().has_colors());
@@ -423,17 +424,20 @@ void HlodModel::draw(DrawContext& context, const DrawItem& item) {
     gpu.fades.bind_base(GL_SHADER_STORAGE_BUFFER, 11);
     gpu.color_offsets.bind_base(GL_SHADER_STORAGE_BUFFER, 10);
 
-    // This frame's commands, grouped by page into one indirect buffer.
-    gpu.page_commands.resize(gpu.pool.page_count());
-    for (auto& commands : gpu.page_commands) commands.clear();
-    for (uint32_t k = 0; k < item.count; ++k) {
-        const PlacedCube& placed = gpu.placed[context.list.item_data[item.first + k]];
-        gpu.page_commands[placed.block.page].push_back(placed.command);
-        context.stats.triangles += placed.command.count / 3;
-    }
+    // This frame's commands in the selection's order (front to back) in one indirect buffer, drawn as
+    // runs of consecutive cubes on one page. The order is what the frame depends on where triangles
+    // tie in depth (cube borders), so it must not follow where the pool happened to place the cubes:
+    // a capture gives the same bytes whatever the cache held before.
     std::vector<DrawCommand> commands;
     commands.reserve(item.count);
-    for (const auto& page : gpu.page_commands) commands.insert(commands.end(), page.begin(), page.end());
+    gpu.runs.clear();  // (page, commands)
+    for (uint32_t k = 0; k < item.count; ++k) {
+        const PlacedCube& placed = gpu.placed[context.list.item_data[item.first + k]];
+        if (gpu.runs.empty() || gpu.runs.back().first != placed.block.page) gpu.runs.push_back({placed.block.page, 0});
+        ++gpu.runs.back().second;
+        commands.push_back(placed.command);
+        context.stats.triangles += placed.command.count / 3;
+    }
     if (!commands.empty()) gpu.commands.upload(commands);
     context.stats.cubes += item.count;
     context.stats.bytes_resident += gpu.pool.capacity_bytes() + gpu.fixed_bytes();
@@ -442,9 +446,7 @@ void HlodModel::draw(DrawContext& context, const DrawItem& item) {
     gpu.vertex_array.bind();
     glBindBuffer(GL_DRAW_INDIRECT_BUFFER, gpu.commands.id());
     size_t first_command = 0;
-    for (uint32_t p = 0; p < gpu.page_commands.size(); ++p) {
-        const auto& page_commands = gpu.page_commands[p];
-        if (page_commands.empty()) continue;
+    for (const auto& [p, count] : gpu.runs) {
         const gl::Buffer& page = gpu.pool.page(p);
         for (GLuint binding : {2, 3, 4, 5}) page.bind_base(GL_SHADER_STORAGE_BUFFER, binding);
         glVertexArrayElementBuffer(gpu.vertex_array.id(), page.id());
@@ -454,17 +456,18 @@ void HlodModel::draw(DrawContext& context, const DrawItem& item) {
             capture.bind_base(GL_SHADER_STORAGE_BUFFER, 7);
         }
         glMultiDrawElementsIndirect(GL_TRIANGLES, GL_UNSIGNED_INT, reinterpret_cast<const void*>(first_command * sizeof(DrawCommand)),
-                                    GLsizei(page_commands.size()), 0);
-        first_command += page_commands.size();
+                                    GLsizei(count), 0);
         ++context.stats.draw_calls;
         if (capture_morph_) {
             glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
             const auto values = capture.download<glm::vec4>(capture.size() / sizeof(glm::vec4));
-            for (const DrawCommand& command : page_commands) {
+            for (size_t k = first_command; k < first_command + count; ++k) {
+                const DrawCommand& command = commands[k];
                 const auto first = values.begin() + command.base_vertex;
                 captured_[command.base_instance].assign(first, first + cubes_[command.base_instance].data->vertex_count());
             }
         }
+        first_command += count;
     }
     glBindBuffer(GL_DRAW_INDIRECT_BUFFER, 0);
     if (debug_view_ == HlodDebugView::wireframe) glPolygonMode(GL_FRONT_AND_BACK, GL_FILL);

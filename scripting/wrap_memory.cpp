@@ -1,8 +1,9 @@
 // The streaming budget from Lua (DESIGN.md §7, engine/stream): strata.memory{ total = "2G" } sets the
 // hard cap on the bytes every streamed model's geometry takes in CPU and GPU memory together (a size
-// in the build's grammar, or a number of bytes; at least 16M), and strata.memory() returns the limit
-// and what is held: { total, resident, reserved, peak, cubes, in_flight, waiting, loaded, evicted,
-// failed }, sizes in bytes.
+// in the build's grammar, or a number of bytes; at least 16M), gpu = "1G" a cap on the GPU's share
+// alone (false: none), and strata.memory() returns the limits and what is held: { total, gpu,
+// resident, gpu_resident, reserved, peak, cubes, in_flight, waiting, loaded, evicted, failed }, sizes
+// in bytes (gpu 0: no cap of its own).
 #include <string>
 
 #include <lua.hpp>
@@ -18,7 +19,7 @@ namespace {
 
 constexpr uint64_t kLeastBudget = uint64_t(16) << 20;
 
-uint64_t budget_at(lua_State* L, int index) {
+uint64_t budget_at(lua_State* L, int index, const char* key) {
     std::string problem;  // raised outside the catch: a Lua error jumps past C++ frames
     try {
         uint64_t bytes = 0;
@@ -34,7 +35,7 @@ uint64_t budget_at(lua_State* L, int index) {
     } catch (const std::invalid_argument& e) {
         problem = e.what();
     }
-    lua_pushfstring(L, "strata.memory: total: %s", problem.c_str());
+    lua_pushfstring(L, "strata.memory: %s: %s", key, problem.c_str());
     problem = {};
     return lua_error(L);
 }
@@ -43,13 +44,20 @@ int memory(lua_State* L) {
     StreamCache& cache = *StreamCache::shared();
     if (!lua_isnoneornil(L, 1)) {
         luaL_checktype(L, 1, LUA_TTABLE);
-        lua::check_keys(L, 1, {"total"});
-        if (lua::get_option(L, 1, "total")) cache.set_budget(budget_at(L, lua_gettop(L)));
+        lua::check_keys(L, 1, {"total", "gpu"});
+        // Both checked before either is set: a refused call changes nothing.
+        uint64_t total = 0, gpu = cache.gpu_budget();
+        if (lua::get_option(L, 1, "total")) total = budget_at(L, lua_gettop(L), "total");
         lua_pop(L, 1);
+        if (lua::get_option(L, 1, "gpu")) gpu = lua_isboolean(L, -1) && !lua_toboolean(L, -1) ? 0 : budget_at(L, lua_gettop(L), "gpu");
+        lua_pop(L, 1);
+        if (total) cache.set_budget(total);
+        cache.set_gpu_budget(gpu);
     }
     const StreamCache::Stats s = cache.stats();
     const std::pair<const char*, double> fields[] = {
         {"total", double(s.budget)},   {"resident", double(s.resident_bytes)}, {"reserved", double(s.reserved_bytes)},
+        {"gpu", double(s.gpu_budget)}, {"gpu_resident", double(s.gpu_resident_bytes)},
         {"peak", double(s.peak_bytes)}, {"cubes", double(s.resident_items)},    {"in_flight", double(s.in_flight)},
         {"waiting", double(s.waiting)}, {"loaded", double(s.loaded)},          {"evicted", double(s.evicted)},
         {"failed", double(s.failed)}};

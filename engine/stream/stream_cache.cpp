@@ -56,8 +56,8 @@ void StreamCache::remove(SourceId id) {
         in_flight_ -= std::erase_if(jobs_, [&](const Job& job) { return job.source == id; });
     }
     for (const Item& it : s.items) {
-        if (it.state == State::resident) resident_bytes_ -= it.bytes, --resident_items_;
-        if (it.state == State::loading) reserved_bytes_ -= it.bytes;  // a running load is discarded when done
+        if (it.state == State::resident) resident_bytes_ -= it.bytes, gpu_resident_ -= it.gpu_bytes, --resident_items_;
+        if (it.state == State::loading) reserved_bytes_ -= it.bytes, gpu_reserved_ -= it.gpu_bytes;  // a running load is discarded when done
     }
     s.removed = true;
     s.items.clear();
@@ -137,9 +137,13 @@ void StreamCache::take_in_finished() {
         if (s.removed) continue;  // its reservation went with the source
         Item& it = s.items[d.item];
         reserved_bytes_ -= it.bytes;
+        gpu_reserved_ -= it.gpu_bytes;
         const uint32_t parent = s.source->parent(d.item);
         if (d.failure.empty() && d.loaded.bytes > it.bytes)
             d.failure = "a load took " + std::to_string(d.loaded.bytes) + " bytes, more than its bound of " + std::to_string(it.bytes);
+        if (d.failure.empty() && (d.loaded.gpu_bytes > it.gpu_bytes || d.loaded.gpu_bytes > d.loaded.bytes))
+            d.failure = "a load took " + std::to_string(d.loaded.gpu_bytes) + " bytes of GPU memory, more than its bound of " +
+                        std::to_string(it.gpu_bytes);
         if (!d.failure.empty()) {
             it.state = State::failed;
             it.failure = std::move(d.failure);
@@ -150,7 +154,9 @@ void StreamCache::take_in_finished() {
         it.state = State::resident;
         it.value = std::move(d.loaded.value);
         it.bytes = d.loaded.bytes;
+        it.gpu_bytes = d.loaded.gpu_bytes;
         resident_bytes_ += it.bytes;
+        gpu_resident_ += it.gpu_bytes;
         ++resident_items_;
         ++loaded_;
         ++s.version;
@@ -163,14 +169,19 @@ void StreamCache::evict(SourceId source, uint32_t index) {
     it.state = State::absent;
     it.value.reset();
     resident_bytes_ -= it.bytes;
+    gpu_resident_ -= it.gpu_bytes;
     --resident_items_;
     ++evicted_;
     ++s.version;
     if (const uint32_t parent = s.source->parent(index); parent != StreamSource::kNoItem) --s.items[parent].children_held;
 }
 
-bool StreamCache::make_room(uint64_t bytes) {
-    if (used() + bytes <= budget_) return true;
+bool StreamCache::fits(uint64_t bytes, uint64_t gpu_bytes) const {
+    return used() + bytes <= budget_ && (gpu_budget_ == 0 || gpu_resident_ + gpu_reserved_ + gpu_bytes <= gpu_budget_);
+}
+
+bool StreamCache::make_room(uint64_t bytes, uint64_t gpu_bytes) {
+    if (fits(bytes, gpu_bytes)) return true;
     // Least recently used first, among resident items nothing holds: not pinned, no child resident
     // or loading, not used by this frame. Evicting a child may free its parent, which then joins.
     struct Candidate {
@@ -187,14 +198,14 @@ bool StreamCache::make_room(uint64_t bytes) {
     };
     for (SourceId s = 0; s < sources_.size(); ++s)
         for (uint32_t i = 0; i < sources_[s].items.size(); ++i) consider(s, i);
-    while (used() + bytes > budget_ && !candidates.empty()) {
+    while (!fits(bytes, gpu_bytes) && !candidates.empty()) {
         const Candidate c = candidates.top();
         candidates.pop();
         evict(c.source, c.item);
         if (const uint32_t parent = sources_[c.source].source->parent(c.item); parent != StreamSource::kNoItem)
             consider(c.source, parent);
     }
-    return used() + bytes <= budget_;
+    return fits(bytes, gpu_bytes);
 }
 
 void StreamCache::start_loads() {
@@ -212,13 +223,13 @@ void StreamCache::start_loads() {
             ++waiting_;  // next time, after its parent
             continue;
         }
-        const uint64_t bound = s.source->item_bytes(r.item);
-        if (!make_room(bound)) {
+        const uint64_t bound = s.source->item_bytes(r.item), gpu_bound = s.source->item_gpu_bytes(r.item);
+        if (!make_room(bound, gpu_bound)) {
             shortfall_ += bound;
             ++waiting_;
             continue;
         }
-        start_load(r.source, r.item, bound, jobs);
+        start_load(r.source, r.item, bound, gpu_bound, jobs);
     }
     queue_jobs(jobs);
 }
@@ -231,26 +242,28 @@ void StreamCache::start_prefetches() {
         Source& s = sources_[r.source];
         if (s.removed || s.items[r.item].state != State::absent) continue;
         const uint32_t parent = s.source->parent(r.item);
-        const uint64_t bound = s.source->item_bytes(r.item);
-        if ((parent != StreamSource::kNoItem && s.items[parent].state != State::resident) || used() + bound > budget_) {
+        const uint64_t bound = s.source->item_bytes(r.item), gpu_bound = s.source->item_gpu_bytes(r.item);
+        if ((parent != StreamSource::kNoItem && s.items[parent].state != State::resident) || !fits(bound, gpu_bound)) {
             ++prefetch_waiting_;
             continue;
         }
         // Counted as used now, so that the next frame's requests do not evict it first as the least
         // recently used of all.
         s.items[r.item].last_used = frame_;
-        start_load(r.source, r.item, bound, jobs);
+        start_load(r.source, r.item, bound, gpu_bound, jobs);
     }
     queue_jobs(jobs);
 }
 
-void StreamCache::start_load(SourceId source, uint32_t index, uint64_t bound, std::vector<Job>& jobs) {
+void StreamCache::start_load(SourceId source, uint32_t index, uint64_t bound, uint64_t gpu_bound, std::vector<Job>& jobs) {
     Source& s = sources_[source];
     Item& it = s.items[index];
     const uint32_t parent = s.source->parent(index);
     it.state = State::loading;
     it.bytes = bound;
+    it.gpu_bytes = gpu_bound;
     reserved_bytes_ += bound;
+    gpu_reserved_ += gpu_bound;
     peak_bytes_ = std::max(peak_bytes_, used());
     ++in_flight_;
     if (parent != StreamSource::kNoItem) ++s.items[parent].children_held;
@@ -268,7 +281,7 @@ void StreamCache::queue_jobs(std::vector<Job>& jobs) {
 
 void StreamCache::update() {
     take_in_finished();
-    make_room(0);  // a lowered budget
+    make_room(0, 0);  // a lowered budget
     start_loads();
     start_prefetches();
     requests_.clear();
@@ -283,7 +296,7 @@ void StreamCache::wait_for_requests(double timeout_seconds) {
     for (;;) {
         requests_ = wanted;
         take_in_finished();
-        make_room(0);
+        make_room(0, 0);
         start_loads();
         uint64_t missing = 0;
         for (const Request& r : wanted) {
@@ -295,7 +308,8 @@ void StreamCache::wait_for_requests(double timeout_seconds) {
         }
         if (missing == 0) break;
         if (in_flight_ == 0)  // nothing will come: what is wanted does not fit beside what it needs
-            throw std::runtime_error("the view needs more than the streaming budget of " + describe_bytes(budget_) + " holds: " +
+            throw std::runtime_error("the view needs more than the streaming budget of " + describe_bytes(budget_) +
+                                     (gpu_budget_ ? " (" + describe_bytes(gpu_budget_) + " of it on the GPU)" : std::string()) + " holds: " +
                                      std::to_string(missing) + " of its items do not fit beside the rest (" +
                                      describe_bytes(shortfall_) + " short)");
         std::unique_lock lock(mutex_);
@@ -349,6 +363,8 @@ StreamCache::Stats StreamCache::stats() const {
     s.in_flight = in_flight_;
     s.loaded = loaded_, s.evicted = evicted_, s.failed = failed_, s.shortfall = shortfall_;
     s.prefetch_waiting = prefetch_waiting_;
+    s.gpu_budget = gpu_budget_;
+    s.gpu_resident_bytes = gpu_resident_;
     return s;
 }
 

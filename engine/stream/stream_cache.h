@@ -35,13 +35,16 @@ public:
     static constexpr uint32_t kNoItem = ~0u;
     struct Loaded {
         std::shared_ptr<const void> value;
-        uint64_t bytes = 0;  // what the value holds; at most item_bytes()
+        uint64_t bytes = 0;      // what the value holds, in CPU and GPU memory together; at most item_bytes()
+        uint64_t gpu_bytes = 0;  // of those, what it will hold on the GPU; at most item_gpu_bytes()
     };
     virtual ~StreamSource() = default;
     virtual uint32_t item_count() const = 0;
     virtual uint32_t parent(uint32_t item) const = 0;  // kNoItem for a root
     // An upper bound on what the item takes once loaded, known before loading.
     virtual uint64_t item_bytes(uint32_t item) const = 0;
+    // Of that bound, what the item takes on the GPU (what a separate GPU budget counts).
+    virtual uint64_t item_gpu_bytes(uint32_t) const { return 0; }
     // Runs on a loader thread, given the parent's value (null for a root). Throws std::exception on
     // failure, with a message that names the source and the item.
     virtual Loaded load(uint32_t item, const std::shared_ptr<const void>& parent) = 0;
@@ -61,6 +64,8 @@ public:
         uint64_t loaded = 0, evicted = 0, failed = 0;  // since the cache was made
         uint64_t shortfall = 0;       // bytes the last update could not find room for (0: all fitted)
         uint64_t prefetch_waiting = 0;  // prefetched items the last update left unloaded
+        uint64_t gpu_budget = 0;          // 0: the GPU's share is capped by `budget` alone
+        uint64_t gpu_resident_bytes = 0;  // exact: of resident_bytes, what is on the GPU
     };
 
     // `loader_threads` ≥ 1. Throws std::invalid_argument on a zero budget.
@@ -120,6 +125,10 @@ public:
     uint64_t budget() const { return budget_; }
     // A new budget; what no longer fits is evicted by the next update() as room is needed.
     void set_budget(uint64_t budget_bytes);
+    // A cap on the GPU's share of the budget on its own (0: none): loads and evictions keep the GPU
+    // bytes of resident items and loads in flight within it too.
+    void set_gpu_budget(uint64_t gpu_budget_bytes) { gpu_budget_ = gpu_budget_bytes; }
+    uint64_t gpu_budget() const { return gpu_budget_; }
     // Limits the loaders together to `bytes_per_second` of loaded values (0: no limit), as a disk of
     // that speed would: what a benchmark or a test needs to see loads arrive late.
     void set_load_rate(double bytes_per_second);
@@ -130,7 +139,8 @@ private:
         State state = State::absent;
         bool pinned = false;
         uint32_t children_held = 0;  // children resident or loading: the item may not leave
-        uint64_t bytes = 0;  // actual once resident; the bound while loading
+        uint64_t bytes = 0;      // actual once resident; the bound while loading
+        uint64_t gpu_bytes = 0;  // of those, on the GPU
         uint64_t last_used = 0;
         std::shared_ptr<const void> value;
         std::string failure;
@@ -161,23 +171,26 @@ private:
 
     void loader_loop();
     void take_in_finished();
-    bool make_room(uint64_t bytes);
+    // Evicts until `bytes` (of which `gpu_bytes` on the GPU) fit beside what is held; whether they do.
+    bool make_room(uint64_t bytes, uint64_t gpu_bytes);
+    bool fits(uint64_t bytes, uint64_t gpu_bytes) const;
     void start_loads();
     void start_prefetches();
     // Starts loading an absent item whose parent is resident, reserving `bound`; adds its job.
-    void start_load(SourceId source, uint32_t item, uint64_t bound, std::vector<Job>& jobs);
+    void start_load(SourceId source, uint32_t item, uint64_t bound, uint64_t gpu_bound, std::vector<Job>& jobs);
     void queue_jobs(std::vector<Job>& jobs);
     void evict(SourceId source, uint32_t item);
     Item& item(SourceId source, uint32_t item);
     const Item& item(SourceId source, uint32_t item) const;
     uint64_t used() const { return resident_bytes_ + reserved_bytes_; }
 
-    uint64_t budget_;
+    uint64_t budget_, gpu_budget_ = 0;
     std::vector<Source> sources_;  // by SourceId; removed ones stay as empty slots
     std::vector<Request> requests_, prefetches_;
     std::vector<std::pair<SourceId, uint32_t>> pinned_;
     uint64_t frame_ = 1;
     uint64_t resident_bytes_ = 0, reserved_bytes_ = 0, peak_bytes_ = 0, resident_items_ = 0;
+    uint64_t gpu_resident_ = 0, gpu_reserved_ = 0;
     uint64_t loaded_ = 0, evicted_ = 0, failed_ = 0, shortfall_ = 0, in_flight_ = 0, waiting_ = 0, prefetch_waiting_ = 0;
 
     // Shared with the loader threads.

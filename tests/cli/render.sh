@@ -127,6 +127,9 @@ expect_success "a small streaming budget" "$STRATA" render "$WORK/bunny.hlod" -o
 checks=$((checks + 1)); cmp -s "$WORK/shaded.png" "$WORK/shaded16.png" || fail "--memory 16M changed the image"
 expect_usage "budget below the least" "less than the least, 16M" "$STRATA" render "$WORK/bunny.hlod" -o "$WORK/x.png" --memory 3M
 expect_usage "budget not a size" "not a size" "$STRATA" render "$WORK/bunny.hlod" -o "$WORK/x.png" --memory 2X
+expect_success "a GPU budget" "$STRATA" render "$WORK/bunny.hlod" -o "$WORK/shaded_gpu.png" "${small[@]}" --memory 64M --gpu-memory 16M
+checks=$((checks + 1)); cmp -s "$WORK/shaded.png" "$WORK/shaded_gpu.png" || fail "--gpu-memory 16M changed the image"
+expect_usage "GPU budget below the least" "--gpu-memory: '8M' is less than the least, 16M" "$STRATA" render "$WORK/bunny.hlod" -o "$WORK/x.png" --gpu-memory 8M
 
 expect_failure "missing file" "missing.hlod" "$STRATA" render "$WORK/missing.hlod" -o "$WORK/x.png"
 expect_usage "bad extension" ".png or .exr" "$STRATA" render "$WORK/bunny.hlod" -o "$WORK/x.jpg"

@@ -12,8 +12,16 @@ for _, bad in ipairs{ "1M", "2X", -5, 0 } do
   local ok, message = pcall(strata.memory, { total = bad })
   assert(not ok and message:find("strata.memory: total", 1, true), tostring(message))
 end
-assert(not pcall(strata.memory, { gpu = "1G" }), "unknown keys are refused")
+assert(not pcall(strata.memory, { cpu = "1G" }), "unknown keys are refused")
 assert(strata.memory().total == 48 * 2 ^ 20, "a refused call changes nothing")
+-- The GPU's share capped on its own: set, refused below 16M (naming it, changing neither), removed.
+assert(strata.memory().gpu == 0, "no GPU cap unless asked")
+assert(strata.memory{ gpu = "32M" }.gpu == 32 * 2 ^ 20)
+local ok, message = pcall(strata.memory, { total = "64M", gpu = "1M" })
+assert(not ok and message:find("strata.memory: gpu", 1, true), tostring(message))
+assert(strata.memory().total == 48 * 2 ^ 20 and strata.memory().gpu == 32 * 2 ^ 20, "a refused call changes nothing")
+assert(strata.memory{ gpu = false }.gpu == 0)
+strata.memory{ gpu = "24M" }
 
 local scene = strata.scene()
 scene:add(strata.load(hlod_path))
@@ -35,6 +43,8 @@ local hit = assert(strata.pick(scene, cam, 80, 60), "the model covers the middle
 assert(hit.provisional == false, "a pick on a converged view is final")
 local held = strata.memory()
 assert(held.resident == full.memory_resident and held.resident <= held.total)
+assert(held.gpu_resident == full.memory_resident_gpu and held.gpu_resident > 0 and held.gpu_resident < held.resident
+       and held.gpu_resident <= held.gpu, "the GPU's share, within its cap")
 assert(held.loaded >= held.cubes and held.cubes > 0 and held.failed == 0)
 assert(strata.render(scene, cam, { samples = 1, full_detail = { timeout = 30 } }):stats().loads_pending == 0)
 for _, bad in ipairs{ { timeout = 0 }, { timeout = "soon" }, { wait = 1 }, "yes" } do

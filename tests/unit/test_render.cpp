@@ -182,6 +182,21 @@ TEST_F(Render, ExrChannelsHoldDepthNormalsLevelsAndIds) {
     EXPECT_GT(background, 0u);
 }
 
+// The bunny from 1.2 radii off, at 160 × 120: a view that draws the finest level in places.
+void look_from_aside(Camera& camera, Node& root) {
+    camera.width = 160;
+    camera.height = 120;
+    const Box bound = root.bound();
+    camera.look_at(bound.center() + 1.2 * bound.radius() * glm::normalize(glm::dvec3(1, 0.5, 2)), bound.center());
+}
+
+// Every cube resident but those of the finest level: its parents stand in where a view wants it.
+std::vector<uint8_t> without_the_finest_level(const HlodModel& model) {
+    std::vector<uint8_t> resident(model.cubes().size());
+    for (uint32_t c = 0; c < resident.size(); ++c) resident[c] = model.cubes()[c].node.level < model.header().max_level;
+    return resident;
+}
+
 // --debug residency: cubes that stand in for missing children (and those capped beside them) are
 // orange, the rest blue-grey; with every cube resident nothing is orange, with the finest level
 // missing the view that wants it shows orange.
@@ -192,10 +207,7 @@ TEST_F(Render, TheResidencyViewShowsStandInsInOrange) {
     auto root = std::make_shared<Group>();
     root->add(model);
     Camera camera;
-    camera.width = 160;
-    camera.height = 120;
-    const Box bound = root->bound();
-    camera.look_at(bound.center() + 1.2 * bound.radius() * glm::normalize(glm::dvec3(1, 0.5, 2)), bound.center());
+    look_from_aside(camera, *root);
     Renderer renderer;
     auto count = [&](size_t& orange, size_t& blue) {
         gl::Framebuffer target({.width = camera.width, .height = camera.height, .samples = 1});
@@ -212,27 +224,22 @@ TEST_F(Render, TheResidencyViewShowsStandInsInOrange) {
     count(orange, blue);
     EXPECT_EQ(orange, 0u);
     EXPECT_GT(blue, 2000u);
-    std::vector<uint8_t> resident(model->cubes().size());
-    for (uint32_t c = 0; c < resident.size(); ++c) resident[c] = model->cubes()[c].node.level < model->header().max_level;
-    model->set_residency(resident);
+    model->set_residency(without_the_finest_level(*model));
     count(orange, blue);
     EXPECT_GT(orange, 1000u);
 }
 
 // Children that arrive late fade in (nodes/README.md, "Stand-ins"): the first frame after a stood-in
 // group arrives draws what the stand-ins drew, the next frames carry the change a step at a time, and
-// once nothing fades the frame is the one every cube resident draws. With the fade the arrival would
-// show at once.
+// once nothing fades the frame is the one every cube resident draws. Without the fade the arrival
+// would show at once.
 TEST_F(Render, ChildrenThatArriveLateFadeInWithoutAPop) {
     auto model = HlodModel::load(test::bunny_hlod());
     model->set_pixel_error(1.0);
     auto root = std::make_shared<Group>();
     root->add(model);
     Camera camera;
-    camera.width = 160;
-    camera.height = 120;
-    const Box bound = root->bound();
-    camera.look_at(bound.center() + 1.2 * bound.radius() * glm::normalize(glm::dvec3(1, 0.5, 2)), bound.center());
+    look_from_aside(camera, *root);
     gl::Framebuffer target({.width = camera.width, .height = camera.height, .samples = 1});
     Renderer renderer;
     auto frame = [&](bool full_detail, FrameStats* stats = nullptr) {
@@ -248,9 +255,7 @@ TEST_F(Render, ChildrenThatArriveLateFadeInWithoutAPop) {
         return sum / double(a.size());
     };
     const std::vector<float> reference = frame(true);
-    std::vector<uint8_t> resident(model->cubes().size());
-    for (uint32_t c = 0; c < resident.size(); ++c) resident[c] = model->cubes()[c].node.level < model->header().max_level;
-    model->set_residency(resident);
+    model->set_residency(without_the_finest_level(*model));
     std::vector<float> stood_in;
     for (int k = 0; k < 3; ++k) stood_in = frame(false);
     const double change = mean_difference(stood_in, reference);

@@ -14,7 +14,7 @@ namespace strata {
 namespace {
 
 // An octree `depth` levels deep, items numbered breadth first; item i's value is its index, and its
-// bytes are 1000 + 10·(i mod 7) (the bound says 1100).
+// bytes are 1000 + 10·(i mod 7) (the bound says 1100), half of them on the GPU (the bound says 550).
 class TreeSource : public StreamSource {
 public:
     explicit TreeSource(int depth) {
@@ -28,6 +28,7 @@ public:
     uint32_t item_count() const override { return uint32_t(parents_.size()); }
     uint32_t parent(uint32_t item) const override { return parents_[item]; }
     uint64_t item_bytes(uint32_t) const override { return 1100; }
+    uint64_t item_gpu_bytes(uint32_t) const override { return 550; }
     static uint64_t actual_bytes(uint32_t item) { return 1000 + 10 * (item % 7); }
     uint32_t first_of_level(int level) const { return first_of_level_[size_t(level)]; }
 
@@ -44,7 +45,8 @@ public:
             order_.push_back(item);
         }
         if (failing_.count(item)) throw std::runtime_error("tree: item " + std::to_string(item) + " is unreadable");
-        return {std::make_shared<const uint32_t>(item), over_bound_.count(item) ? 2000 : actual_bytes(item)};
+        const uint64_t bytes = over_bound_.count(item) ? 2000 : actual_bytes(item);
+        return {std::make_shared<const uint32_t>(item), bytes, std::min<uint64_t>(bytes / 2, 550)};
     }
 
     // The gate: closed, loads wait inside load() once started.
@@ -214,6 +216,38 @@ TEST(StreamCache, PrefetchesFillFreeRoomAfterTheRequestsAndNeverEvict) {
     EXPECT_EQ(cache.stats().evicted, 0u);
     EXPECT_EQ(cache.stats().prefetch_waiting, 0u) << "the last update had no prefetch";
     expect_consistent(cache, id, *tree);
+}
+
+// A GPU budget of its own: the GPU bytes of resident items and loads in flight stay within it over
+// many frames of random views while the total budget has room to spare, least recently used leaves
+// making way; a view whose GPU bytes do not fit is an error that says so.
+TEST(StreamCache, AGpuBudgetCapsTheGpuShareOnItsOwn) {
+    auto tree = std::make_shared<TreeSource>(4);
+    StreamCache cache(1000 * 1100, 2);  // everything fits the total
+    cache.set_gpu_budget(40 * 550);     // 40 items' GPU bounds
+    const auto id = cache.add(tree);
+    std::mt19937 rng(5);
+    for (int frame = 0; frame < 200; ++frame) {
+        const uint32_t around = tree->first_of_level(3) + rng() % 512;
+        for (uint32_t k = 0; k < 6; ++k) cache.request(id, tree->first_of_level(3) + (around + k * 5) % 512, 1.0);
+        cache.update();
+        cache.wait_for_a_load();
+        const StreamCache::Stats s = cache.stats();
+        ASSERT_LE(s.gpu_resident_bytes, s.gpu_budget) << "frame " << frame;
+        uint64_t gpu = 0;
+        for (uint32_t i = 0; i < tree->item_count(); ++i)
+            if (cache.resident(id, i)) gpu += TreeSource::actual_bytes(i) / 2;
+        ASSERT_EQ(s.gpu_resident_bytes, gpu) << "exact";
+        expect_consistent(cache, id, *tree);
+    }
+    EXPECT_GT(cache.stats().evicted, 50u) << "the GPU budget, not the total, made room";
+    for (uint32_t k = 0; k < 64; ++k) cache.request(id, tree->first_of_level(3) + k * 8, 1.0);  // 64 leaves, 64 parents
+    try {
+        cache.wait_for_requests();
+        FAIL() << "a view over the GPU budget was loaded";
+    } catch (const std::runtime_error& e) {
+        EXPECT_NE(std::string(e.what()).find("on the GPU"), std::string::npos) << e.what();
+    }
 }
 
 TEST(StreamCache, LoadsInFlightCountAgainstTheBudget) {

@@ -1,0 +1,469 @@
+// The streaming benchmark (issue 16 §3): a .hlod opened by its node table under a hard budget, headless,
+// at 1 pixel of error. Prints its figures; asserts nothing. Each part runs in a child process of its
+// own, so that its peak RSS is its own.
+//
+//   bench_stream --model M.hlod [--memory 1G] [--size 1280x720] [--frames 2000] [--instances 10]
+//                [--soak 1000] [--capture 60] [--load-rate BYTES_PER_S] [--no-whole]
+//
+// - open: time to open, to the first frame (interactive: what is resident), to converge (interactive
+//   frames until nothing stands in, fades or is asked for) and to a full-detail frame from a cold
+//   cache; peak RSS against the budget; beside loading the model whole (unless --no-whole).
+// - museum: --instances copies of the model in a row under transforms, the budget a tenth of their
+//   decoded size (or --memory if smaller), a flythrough of --frames interactive frames that cuts to
+//   another copy every 200 frames: frame time median and p95, frames to converge after each cut,
+//   peak RSS; and hole pixels: every 50th frame is drawn again, in another process, with one copy of
+//   the model loaded whole under each instance's transform, both on magenta; a pixel the reference
+//   covers that the streamed frame left magenta is a hole.
+// - soak: --soak full-detail frames of a slow orbit, dropped after reading back: RSS at the start,
+//   middle and end, and its slope.
+// - capture: --capture full-detail frames of a path, with a cold cache, a warm one and three budgets
+//   (the largest working set, twice it, --memory): frames with bytes that differ from the first run.
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cinttypes>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include <glm/gtc/constants.hpp>
+#include <glm/gtc/matrix_transform.hpp>
+
+#include "engine/gl/context.h"
+#include "engine/gl/framebuffer.h"
+#include "engine/render/renderer.h"
+#include "nodes/hlod_model.h"
+#include "preprocess/byte_size.h"
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using strata::Camera;
+using strata::FrameStats;
+using strata::RenderSettings;
+
+double ms_since(Clock::time_point start) { return std::chrono::duration<double, std::milli>(Clock::now() - start).count(); }
+
+double quantile(std::vector<double> v, double q) {
+    if (v.empty()) return 0;
+    std::sort(v.begin(), v.end());
+    const double at = q * double(v.size() - 1);
+    const size_t i = size_t(at);
+    return i + 1 < v.size() ? v[i] + (at - double(i)) * (v[i + 1] - v[i]) : v[i];
+}
+
+// Resident set size now and at its peak (VmRSS, VmHWM), in bytes.
+uint64_t status_bytes(const char* field) {
+    std::ifstream status("/proc/self/status");
+    std::string line;
+    while (std::getline(status, line))
+        if (line.rfind(field, 0) == 0) return std::stoull(line.substr(std::strlen(field))) * 1024;
+    return 0;
+}
+uint64_t rss() { return status_bytes("VmRSS:"); }
+uint64_t peak_rss() { return status_bytes("VmHWM:"); }
+
+std::string mib(uint64_t bytes) {
+    char text[32];
+    std::snprintf(text, sizeof text, "%.1f MiB", double(bytes) / double(1 << 20));
+    return text;
+}
+
+struct Options {
+    std::string model;
+    uint64_t memory = uint64_t(1) << 30;
+    int width = 1280, height = 720, frames = 2000, instances = 10, soak = 1000, capture = 60;
+    double load_rate = 0;
+    bool whole = true;
+};
+
+// Runs `part` in a child process (its own GL context, cache and peak RSS); false if it failed.
+bool in_child(const char* name, const std::function<void()>& part) {
+    std::fflush(stdout);
+    const pid_t pid = fork();
+    if (pid < 0) return false;
+    if (pid == 0) {
+        try {
+            part();
+        } catch (const std::exception& e) {
+            std::fprintf(stderr, "bench_stream: %s: %s\n", name, e.what());
+            std::fflush(stdout);
+            _exit(1);
+        }
+        std::fflush(stdout);
+        _exit(0);
+    }
+    int status = 0;
+    waitpid(pid, &status, 0);
+    return WIFEXITED(status) && WEXITSTATUS(status) == 0;
+}
+
+// A camera framing `bounds` from `distance` radii along a direction turned `angle` about +Y.
+void aim(Camera& camera, const Options& o, const strata::Box& bounds, double angle, double distance, double height = 0.35) {
+    camera.width = o.width, camera.height = o.height, camera.fov_y_degrees = 50;
+    const glm::dvec3 c = bounds.center();
+    const double r = bounds.radius();
+    camera.look_at(c + r * distance * glm::normalize(glm::dvec3(std::sin(angle), height, std::cos(angle))), c);
+}
+
+// The model at 1 pixel of error alone in `scene`, seen from 1.6 radii off.
+void view_of(const Options& o, strata::Group& scene, const std::shared_ptr<strata::HlodModel>& model, Camera& camera) {
+    model->set_pixel_error(1.0);
+    scene.add(model);
+    aim(camera, o, model->bound(), 0.6, 1.6);
+}
+
+// Interactive frames until the view has converged (or `limit` frames); the frames it took.
+int frames_to_converge(strata::Renderer& renderer, strata::Node& scene, const Camera& camera, strata::gl::Framebuffer& target,
+                       int limit, FrameStats* last = nullptr) {
+    for (int f = 1; f <= limit; ++f) {
+        const FrameStats stats = renderer.render(scene, camera, target);
+        if (last) *last = stats;
+        if (stats.frames_unconverged == 0) return f;
+        strata::StreamCache::shared()->wait_for_a_load();
+    }
+    return -1;
+}
+
+void part_open(const Options& o) {
+    auto context = strata::gl::create_headless_context();
+    strata::StreamCache::shared()->set_budget(o.memory);
+    strata::StreamCache::shared()->set_load_rate(o.load_rate);
+    const uint64_t rss_before = rss();
+    const auto start = Clock::now();
+    auto model = strata::HlodModel::open(o.model);
+    const double open_ms = ms_since(start);
+    strata::Group scene;
+    Camera camera;
+    view_of(o, scene, model, camera);
+    strata::gl::Framebuffer target({.width = o.width, .height = o.height, .samples = 1});
+    strata::Renderer renderer;
+    renderer.render(scene, camera, target);
+    glFinish();
+    const double first_ms = ms_since(start);
+    FrameStats last;
+    const int frames = frames_to_converge(renderer, scene, camera, target, 100000, &last);
+    glFinish();
+    const double converge_ms = ms_since(start);
+    std::printf("open (streamed, budget %s%s): open %.1f ms, first frame at %.1f ms, converged after %d frames at %.1f ms "
+                "(%" PRIu64 " triangles, %" PRIu64 " cubes); resident %s; peak RSS %s (%s before opening; goal: budget + 200 MiB)\n",
+                mib(o.memory).c_str(), o.load_rate > 0 ? (", loads at " + mib(uint64_t(o.load_rate)) + "/s").c_str() : "", open_ms, first_ms,
+                frames, converge_ms, last.triangles, last.cubes, mib(last.memory_resident).c_str(), mib(peak_rss()).c_str(),
+                mib(rss_before).c_str());
+}
+
+void part_open_full_detail(const Options& o) {
+    auto context = strata::gl::create_headless_context();
+    strata::StreamCache::shared()->set_budget(o.memory);
+    strata::StreamCache::shared()->set_load_rate(o.load_rate);
+    const auto start = Clock::now();
+    strata::Group scene;
+    Camera camera;
+    view_of(o, scene, strata::HlodModel::open(o.model), camera);
+    strata::gl::Framebuffer target({.width = o.width, .height = o.height, .samples = 1});
+    strata::Renderer renderer;
+    RenderSettings full;
+    full.full_detail = true;
+    const FrameStats stats = renderer.render(scene, camera, target, full);
+    glFinish();
+    std::printf("open (streamed, full detail from a cold cache): %.1f ms to the frame (%" PRIu64 " triangles); peak RSS %s\n",
+                ms_since(start), stats.triangles, mib(peak_rss()).c_str());
+}
+
+void part_whole(const Options& o) {
+    auto context = strata::gl::create_headless_context();
+    const auto start = Clock::now();
+    auto model = strata::HlodModel::load(o.model);
+    const double load_ms = ms_since(start);
+    strata::Group scene;
+    Camera camera;
+    view_of(o, scene, model, camera);
+    strata::gl::Framebuffer target({.width = o.width, .height = o.height, .samples = 1});
+    strata::Renderer renderer;
+    const FrameStats stats = renderer.render(scene, camera, target);
+    glFinish();
+    std::printf("open (loaded whole): load %.1f ms, first frame at %.1f ms (%" PRIu64 " triangles); peak RSS %s\n", load_ms, ms_since(start),
+                stats.triangles, mib(peak_rss()).c_str());
+}
+
+// The museum: instances in a row along x, each turned and scaled a little differently.
+struct Museum {
+    std::shared_ptr<strata::Group> scene = std::make_shared<strata::Group>();
+    std::vector<std::shared_ptr<strata::Transform>> places;
+    strata::Box bounds;
+    uint64_t decoded = 0;  // every instance's cubes, decoded
+};
+
+Museum museum(const Options& o) {
+    Museum m;
+    const auto probe = strata::HlodModel::open(o.model);
+    for (const strata::HlodCube& cube : probe->cubes()) m.decoded += probe->cube_bytes_bound(cube.node);
+    m.decoded *= uint64_t(o.instances);
+    const strata::Box b = probe->bound();
+    const double spacing = 2.5 * b.radius();
+    for (int i = 0; i < o.instances; ++i) {
+        auto model = strata::HlodModel::open(o.model);
+        model->set_pixel_error(1.0);
+        auto place = std::make_shared<strata::Transform>();
+        glm::dmat4 matrix = glm::translate(glm::dmat4(1.0), glm::dvec3(spacing * i, 0, 0));
+        matrix = glm::rotate(matrix, 0.4 * i, glm::dvec3(0, 1, 0));
+        matrix = glm::scale(matrix, glm::dvec3(1.0 - 0.03 * i));
+        matrix = glm::translate(matrix, -b.center());
+        place->set_matrix(matrix);
+        place->add(model);
+        m.scene->add(place);
+        m.places.push_back(place);
+    }
+    m.bounds = m.scene->bound();
+    return m;
+}
+
+// The museum's camera at frame f: every 200 frames a cut to another instance, held still for
+// kHoldFrames frames (where convergence is timed), then a slow orbit of it, in and out.
+constexpr int kHoldFrames = 60;
+void museum_camera(const Options& o, const Museum& m, int f, Camera& camera) {
+    const int instance = (f / 200 * 3) % o.instances;
+    const double t = double(std::max(f % 200 - kHoldFrames, 0)) / (200 - kHoldFrames);
+    aim(camera, o, m.places[size_t(instance)]->bound(), 2 * glm::pi<double>() * t, 1.2 + 0.8 * std::cos(2 * glm::pi<double>() * t));
+}
+
+bool is_magenta(const std::vector<float>& rgba, size_t p) { return rgba[p] == 1 && rgba[p + 1] == 0 && rgba[p + 2] == 1; }
+
+// Every 50th frame's pixels left magenta (nothing drawn), for part_holes: the frame, then a byte a pixel.
+std::string holes_file() { return "/tmp/bench_stream_" + std::to_string(getppid()) + "_uncovered.bin"; }
+
+void part_museum(const Options& o) {
+    auto context = strata::gl::create_headless_context();
+    const Museum m = museum(o);
+    const uint64_t budget = std::min(o.memory, m.decoded / 10);
+    strata::StreamCache::shared()->set_budget(budget);
+    strata::StreamCache::shared()->set_load_rate(o.load_rate);
+    strata::gl::Framebuffer target({.width = o.width, .height = o.height, .samples = 1});
+    strata::Renderer renderer;
+    std::vector<double> frame_ms, converge_frames;
+    std::ofstream uncovered(holes_file(), std::ios::binary | std::ios::trunc);
+    int since_cut = 0;
+    bool converged_since_cut = false;
+    for (int f = 0; f < o.frames; ++f) {
+        Camera camera;
+        museum_camera(o, m, f, camera);
+        if (f % 200 == 0) {
+            if (f > 0 && !converged_since_cut) converge_frames.push_back(-1);
+            since_cut = 0;
+            converged_since_cut = false;
+        }
+        RenderSettings settings;
+        settings.background = glm::vec4(1, 0, 1, 1);
+        const auto start = Clock::now();
+        const FrameStats stats = renderer.render(*m.scene, camera, target, settings);
+        glFinish();
+        frame_ms.push_back(ms_since(start));
+        ++since_cut;
+        if (!converged_since_cut && stats.frames_unconverged == 0) {
+            converged_since_cut = true;
+            converge_frames.push_back(since_cut);
+        }
+        if (f % 50 == 49) {
+            const std::vector<float> shown = target.read_color();
+            std::vector<char> mask(shown.size() / 4);
+            for (size_t p = 0; p < shown.size(); p += 4) mask[p / 4] = is_magenta(shown, p);
+            uncovered.write(reinterpret_cast<const char*>(&f), sizeof f);
+            uncovered.write(mask.data(), std::streamsize(mask.size()));
+        }
+    }
+    std::vector<double> converged;
+    int never = 0;
+    for (const double c : converge_frames) c > 0 ? converged.push_back(c) : (void)++never;
+    std::printf("museum: %d instances, %s decoded (%.1f x the budget of %s), %d interactive frames at %dx%d: frame time median "
+                "%.1f ms, p95 %.1f ms; frames to converge after a cut: median %.0f, max %.0f (%d of %zu cuts did not within 200 "
+                "frames); peak RSS %s\n",
+                o.instances, mib(m.decoded).c_str(), double(m.decoded) / double(budget), mib(budget).c_str(), o.frames, o.width,
+                o.height, quantile(frame_ms, 0.5), quantile(frame_ms, 0.95), quantile(converged, 0.5), quantile(converged, 1.0),
+                never, converge_frames.size(), mib(peak_rss()).c_str());
+}
+
+// The museum's holes: the same frames drawn with one copy of the model loaded whole under every
+// instance's transform (the all-resident reference); a pixel it covers that the streamed frame left
+// magenta is a hole.
+void part_holes(const Options& o) {
+    auto context = strata::gl::create_headless_context();
+    const Museum m = museum(o);  // for the cameras
+    auto whole = strata::HlodModel::load(o.model);
+    whole->set_pixel_error(1.0);
+    strata::Group reference;
+    for (const auto& place : m.places) {
+        auto copy = std::make_shared<strata::Transform>();
+        copy->set_matrix(place->matrix());
+        copy->add(whole);
+        reference.add(copy);
+    }
+    strata::gl::Framebuffer target({.width = o.width, .height = o.height, .samples = 1});
+    strata::Renderer renderer;
+    std::ifstream uncovered(holes_file(), std::ios::binary);
+    uint64_t holes = 0, enclosed = 0, covered = 0, frames = 0;
+    int f = 0;
+    std::vector<char> mask(size_t(o.width) * size_t(o.height));
+    while (uncovered.read(reinterpret_cast<char*>(&f), sizeof f) && uncovered.read(mask.data(), std::streamsize(mask.size()))) {
+        Camera camera;
+        museum_camera(o, m, f, camera);
+        RenderSettings settings;
+        settings.background = glm::vec4(1, 0, 1, 1);
+        renderer.render(reference, camera, target, settings);
+        const std::vector<float> drawn = target.read_color();
+        const size_t w = size_t(o.width), h = size_t(o.height);
+        auto shown_at = [&](size_t x, size_t y) { return mask[y * w + x] == 0; };
+        for (size_t y = 0; y < h; ++y)
+            for (size_t x = 0; x < w; ++x) {
+                if (is_magenta(drawn, 4 * (y * w + x))) continue;
+                ++covered;
+                if (shown_at(x, y)) continue;
+                ++holes;
+                // Inside what the streamed frame drew (its neighbours on both sides of a row or a
+                // column drawn): a crack; else at the edge of a stand-in's coarser silhouette.
+                const bool row = x > 0 && x + 1 < w && shown_at(x - 1, y) && shown_at(x + 1, y);
+                const bool column = y > 0 && y + 1 < h && shown_at(x, y - 1) && shown_at(x, y + 1);
+                enclosed += row || column;
+            }
+        ++frames;
+    }
+    std::remove(holes_file().c_str());
+    std::printf("museum holes: %" PRIu64 " pixels the all-resident frames cover were left uncovered, of %" PRIu64 ", in %" PRIu64
+                " frames (every 50th); %" PRIu64 " of them enclosed by drawn pixels (cracks or thin gaps), the rest at the silhouettes of coarser "
+                "stand-ins\n",
+                holes, covered, frames, enclosed);
+}
+
+void part_soak(const Options& o) {
+    auto context = strata::gl::create_headless_context();
+    strata::StreamCache::shared()->set_budget(o.memory);
+    auto model = strata::HlodModel::open(o.model);
+    model->set_pixel_error(1.0);
+    strata::Group scene;
+    scene.add(model);
+    strata::gl::Framebuffer target({.width = o.width, .height = o.height, .samples = 1});
+    strata::Renderer renderer;
+    RenderSettings full;
+    full.full_detail = true;
+    std::vector<uint64_t> samples;  // RSS after every tenth of the run
+    uint64_t resident_start = 0, resident_end = 0;  // what the cache held then
+    for (int f = 0; f < o.soak; ++f) {
+        Camera camera;
+        aim(camera, o, model->bound(), 2 * glm::pi<double>() * f / std::max(o.soak, 1) * 3, 1.1 + 0.6 * std::sin(0.01 * f));
+        const FrameStats stats = renderer.render(scene, camera, target, full);
+        (void)target.read_color();  // dropped, as a capture loop drops a frame once written
+        if (f % std::max(o.soak / 10, 1) == 0 || f == o.soak - 1) samples.push_back(rss());
+        if (samples.size() == 2 && !resident_start) resident_start = stats.memory_resident;
+        resident_end = stats.memory_resident;
+    }
+    const uint64_t start = samples[1 < samples.size() ? 1 : 0], middle = samples[samples.size() / 2], end = samples.back();
+    const double slope = (double(end) - double(start)) / std::max(1.0, 0.9 * o.soak) * 1000.0;
+    std::printf("soak: %d full-detail frames at %dx%d under %s: RSS %s at 10 %%, %s at half, %s at the end (slope %+.2f MiB per "
+                "1000 frames), the cache holding %s and then %s; peak RSS %s\n",
+                o.soak, o.width, o.height, mib(o.memory).c_str(), mib(start).c_str(), mib(middle).c_str(), mib(end).c_str(),
+                slope / double(1 << 20), mib(resident_start).c_str(), mib(resident_end).c_str(), mib(peak_rss()).c_str());
+}
+
+// FNV-1a over a frame's bytes.
+uint64_t digest(const std::vector<float>& pixels) {
+    uint64_t h = 1469598103934665603ull;
+    const auto* bytes = reinterpret_cast<const unsigned char*>(pixels.data());
+    for (size_t i = 0; i < pixels.size() * sizeof(float); ++i) h = (h ^ bytes[i]) * 1099511628211ull;
+    return h;
+}
+
+// The capture's frames' digests under a budget, from a cold cache and then (warm) again; the
+// largest memory resident after a frame.
+void capture_run(const Options& o, uint64_t budget, std::vector<uint64_t>& cold, std::vector<uint64_t>& warm, uint64_t& working_set) {
+    strata::StreamCache::shared()->set_budget(budget);
+    auto model = strata::HlodModel::open(o.model);
+    model->set_pixel_error(1.0);
+    strata::Group scene;
+    scene.add(model);
+    strata::gl::Framebuffer target({.width = o.width, .height = o.height, .samples = 1});
+    strata::Renderer renderer;
+    RenderSettings full;
+    full.full_detail = true;
+    working_set = 0;
+    for (std::vector<uint64_t>* run : {&cold, &warm}) {
+        run->clear();
+        for (int f = 0; f < o.capture; ++f) {
+            Camera camera;
+            const double t = double(f) / std::max(o.capture, 1);
+            aim(camera, o, model->bound(), 2 * glm::pi<double>() * t, 1.0 + 0.7 * std::cos(2 * glm::pi<double>() * t));
+            const FrameStats stats = renderer.render(scene, camera, target, full);
+            working_set = std::max(working_set, stats.memory_resident);
+            run->push_back(digest(target.read_color()));
+        }
+    }
+}
+
+void part_capture(const Options& o) {
+    auto context = strata::gl::create_headless_context();
+    std::vector<uint64_t> reference, warm, cold_b, warm_b;
+    uint64_t working_set = 0, ignored = 0;
+    capture_run(o, o.memory, reference, warm, working_set);
+    auto differing = [&](const std::vector<uint64_t>& run) {
+        size_t n = 0;
+        for (size_t f = 0; f < run.size(); ++f) n += run[f] != reference[f];
+        return n;
+    };
+    std::printf("capture: %d full-detail frames at %dx%d; frames differing from the cold run under %s: warm %zu", o.capture, o.width,
+                o.height, mib(o.memory).c_str(), differing(warm));
+    // The working set bounds a frame's cubes; a load also reserves its cube's bound while in flight.
+    for (const uint64_t budget : {working_set + working_set / 8, 2 * working_set}) {
+        capture_run(o, budget, cold_b, warm_b, ignored);
+        std::printf(", budget %s: cold %zu, warm %zu", mib(budget).c_str(), differing(cold_b), differing(warm_b));
+    }
+    std::printf(" (largest resident after a frame %s)\n", mib(working_set).c_str());
+}
+
+bool parse(int argc, char** argv, Options& o) {
+    for (int i = 1; i < argc; ++i) {
+        const std::string a = argv[i];
+        auto value = [&]() -> std::string { return i + 1 < argc ? argv[++i] : ""; };
+        if (a == "--model") o.model = value();
+        else if (a == "--memory") o.memory = strata::parse_byte_size(value());
+        else if (a == "--size") {
+            if (std::sscanf(value().c_str(), "%dx%d", &o.width, &o.height) != 2) return false;
+        } else if (a == "--frames") o.frames = std::stoi(value());
+        else if (a == "--instances") o.instances = std::max(1, std::stoi(value()));
+        else if (a == "--soak") o.soak = std::stoi(value());
+        else if (a == "--capture") o.capture = std::stoi(value());
+        else if (a == "--load-rate") o.load_rate = std::stod(value());
+        else if (a == "--no-whole") o.whole = false;
+        else return false;
+    }
+    return !o.model.empty();
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    Options o;
+    try {
+        if (!parse(argc, argv, o)) {
+            std::fprintf(stderr, "usage: bench_stream --model M.hlod [--memory 1G] [--size 1280x720] [--frames 2000] [--instances 10] "
+                                 "[--soak 1000] [--capture 60] [--load-rate BYTES_PER_S] [--no-whole]\n");
+            return 2;
+        }
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "bench_stream: %s\n", e.what());
+        return 2;
+    }
+    std::printf("bench_stream: %s at %dx%d, 1 pixel of error, llvmpipe or the GPU's driver; times are wall clock\n", o.model.c_str(),
+                o.width, o.height);
+    bool ok = in_child("open", [&] { part_open(o); });
+    ok &= in_child("open, full detail", [&] { part_open_full_detail(o); });
+    if (o.whole) ok &= in_child("whole", [&] { part_whole(o); });
+    if (o.frames > 0) ok &= in_child("museum", [&] { part_museum(o); }) && in_child("museum holes", [&] { part_holes(o); });
+    if (o.soak > 0) ok &= in_child("soak", [&] { part_soak(o); });
+    if (o.capture > 0) ok &= in_child("capture", [&] { part_capture(o); });
+    return ok ? 0 : 1;
+}
