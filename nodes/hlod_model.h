@@ -131,7 +131,7 @@ public:
     // each frame, so that children that arrive late (and cubes no longer held back) fade in
     // (nodes/README.md, "Stand-ins"). cull() advances it; full-detail frames ignore it.
     const std::vector<float>& fade() const { return fade_; }
-    static constexpr int kFadeFrames = 8;
+    static constexpr int kFadeFrames = 4;
     // The cube's neighbours of its own level, the 3 × 3 × 3 around it (itself in the middle) at
     // (di + 1) + 3(dj + 1) + 9(dk + 1), kNoCube where there is none; and its parent (kNoCube: the root).
     const std::array<uint32_t, 27>& neighbours(uint32_t cube) const { return neighbours_[cube]; }
