@@ -57,21 +57,22 @@ void add_memory_options(CLI::App& command, MemoryOptions& options) {
 }
 
 bool apply_memory_options(const MemoryOptions& options, const char* command) {
-    uint64_t budgets[2] = {0, 0};
-    const std::pair<const std::string*, const char*> given[] = {{&options.total, "--memory"}, {&options.gpu, "--gpu-memory"}};
-    for (int k = 0; k < 2; ++k) {
-        const std::string& text = *given[k].first;
-        if (text.empty()) continue;
+    // A size of at least 16M in `bytes` (0 when not given), or false after saying what is wrong.
+    auto parse = [&](const std::string& text, const char* option, uint64_t& bytes) {
+        if (text.empty()) return true;
         try {
-            budgets[k] = parse_byte_size(text);
-            if (budgets[k] < (uint64_t(16) << 20)) throw std::invalid_argument("'" + text + "' is less than the least, 16M");
+            bytes = parse_byte_size(text);
+            if (bytes < (uint64_t(16) << 20)) throw std::invalid_argument("'" + text + "' is less than the least, 16M");
+            return true;
         } catch (const std::invalid_argument& e) {
-            std::fprintf(stderr, "strata %s: %s: %s\n", command, given[k].second, e.what());
+            std::fprintf(stderr, "strata %s: %s: %s\n", command, option, e.what());
             return false;
         }
-    }
-    if (budgets[0]) StreamCache::shared()->set_budget(budgets[0]);
-    if (budgets[1]) StreamCache::shared()->set_gpu_budget(budgets[1]);
+    };
+    uint64_t total = 0, gpu = 0;
+    if (!parse(options.total, "--memory", total) || !parse(options.gpu, "--gpu-memory", gpu)) return false;
+    if (total) StreamCache::shared()->set_budget(total);
+    if (gpu) StreamCache::shared()->set_gpu_budget(gpu);
     return true;
 }
 

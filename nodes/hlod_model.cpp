@@ -307,8 +307,7 @@ std::vector<uint32_t> HlodModel::Capping::capped_cubes() const {
     return capped;
 }
 
-Kappas HlodModel::Capping::morph_kappas() const {
-    const std::vector<uint32_t> capped = capped_cubes();
+Kappas HlodModel::Capping::morph_kappas(const std::vector<uint32_t>& capped) const {
     const bool fading = view_.fade && !model_.fading_.empty();
     if (capped.empty() && !fading) return view_.kappa;
     auto out = std::make_shared<CubeKappas>(*view_.kappa);
@@ -429,8 +428,10 @@ void HlodModel::select(const HlodView& view, std::vector<uint32_t>& out, Kappas*
     out.clear();
     Capping capping(*this, view);
     select_from(root_, view, capping, view.plane_mask, out);
-    if (morph) *morph = capping.morph_kappas();
-    if (capped) *capped = capping.capped_cubes();
+    if (!morph && !capped) return;
+    std::vector<uint32_t> capped_here = capping.capped_cubes();
+    if (morph) *morph = capping.morph_kappas(capped_here);
+    if (capped) *capped = std::move(capped_here);
 }
 
 void HlodModel::select_from(uint32_t c, const HlodView& view, Capping& capping, uint8_t mask, std::vector<uint32_t>& out) const {
@@ -572,8 +573,8 @@ void HlodModel::cull(CullVisitor& cull) {
         view.frustum = &frustum;
         view.plane_mask = cull.plane_mask();
     }
-    // Interactive frames of a streamed model fade in what arrives; full-detail ones draw the cut a
-    // model loaded whole draws.
+    // Interactive frames fade in what arrives (a streamed model's cubes, or a residency set by hand);
+    // full-detail ones draw the cut a model loaded whole draws.
     const bool fades = !cull.full_detail();
     if (fades) view.fade = &fade_;
     Kappas morph;

@@ -66,7 +66,7 @@ struct HlodView {
     // ≥ 0: every cube of this level (or the finest there is) instead of the distance rule: what an
     // orthographic view needs, whose pixels have one size at any distance.
     int fixed_level = -1;
-    // An interactive view of a streamed model: the model's fades (HlodModel::fade), below 1 for cubes
+    // An interactive view: the model's fades (HlodModel::fade), below 1 for cubes
     // whose children are still fading in; such cubes hold their neighbours' children back as stand-ins
     // do. nullptr: none (full detail, a model loaded whole).
     const std::vector<float>* fade = nullptr;
@@ -127,7 +127,7 @@ public:
     void set_residency(std::vector<uint8_t> resident);
     bool resident(uint32_t cube) const { return resident_[cube] != 0; }
     uint64_t residency_version() const { return residency_version_; }  // counts set_residency calls
-    // Streamed, interactive frames: per cube, 1 once settled; 0 while capped; then 1/kFadeFrames more
+    // Interactive frames: per cube, 1 once settled; 0 while capped; then 1/kFadeFrames more
     // each frame, so that children that arrive late (and cubes no longer held back) fade in
     // (nodes/README.md, "Stand-ins"). cull() advances it; full-detail frames ignore it.
     const std::vector<float>& fade() const { return fade_; }
@@ -237,9 +237,10 @@ private:
     public:
         Capping(const HlodModel& model, const HlodView& view) : model_(model), view_(view) {}
         bool capped(uint32_t cube);
-        // view.kappa with the band ends of the capped cubes found so far set to 0, and the view's fades.
-        Kappas morph_kappas() const;
+        // The cubes found capped so far.
         std::vector<uint32_t> capped_cubes() const;
+        // view.kappa with the band ends of `capped` (capped_cubes()) set to 0, and the view's fades.
+        Kappas morph_kappas(const std::vector<uint32_t>& capped) const;
 
     private:
         const HlodModel& model_;

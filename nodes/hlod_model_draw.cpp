@@ -332,7 +332,7 @@ uint64_t pool_page_bytes(const HlodModel& model) {
     if (const StreamCache* cache = model.stream_cache()) return std::clamp(cache->budget() / 64, MiB, 16 * MiB);
     uint64_t bytes = 0;
     for (const HlodCube& c : model.cubes())
-        if (c.data) bytes += HlodModel::gpu_block_bytes(c.data->vertex_count(), c.data->parents.size(), c.data->indices.size(), model.header().has_colors());
+        if (c.data) bytes += HlodModel::cube_gpu_bytes(*c.data);
     return std::min(bytes, 128 * MiB);
 }
 

@@ -77,8 +77,11 @@ void Renderer::upload_lights(const RenderList& list, const Camera& camera) {
 // frames a second, what a cube's load takes from a disk under load.
 constexpr double kMotionLeadFrames = 10;
 
-std::vector<Lookahead> Renderer::lookahead_for(const Camera& camera, const RenderSettings& s, const glm::dmat4& projection) {
+std::vector<Lookahead> Renderer::lookahead_for(const Camera& camera, const RenderSettings& s, const glm::dmat4& projection,
+                                               bool streaming) {
+    const std::optional<std::pair<glm::dvec3, glm::dquat>> last = std::exchange(last_pose_, {{camera.position, camera.orientation}});
     std::vector<Lookahead> views;
+    if (!streaming) return views;  // nothing would prefetch
     auto add = [&](const glm::dvec3& position, const glm::dquat& orientation, double fov) {
         auto ahead = std::make_shared<Camera>();
         ahead->set_view(camera);
@@ -89,12 +92,11 @@ std::vector<Lookahead> Renderer::lookahead_for(const Camera& camera, const Rende
         views.push_back({ahead, lens * ahead->view_matrix()});
     };
     for (const RenderSettings::Pose& pose : s.upcoming) add(pose.position, pose.orientation, pose.fov_y_degrees);
-    if (s.predict_motion && last_pose_ && last_pose_->first != camera.position) {
-        const auto& [position, orientation] = *last_pose_;
+    if (s.predict_motion && last && last->first != camera.position) {
+        const auto& [position, orientation] = *last;
         add(camera.position + kMotionLeadFrames * (camera.position - position),
             glm::slerp(orientation, camera.orientation, 1.0 + kMotionLeadFrames), camera.fov_y_degrees);
     }
-    last_pose_ = {camera.position, camera.orientation};
     return views;
 }
 
@@ -105,7 +107,7 @@ FrameStats Renderer::render(Node& scene, const Camera& camera, gl::Framebuffer& 
     orthographic_ = camera.projection == ProjectionKind::orthographic;
     const glm::dmat4 view = camera.view_matrix(), projection = camera.projection_matrix(near_, far_);
     StreamCache* stream = StreamCache::shared_if_made();
-    const std::vector<Lookahead> lookahead = lookahead_for(camera, s, projection);
+    const std::vector<Lookahead> lookahead = lookahead_for(camera, s, projection, stream != nullptr);
     for (;;) {
         list_.clear();
         CullVisitor cull(camera, view, projection, list_);

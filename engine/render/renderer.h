@@ -69,7 +69,10 @@ private:
     uint64_t frames_unconverged_ = 0;  // FrameStats::frames_unconverged of the last frame
     // The last frame's camera pose, for predict_motion.
     std::optional<std::pair<glm::dvec3, glm::dquat>> last_pose_;
-    std::vector<Lookahead> lookahead_for(const Camera& camera, const RenderSettings& settings, const glm::dmat4& projection);
+    // The views RenderSettings::upcoming and predict_motion give this frame (none unless something
+    // streams); remembers the camera's pose.
+    std::vector<Lookahead> lookahead_for(const Camera& camera, const RenderSettings& settings, const glm::dmat4& projection,
+                                         bool streaming);
 };
 
 }  // namespace strata

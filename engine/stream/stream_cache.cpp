@@ -208,9 +208,13 @@ bool StreamCache::make_room(uint64_t bytes, uint64_t gpu_bytes) {
     return fits(bytes, gpu_bytes);
 }
 
+void StreamCache::sort_by_priority(std::vector<Request>& asked) {
+    std::stable_sort(asked.begin(), asked.end(), [](const Request& a, const Request& b) { return a.priority > b.priority; });
+}
+
 void StreamCache::start_loads() {
     for (const auto& [source, index] : pinned_) request(source, index, INFINITY);
-    std::stable_sort(requests_.begin(), requests_.end(), [](const Request& a, const Request& b) { return a.priority > b.priority; });
+    sort_by_priority(requests_);
     shortfall_ = waiting_ = 0;
     std::vector<Job> jobs;
     for (const Request& r : requests_) {
@@ -235,7 +239,7 @@ void StreamCache::start_loads() {
 }
 
 void StreamCache::start_prefetches() {
-    std::stable_sort(prefetches_.begin(), prefetches_.end(), [](const Request& a, const Request& b) { return a.priority > b.priority; });
+    sort_by_priority(prefetches_);
     prefetch_waiting_ = 0;
     std::vector<Job> jobs;
     for (const Request& r : prefetches_) {

@@ -174,6 +174,8 @@ private:
     // Evicts until `bytes` (of which `gpu_bytes` on the GPU) fit beside what is held; whether they do.
     bool make_room(uint64_t bytes, uint64_t gpu_bytes);
     bool fits(uint64_t bytes, uint64_t gpu_bytes) const;
+    // Highest priority first; asked in the same order where they tie (an item before its ancestors).
+    static void sort_by_priority(std::vector<Request>& asked);
     void start_loads();
     void start_prefetches();
     // Starts loading an absent item whose parent is resident, reserving `bound`; adds its job.

@@ -113,6 +113,12 @@ void aim(Camera& camera, const Options& o, const strata::Box& bounds, double ang
     camera.look_at(c + r * distance * glm::normalize(glm::dvec3(std::sin(angle), height, std::cos(angle))), c);
 }
 
+// The process's cache with `budget` and the loads at --load-rate.
+void set_streaming(const Options& o, uint64_t budget) {
+    strata::StreamCache::shared()->set_budget(budget);
+    strata::StreamCache::shared()->set_load_rate(o.load_rate);
+}
+
 // The model at 1 pixel of error alone in `scene`, seen from 1.6 radii off.
 void view_of(const Options& o, strata::Group& scene, const std::shared_ptr<strata::HlodModel>& model, Camera& camera) {
     model->set_pixel_error(1.0);
@@ -134,8 +140,7 @@ int frames_to_converge(strata::Renderer& renderer, strata::Node& scene, const Ca
 
 void part_open(const Options& o) {
     auto context = strata::gl::create_headless_context();
-    strata::StreamCache::shared()->set_budget(o.memory);
-    strata::StreamCache::shared()->set_load_rate(o.load_rate);
+    set_streaming(o, o.memory);
     const uint64_t rss_before = rss();
     const auto start = Clock::now();
     auto model = strata::HlodModel::open(o.model);
@@ -161,8 +166,7 @@ void part_open(const Options& o) {
 
 void part_open_full_detail(const Options& o) {
     auto context = strata::gl::create_headless_context();
-    strata::StreamCache::shared()->set_budget(o.memory);
-    strata::StreamCache::shared()->set_load_rate(o.load_rate);
+    set_streaming(o, o.memory);
     const auto start = Clock::now();
     strata::Group scene;
     Camera camera;
@@ -243,8 +247,7 @@ void part_museum(const Options& o) {
     auto context = strata::gl::create_headless_context();
     const Museum m = museum(o);
     const uint64_t budget = std::min(o.memory, m.decoded / 10);
-    strata::StreamCache::shared()->set_budget(budget);
-    strata::StreamCache::shared()->set_load_rate(o.load_rate);
+    set_streaming(o, budget);
     strata::gl::Framebuffer target({.width = o.width, .height = o.height, .samples = 1});
     strata::Renderer renderer;
     std::vector<double> frame_ms, converge_frames;

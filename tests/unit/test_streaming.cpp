@@ -62,12 +62,18 @@ protected:
     }
 };
 
+// What a model's cubes take once decoded, CPU and GPU together: what the budgets below are made from.
+uint64_t decoded_bytes(const HlodModel& whole) {
+    uint64_t bytes = 0;
+    for (const HlodCube& cube : whole.cubes()) bytes += HlodModel::cube_bytes(*cube.data);
+    return bytes;
+}
+
 // The fly-in, its loads either let in a few a frame (`load_rate` 0: each frame waits for one load to
 // finish) or throttled to `load_rate` bytes a second while frames run on without waiting.
 void fly_in_never_cracks(double load_rate) {
     const auto whole = HlodModel::load(test::bunny_hlod());
-    uint64_t model_bytes = 0;
-    for (const HlodCube& cube : whole->cubes()) model_bytes += HlodModel::cube_bytes(*cube.data);
+    const uint64_t model_bytes = decoded_bytes(*whole);
     auto shared_cache = std::make_shared<StreamCache>(model_bytes / 4, 2);  // a quarter of the model: the fly-in must evict
     StreamCache& cache = *shared_cache;
     cache.set_load_rate(load_rate);
@@ -308,11 +314,7 @@ TEST_F(StreamingRender, AFileDeletedOrReplacedWhileOpenIsStillReadAsOpened) {
 TEST_F(StreamingRender, AViewToldThePoseToComeHasItResidentWhenItArrives) {
     StreamCache& cache = *StreamCache::shared();
     const uint64_t budget = cache.budget();
-    uint64_t model_bytes = 0;
-    {
-        const auto whole = HlodModel::load(test::bunny_hlod());
-        for (const HlodCube& cube : whole->cubes()) model_bytes += HlodModel::cube_bytes(*cube.data);
-    }
+    const uint64_t model_bytes = decoded_bytes(*HlodModel::load(test::bunny_hlod()));
     cache.set_budget(2 * model_bytes);  // both views fit; 5 % of it pins the coarse levels only
     auto first_frame_there = [&](bool told) {
         const auto model = HlodModel::open(test::bunny_hlod());
@@ -354,11 +356,7 @@ TEST_F(StreamingRender, OneRendererThroughAFlyInThatEvictsKeepsItsPoolToTheResid
     StreamCache& cache = *StreamCache::shared();
     const uint64_t budget = cache.budget();
     const std::vector<float> reference = full_detail_frame(HlodModel::load(test::bunny_hlod()));
-    uint64_t model_bytes = 0;
-    {
-        const auto whole = HlodModel::load(test::bunny_hlod());
-        for (const HlodCube& cube : whole->cubes()) model_bytes += HlodModel::cube_bytes(*cube.data);
-    }
+    const uint64_t model_bytes = decoded_bytes(*HlodModel::load(test::bunny_hlod()));
     cache.set_budget(model_bytes / 4);
     const auto model = HlodModel::open(test::bunny_hlod());
     model->set_pixel_error(1.0);
