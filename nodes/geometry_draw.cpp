@@ -8,7 +8,6 @@
 #include "engine/gl/buffer.h"
 #include "engine/gl/framebuffer.h"
 #include "engine/gl/program.h"
-#include "engine/gl/vertex_array.h"
 #include "engine/render/draw_context.h"
 #include "engine/scene/render_list.h"
 #include "nodes/geometry.h"
@@ -68,20 +67,18 @@ struct GeometryProgram : GpuCache::Entry {
 
 struct GeometryGpu : GpuCache::Entry {
     gl::Buffer positions, normals, colors, indices;
-    gl::VertexArray vertex_array;
 };
 
 std::unique_ptr<GeometryGpu> upload(const Mesh& mesh, const std::string& name) {
     // One storage buffer per attribute: a mesh past the driver's binding size cannot be drawn whole.
-    GLint max_block = 0;
-    glGetIntegerv(GL_MAX_SHADER_STORAGE_BLOCK_SIZE, &max_block);
-    if (mesh.positions.size() * sizeof(float) > size_t(max_block))
+    const uint64_t max_block = gl::max_storage_block_bytes();
+    if (mesh.positions.size() * sizeof(float) > max_block)
         throw std::runtime_error("mesh '" + name + "' has " + std::to_string(mesh.vertex_count()) +
                                  " vertices, more than this OpenGL driver binds at once (" +
                                  std::to_string(max_block / 12) + "): build it into a .hlod model instead");
     auto gpu = std::make_unique<GeometryGpu>();
-    gpu->positions = gl::Buffer(mesh.positions, 0);
-    gpu->normals = gl::Buffer(mesh.normals, 0);
+    gpu->positions = gl::Buffer(mesh.positions, gl::kFixedStorage);
+    gpu->normals = gl::Buffer(mesh.normals, gl::kFixedStorage);
     std::vector<uint32_t> colors{0xffffffffu};  // bound even when absent: one word, never read
     if (mesh.has_colors()) {
         colors.clear();
@@ -89,10 +86,8 @@ std::unique_ptr<GeometryGpu> upload(const Mesh& mesh, const std::string& name) {
             colors.push_back(mesh.colors[i] | mesh.colors[i + 1] << 8 | mesh.colors[i + 2] << 16 |
                              uint32_t(mesh.colors[i + 3]) << 24);
     }
-    gpu->colors = gl::Buffer(colors, 0);
-    gpu->indices = gl::Buffer(mesh.indices, 0);
-    gpu->vertex_array = gl::VertexArray::create();
-    glVertexArrayElementBuffer(gpu->vertex_array.id(), gpu->indices.id());
+    gpu->colors = gl::Buffer(colors, gl::kFixedStorage);
+    gpu->indices = gl::Buffer(mesh.indices, gl::kFixedStorage);
     return gpu;
 }
 
@@ -108,13 +103,9 @@ void Geometry::draw(DrawContext& context, const DrawItem& item) {
     program.set("has_colors", int(mesh_.has_colors()));
     program.set("base_color", material.base_color);
     program.set("node_id", unsigned(id()));
-    program.use();
-    gpu.positions.bind_base(GL_SHADER_STORAGE_BUFFER, 1);
-    gpu.normals.bind_base(GL_SHADER_STORAGE_BUFFER, 2);
-    gpu.colors.bind_base(GL_SHADER_STORAGE_BUFFER, 3);
-    gpu.vertex_array.bind();
-    glDrawElements(GL_TRIANGLES, GLsizei(mesh_.indices.size()), GL_UNSIGNED_INT, nullptr);
-    ++context.stats.draw_calls;
+    DrawCall call{.program = program, .indices = &gpu.indices};
+    call.storage[1] = &gpu.positions, call.storage[2] = &gpu.normals, call.storage[3] = &gpu.colors;
+    context.draw_elements(call, uint32_t(mesh_.indices.size()));
     context.stats.triangles += mesh_.triangle_count();
     context.stats.bytes_resident += gpu.positions.size() + gpu.normals.size() + gpu.colors.size() + gpu.indices.size();
 }

@@ -144,6 +144,34 @@ private:
 
 }  // namespace
 
+// A streamed file's source in a cache, removed with the last model that reads it. Models opening a
+// file already open through the same cache (found by the file's identity, whatever the path) take
+// the same source: its cubes load once, count once and are drawn from one copy.
+struct HlodModel::SharedSource {
+    std::shared_ptr<StreamCache> cache;
+    StreamCache::SourceId source;
+    HlodFile::Identity file;
+    ~SharedSource() { cache->remove(source); }
+
+    static std::shared_ptr<const SharedSource> find(const StreamCache& cache, const HlodFile::Identity& file) {
+        std::lock_guard lock(registry_mutex);
+        std::erase_if(registry, [](const auto& weak) { return weak.expired(); });
+        for (const auto& weak : registry)
+            if (auto shared = weak.lock(); shared && shared->cache.get() == &cache && shared->file == file) return shared;
+        return nullptr;
+    }
+    static std::shared_ptr<const SharedSource> add(const std::shared_ptr<StreamCache>& cache, const HlodFile::Identity& file,
+                                                   std::shared_ptr<StreamSource> source) {
+        std::shared_ptr<const SharedSource> shared(new SharedSource{cache, cache->add(std::move(source)), file});
+        std::lock_guard lock(registry_mutex);
+        registry.push_back(shared);
+        return shared;
+    }
+
+    static inline std::mutex registry_mutex;
+    static inline std::vector<std::weak_ptr<const SharedSource>> registry;
+};
+
 uint64_t HlodModel::cube_bytes(const CubeData& d) {
     auto held = [](const auto& v) { return uint64_t(v.capacity()) * sizeof(v[0]); };
     auto arrays = [&](const VertexArrays& a) { return held(a.positions) + held(a.normals) + held(a.colors) + held(a.uvs); };
@@ -188,8 +216,10 @@ std::shared_ptr<HlodModel> HlodModel::open(const std::filesystem::path& path, st
                 model->bound_.expand(cell.hi + grow + model->origin());
             }
     }
-    const StreamCache::SourceId source = cache->add(std::make_shared<CubeSource>(file, *model));
-    model->stream_ = std::make_unique<Stream>(Stream{cache, source});
+    std::shared_ptr<const SharedSource> shared = SharedSource::find(*cache, file->identity());
+    if (!shared) shared = SharedSource::add(cache, file->identity(), std::make_shared<CubeSource>(file, *model));
+    const StreamCache::SourceId source = shared->source;
+    model->stream_ = std::make_unique<Stream>(Stream{shared, *cache, source});
     // Coarse levels whose cubes fit in 5 % of the budget together stay resident; the root always,
     // since nothing is drawn without it.
     std::vector<uint64_t> level_bytes(finest + 1, 0);
@@ -213,24 +243,27 @@ std::optional<HlodDebugView> debug_view_named(std::string_view name) {
     return std::nullopt;
 }
 
-HlodModel::~HlodModel() {
-    if (stream_) stream_->cache->remove(stream_->source);
+HlodModel::~HlodModel() = default;
+
+std::shared_ptr<const void> HlodModel::cube_owner() const {
+    if (stream_) return stream_->shared;
+    return lifetime().lock();
 }
 
 void HlodModel::sync_residency() {
-    const uint64_t version = stream_->cache->version(stream_->source);
+    const uint64_t version = stream_->cache.version(stream_->source);
     if (version == stream_->synced) return;
     stream_->synced = version;
     std::vector<uint8_t> resident(cubes_.size());
     for (uint32_t c = 0; c < cubes_.size(); ++c) {
-        cubes_[c].data = std::static_pointer_cast<const CubeData>(stream_->cache->value(stream_->source, c));
+        cubes_[c].data = std::static_pointer_cast<const CubeData>(stream_->cache.value(stream_->source, c));
         resident[c] = cubes_[c].data != nullptr;
     }
     set_residency(std::move(resident));
 }
 
 uint64_t HlodModel::request_refinement(const HlodView& view, const std::vector<uint32_t>& drawn, Ask ask) const {
-    StreamCache& cache = *stream_->cache;
+    StreamCache& cache = stream_->cache;
     auto ask_for = [&](uint32_t cube, double priority) {
         if (ask == Ask::request) cache.request(stream_->source, cube, priority);
         else cache.prefetch(stream_->source, cube, priority);

@@ -96,7 +96,12 @@ public:
     // What a cube's block in the GPU pool takes (hlod_model_draw.cpp lays it out).
     static uint64_t gpu_block_bytes(uint64_t vertices, uint64_t parents, uint64_t indices, bool colors);
     // The cache a streamed model loads through; null for a model loaded whole.
-    const StreamCache* stream_cache() const { return stream_ ? stream_->cache.get() : nullptr; }
+    const StreamCache* stream_cache() const { return stream_ ? &stream_->cache : nullptr; }
+    // What this model's cube data belongs to: models with the same owner hold the very same cubes and
+    // residency (models opened on one file through one cache share one copy of each cube, counted once
+    // in the budget), so the GPU keeps one block per cube for all of them. A model loaded whole owns
+    // its own.
+    std::shared_ptr<const void> cube_owner() const;
 
     const HlodHeader& header() const { return header_; }
     const std::vector<HlodCube>& cubes() const { return cubes_; }
@@ -263,9 +268,12 @@ private:
     std::vector<std::array<uint32_t, 27>> neighbours_;  // per cube
     std::vector<uint32_t> parent_;                      // per cube
     std::vector<uint32_t> finest_first_;                // cube indices, finest level first
-    // Streamed: the cache, this model's source in it, and the cache's version last taken in.
+    // Streamed: the cache and this model's source in it, shared by every model open on the same file
+    // through the same cache; and the source's version last taken in.
+    struct SharedSource;
     struct Stream {
-        std::shared_ptr<StreamCache> cache;
+        std::shared_ptr<const SharedSource> shared;
+        StreamCache& cache;
         StreamCache::SourceId source;
         uint64_t synced = ~uint64_t(0);
     };

@@ -1,17 +1,19 @@
-// The HLOD model on the GPU (DESIGN.md §3): each resident cube one block of a buffer pool (its vertex
-// and parent records, colours and indices, pulled by gl_VertexID), placed when the cube arrives and
-// freed when it leaves; the selected cubes drawn in the selection's order, a multi-draw per run of
-// them on one pool page; the morph in the vertex shader, in the same float operations as
+// The HLOD model on the GPU (DESIGN.md §3): each resident cube one block of the scene's buffer pool
+// (its vertex and parent records, colours and indices, pulled by gl_VertexID), placed when the cube
+// arrives and freed when it leaves, once for every model drawing the same cubes (HlodModel::cube_owner);
+// the selected cubes drawn in the selection's order, a multi-draw per run of them on one pool page,
+// submitted through the DrawContext; the morph in the vertex shader, in the same float operations as
 // HlodModel::morphed_positions.
 #include <algorithm>
 #include <array>
+#include <span>
 #include <string>
+#include <utility>
 
 #include "engine/gl/buffer.h"
 #include "engine/gl/buffer_pool.h"
 #include "engine/gl/framebuffer.h"
 #include "engine/gl/program.h"
-#include "engine/gl/vertex_array.h"
 #include "engine/render/draw_context.h"
 #include "engine/scene/render_list.h"
 #include "nodes/hlod_model.h"
@@ -210,14 +212,6 @@ std::string fragment_source() {
     return std::string("#version 450\n") + gl::fragment_outputs_glsl + kShadingGlsl + kFragmentGlsl;
 }
 
-struct DrawCommand {  // glMultiDrawElementsIndirect's layout
-    uint32_t count;
-    uint32_t instance_count;
-    uint32_t first_index;
-    int32_t base_vertex;
-    uint32_t base_instance;
-};
-
 // The programs every HLOD model shares, kept in the GPU cache under one key.
 constexpr uint32_t kProgramsKey = 2;
 struct HlodPrograms : GpuCache::Entry {
@@ -248,36 +242,53 @@ CubeBlock cube_block(uint64_t vertices, uint64_t parents, uint64_t indices, bool
 struct PlacedCube {
     const CubeData* data = nullptr;
     gl::BufferPool::Block block;
-    DrawCommand command{};
+    IndexedDrawCommand command{};
 };
 
-struct HlodGpu : GpuCache::Entry {
-    explicit HlodGpu(uint64_t page_bytes) : pool(page_bytes) {}
-    uint64_t residency = ~uint64_t(0);  // the model's residency version the pool holds
-    gl::BufferPool pool;
+// The scene's pool (one per renderer): every HLOD model's cube blocks, so that what its pages hold
+// beyond the blocks is one scene's slack, not one per model.
+constexpr uint32_t kPoolKey = 3;
+struct ScenePool : GpuCache::Entry {
+    std::shared_ptr<gl::BufferPool> pool;
+    uint64_t counted_frame = ~uint64_t(0);  // the frame whose statistics have counted its pages
+};
+
+// The cubes of one owner (HlodModel::cube_owner: a file streamed through a cache, or a model loaded
+// whole) on the GPU: a block per resident cube and the per-cube tables that do not depend on the
+// view, shared by every model drawing those cubes.
+struct CubesGpu : GpuCache::Entry {
+    explicit CubesGpu(std::shared_ptr<gl::BufferPool> scene_pool) : pool(std::move(scene_pool)) {}
+    ~CubesGpu() override {
+        for (PlacedCube& cube : placed) pool->free(cube.block);
+    }
+    std::shared_ptr<gl::BufferPool> pool;
+    std::pair<uint32_t, uint64_t> synced{~0u, ~uint64_t(0)};  // the model and residency version last synced to
     std::vector<PlacedCube> placed;  // per cube
     gl::Buffer cubes;
     gl::Buffer links;          // per cube: neighbours and parent
-    gl::Buffer band_ends;      // per cube, of `kappas`
-    gl::Buffer fades;          // per cube, of `kappas` (all 1 where it has none)
     gl::Buffer color_offsets;  // per cube
+    uint64_t counted_frame = ~uint64_t(0);
+    uint64_t fixed_bytes() const { return cubes.size() + links.size() + color_offsets.size(); }
+};
+
+// What one model draws its view with: the κ and fades of its selection, and this frame's draws.
+struct HlodGpu : GpuCache::Entry {
+    gl::Buffer band_ends;  // per cube, of `kappas`
+    gl::Buffer fades;      // per cube, of `kappas` (all 1 where it has none)
     Kappas kappas;
     gl::Buffer drawn;     // this frame's cubes, for the boxes view
-    gl::Buffer commands;  // this frame's, grouped by page
-    gl::VertexArray vertex_array = gl::VertexArray::create();  // its index buffer: the page drawn
-    std::vector<std::pair<uint32_t, uint32_t>> runs;             // this frame's draws: page, commands
-    uint64_t fixed_bytes() const {
-        return cubes.size() + links.size() + band_ends.size() + fades.size() + color_offsets.size() + drawn.size() + commands.size();
-    }
+    gl::Buffer commands;  // this frame's, in the selection's order
+    std::vector<std::pair<uint32_t, uint32_t>> runs;  // this frame's draws: page, commands
+    uint64_t fixed_bytes() const { return band_ends.size() + fades.size() + drawn.size() + commands.size(); }
 };
 
 uint32_t pack_pair(uint32_t low, uint32_t high) { return (low & 0xffffu) | high << 16; }
 
 // Uploads a resident cube into a new block of the pool and makes its draw command.
-void place_cube(HlodGpu& gpu, const CubeData& c, uint32_t index, bool colors) {
+void place_cube(CubesGpu& gpu, const CubeData& c, uint32_t index, bool colors) {
     const CubeBlock layout = cube_block(c.vertex_count(), c.parents.size(), c.indices.size(), colors);
     PlacedCube& placed = gpu.placed[index];
-    placed.block = gpu.pool.allocate(layout.units);
+    placed.block = gpu.pool->allocate(layout.units);
     placed.data = &c;
     const uint64_t base = placed.block.offset;
     std::vector<std::array<uint32_t, 4>> units(layout.units, {0, 0, 0, 0});
@@ -303,58 +314,63 @@ void place_cube(HlodGpu& gpu, const CubeData& c, uint32_t index, bool colors) {
         color_offsets = {int32_t(4 * (base + layout.vertex_colors) - base), int32_t(4 * (base + layout.parent_colors) - (base + layout.parents))};
     }
     std::copy(c.indices.begin(), c.indices.end(), words + 4 * layout.indices);
-    gpu.pool.upload(placed.block, 0, units.data(), units.size() * gl::BufferPool::kUnitBytes);
+    gpu.pool->upload(placed.block, 0, units.data(), units.size() * gl::BufferPool::kUnitBytes);
     gpu.color_offsets.upload(index * sizeof(color_offsets), &color_offsets, sizeof(color_offsets));
     placed.command = {uint32_t(c.indices.size()), 1, uint32_t(4 * (base + layout.indices)), int32_t(base), index};
 }
 
-// Brings the pool to the model's residency: blocks for cubes that arrived (or whose data changed),
-// freed for cubes that left. Only the cubes that changed are uploaded.
-void sync_pool(const HlodModel& model, HlodGpu& gpu) {
-    if (gpu.residency == model.residency_version()) return;
-    gpu.residency = model.residency_version();
+// Brings the blocks to the model's residency: placed for cubes that arrived (or whose data changed),
+// freed for cubes that left. Only the cubes that changed are uploaded. Models sharing the cubes hold
+// the same data, so a second model finds nothing to change.
+void sync_blocks(const HlodModel& model, CubesGpu& gpu) {
+    const std::pair<uint32_t, uint64_t> version{model.id(), model.residency_version()};
+    if (gpu.synced == version) return;
+    gpu.synced = version;
     const auto& cubes = model.cubes();
     for (uint32_t c = 0; c < cubes.size(); ++c) {
         PlacedCube& placed = gpu.placed[c];
         if (placed.data == cubes[c].data.get()) continue;
-        gpu.pool.free(placed.block);
+        gpu.pool->free(placed.block);
         placed.data = nullptr;
         if (cubes[c].data) place_cube(gpu, *cubes[c].data, c, model.header().has_colors());
     }
     gl::check_gl("uploading HLOD cubes");
 }
 
-// The pool's page: a model loaded whole takes pages that hold all its cubes (up to 128 MiB, fewer
-// draws); a streamed one takes pages of a 64th of its budget (1 to 16 MiB), so that what the pages of
-// a scene of many models hold beyond their cubes' own bytes stays small beside the budget.
+// The scene pool's page: a 64th of a streamed model's budget (1 to 16 MiB), so that what the pages
+// hold beyond their cubes' own bytes stays small beside the budget; 16 MiB for models loaded whole.
 uint64_t pool_page_bytes(const HlodModel& model) {
     constexpr uint64_t MiB = uint64_t(1) << 20;
     if (const StreamCache* cache = model.stream_cache()) return std::clamp(cache->budget() / 64, MiB, 16 * MiB);
-    uint64_t bytes = 0;
-    for (const HlodCube& c : model.cubes())
-        if (c.data) bytes += HlodModel::cube_gpu_bytes(*c.data);
-    return std::min(bytes, 128 * MiB);
+    return 16 * MiB;
 }
 
-std::unique_ptr<HlodGpu> make_gpu(const HlodModel& model) {
-    auto gpu = std::make_unique<HlodGpu>(pool_page_bytes(model));
+std::unique_ptr<CubesGpu> make_cubes_gpu(const HlodModel& model, std::shared_ptr<gl::BufferPool> pool) {
+    auto gpu = std::make_unique<CubesGpu>(std::move(pool));
     const auto& cubes = model.cubes();
     std::vector<std::array<uint32_t, 4>> records;
     for (const HlodCube& c : cubes) records.push_back({c.node.level, c.node.i, c.node.j, c.node.k});
-    gpu->cubes = gl::Buffer(records, 0);
+    gpu->cubes = gl::Buffer(records, gl::kFixedStorage);
     std::vector<uint32_t> links;
     links.reserve(cubes.size() * 28);
     for (uint32_t c = 0; c < cubes.size(); ++c) {
         links.insert(links.end(), model.neighbours(c).begin(), model.neighbours(c).end());
         links.push_back(model.parent(c));
     }
-    gpu->links = gl::Buffer(links, 0);
-    gpu->band_ends = gl::Buffer(cubes.size() * sizeof(std::array<float, 2>), GL_DYNAMIC_STORAGE_BIT);
-    gpu->fades = gl::Buffer(cubes.size() * sizeof(float), GL_DYNAMIC_STORAGE_BIT);
-    gpu->color_offsets = gl::Buffer(cubes.size() * sizeof(std::array<int32_t, 2>), GL_DYNAMIC_STORAGE_BIT);
-    gpu->commands = gl::Buffer(cubes.size() * sizeof(DrawCommand), GL_DYNAMIC_STORAGE_BIT);
-    gpu->drawn = gl::Buffer(cubes.size() * sizeof(uint32_t), GL_DYNAMIC_STORAGE_BIT);
+    gpu->links = gl::Buffer(links, gl::kFixedStorage);
+    gpu->color_offsets = gl::Buffer(cubes.size() * sizeof(std::array<int32_t, 2>), gl::kDynamicStorage);
     gpu->placed.resize(cubes.size());
+    gl::check_gl("making an HLOD model's buffers");
+    return gpu;
+}
+
+std::unique_ptr<HlodGpu> make_gpu(const HlodModel& model) {
+    auto gpu = std::make_unique<HlodGpu>();
+    const size_t cubes = model.cubes().size();
+    gpu->band_ends = gl::Buffer(cubes * sizeof(std::array<float, 2>), gl::kDynamicStorage);
+    gpu->fades = gl::Buffer(cubes * sizeof(float), gl::kDynamicStorage);
+    gpu->commands = gl::Buffer(cubes * sizeof(IndexedDrawCommand), gl::kDynamicStorage);
+    gpu->drawn = gl::Buffer(cubes * sizeof(uint32_t), gl::kDynamicStorage);
     gl::check_gl("making an HLOD model's buffers");
     return gpu;
 }
@@ -380,9 +396,9 @@ void set_view_uniforms(const HlodModel& model, const gl::Program& program, HlodG
         parent_step[l] = h.lattice_step(l == 0 ? 0 : l - 1);
         span[l] = model.morph_span_limit(l);
     }
-    glProgramUniform1fv(program.id(), program.uniform_location("morph_span"), kMaxLevels, span.data());
-    glProgramUniform1fv(program.id(), program.uniform_location("lattice_step"), kMaxLevels, step.data());
-    glProgramUniform1fv(program.id(), program.uniform_location("parent_step"), kMaxLevels, parent_step.data());
+    program.set("morph_span", std::span<const float>(span));
+    program.set("lattice_step", std::span<const float>(step));
+    program.set("parent_step", std::span<const float>(parent_step));
     program.set("overhang", int(model.overhang_steps()));
     program.set("morph", int(model.morphs_for(context.camera)));
     program.set("has_colors", int(h.has_colors()));
@@ -393,17 +409,26 @@ void set_view_uniforms(const HlodModel& model, const gl::Program& program, HlodG
     program.set("capture", int(model.capture_morph()));
 }
 
-void draw_boxes(const HlodModel& model, const gl::Program& p, HlodGpu& gpu, DrawContext& context, const DrawItem& item) {
+void draw_boxes(const HlodModel& model, const gl::Program& p, const CubesGpu& cubes, HlodGpu& gpu, DrawContext& context,
+                const DrawItem& item) {
     const HlodHeader& header = model.header();
     gpu.drawn.upload(0, &context.list.item_data[item.first], item.count * sizeof(uint32_t));
-    gpu.drawn.bind_base(GL_SHADER_STORAGE_BUFFER, 6);
     std::array<float, kMaxLevels> size{};
     for (uint32_t l = 0; l <= header.max_level; ++l) size[l] = float(header.cube_size(l));
     p.set("clip_from_lattice", glm::mat4(context.projection * context.view * item.model * model.lattice_to_node()));
-    glProgramUniform1fv(p.id(), p.uniform_location("cube_size"), kMaxLevels, size.data());
-    p.use();
-    glDrawArraysInstanced(GL_LINES, 0, 24, GLsizei(item.count));
-    ++context.stats.draw_calls;
+    p.set("cube_size", std::span<const float>(size));
+    DrawCall call{.program = p, .primitive = Primitive::lines};
+    call.storage[1] = &cubes.cubes, call.storage[6] = &gpu.drawn;
+    context.draw_instanced(call, 24, item.count);
+}
+
+// What the frame's statistics count of the GPU memory behind a model: its own buffers; and, once a
+// frame however many models draw from them, its cubes' tables and the scene pool's pages.
+uint64_t bytes_to_count(const HlodGpu& gpu, CubesGpu& cubes, ScenePool& pool, const GpuCache& cache) {
+    uint64_t bytes = gpu.fixed_bytes();
+    if (std::exchange(cubes.counted_frame, cache.frame()) != cache.frame()) bytes += cubes.fixed_bytes();
+    if (std::exchange(pool.counted_frame, cache.frame()) != cache.frame()) bytes += pool.pool->capacity_bytes();
+    return bytes;
 }
 
 }  // namespace
@@ -414,25 +439,26 @@ uint64_t HlodModel::gpu_block_bytes(uint64_t vertices, uint64_t parents, uint64_
 
 void HlodModel::draw(DrawContext& context, const DrawItem& item) {
     const HlodPrograms& programs = context.cache.get_shared<HlodPrograms>(kProgramsKey, [] { return std::make_unique<HlodPrograms>(); });
+    ScenePool& pool = context.cache.get_shared<ScenePool>(kPoolKey, [&] {
+        auto entry = std::make_unique<ScenePool>();
+        entry->pool = std::make_shared<gl::BufferPool>(pool_page_bytes(*this));
+        return entry;
+    });
+    pool.pool->set_page_bytes(pool_page_bytes(*this));
+    CubesGpu& cubes = context.cache.get_owned<CubesGpu>(cube_owner(), [&] { return make_cubes_gpu(*this, pool.pool); });
     HlodGpu& gpu = context.cache.get<HlodGpu>(*this, [&] { return make_gpu(*this); });
-    sync_pool(*this, gpu);
+    sync_blocks(*this, cubes);
     set_view_uniforms(*this, programs.surface, gpu, context, item);
-    programs.surface.use();
-    gpu.cubes.bind_base(GL_SHADER_STORAGE_BUFFER, 1);
-    gpu.links.bind_base(GL_SHADER_STORAGE_BUFFER, 8);
-    gpu.band_ends.bind_base(GL_SHADER_STORAGE_BUFFER, 9);
-    gpu.fades.bind_base(GL_SHADER_STORAGE_BUFFER, 11);
-    gpu.color_offsets.bind_base(GL_SHADER_STORAGE_BUFFER, 10);
 
     // This frame's commands in the selection's order (front to back) in one indirect buffer, drawn as
     // runs of consecutive cubes on one page. The order is what the frame depends on where triangles
     // tie in depth (cube borders), so it must not follow where the pool happened to place the cubes:
     // a capture gives the same bytes whatever the cache held before.
-    std::vector<DrawCommand> commands;
+    std::vector<IndexedDrawCommand> commands;
     commands.reserve(item.count);
     gpu.runs.clear();  // (page, commands)
     for (uint32_t k = 0; k < item.count; ++k) {
-        const PlacedCube& placed = gpu.placed[context.list.item_data[item.first + k]];
+        const PlacedCube& placed = cubes.placed[context.list.item_data[item.first + k]];
         if (gpu.runs.empty() || gpu.runs.back().first != placed.block.page) gpu.runs.push_back({placed.block.page, 0});
         ++gpu.runs.back().second;
         commands.push_back(placed.command);
@@ -440,38 +466,32 @@ void HlodModel::draw(DrawContext& context, const DrawItem& item) {
     }
     if (!commands.empty()) gpu.commands.upload(commands);
     context.stats.cubes += item.count;
-    context.stats.bytes_resident += gpu.pool.capacity_bytes() + gpu.fixed_bytes();
+    context.stats.bytes_resident += bytes_to_count(gpu, cubes, pool, context.cache);
     if (capture_morph_) captured_.clear();
-    if (debug_view_ == HlodDebugView::wireframe) glPolygonMode(GL_FRONT_AND_BACK, GL_LINE);
-    gpu.vertex_array.bind();
-    glBindBuffer(GL_DRAW_INDIRECT_BUFFER, gpu.commands.id());
+    DrawCall call{.program = programs.surface, .wireframe = debug_view_ == HlodDebugView::wireframe};
+    call.storage[1] = &cubes.cubes, call.storage[8] = &cubes.links, call.storage[10] = &cubes.color_offsets;
+    call.storage[9] = &gpu.band_ends, call.storage[11] = &gpu.fades;
     size_t first_command = 0;
     for (const auto& [p, count] : gpu.runs) {
-        const gl::Buffer& page = gpu.pool.page(p);
-        for (GLuint binding : {2, 3, 4, 5}) page.bind_base(GL_SHADER_STORAGE_BUFFER, binding);
-        glVertexArrayElementBuffer(gpu.vertex_array.id(), page.id());
+        const gl::Buffer& page = pool.pool->page(p);
+        call.storage[2] = call.storage[3] = call.storage[4] = call.storage[5] = call.indices = &page;
         gl::Buffer capture;
         if (capture_morph_) {
-            capture = gl::Buffer(page.size(), GL_DYNAMIC_STORAGE_BIT);  // a vec4 per 16-byte unit
-            capture.bind_base(GL_SHADER_STORAGE_BUFFER, 7);
+            capture = gl::Buffer(page.size(), gl::kDynamicStorage);  // a vec4 per 16-byte unit
+            call.storage[7] = &capture;
         }
-        glMultiDrawElementsIndirect(GL_TRIANGLES, GL_UNSIGNED_INT, reinterpret_cast<const void*>(first_command * sizeof(DrawCommand)),
-                                    GLsizei(count), 0);
-        ++context.stats.draw_calls;
+        context.draw_indirect(call, gpu.commands, first_command, count);
         if (capture_morph_) {
-            glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
             const auto values = capture.download<glm::vec4>(capture.size() / sizeof(glm::vec4));
             for (size_t k = first_command; k < first_command + count; ++k) {
-                const DrawCommand& command = commands[k];
+                const IndexedDrawCommand& command = commands[k];
                 const auto first = values.begin() + command.base_vertex;
                 captured_[command.base_instance].assign(first, first + cubes_[command.base_instance].data->vertex_count());
             }
         }
         first_command += count;
     }
-    glBindBuffer(GL_DRAW_INDIRECT_BUFFER, 0);
-    if (debug_view_ == HlodDebugView::wireframe) glPolygonMode(GL_FRONT_AND_BACK, GL_FILL);
-    if (show_boxes_) draw_boxes(*this, programs.boxes, gpu, context, item);
+    if (show_boxes_) draw_boxes(*this, programs.boxes, cubes, gpu, context, item);
 }
 
 }  // namespace strata

@@ -956,6 +956,8 @@ HlodFile::HlodFile(const std::filesystem::path& path)
     if (::fstat(file_.get(), &status) != 0) throw std::runtime_error(io_error(path, "cannot read its size"));
     if (!S_ISREG(status.st_mode)) throw std::runtime_error(name + ": not a regular file");
     file_size_ = uint64_t(status.st_size);
+    identity_ = {uint64_t(status.st_dev), uint64_t(status.st_ino), file_size_,
+                 int64_t(status.st_mtim.tv_sec) * 1'000'000'000 + status.st_mtim.tv_nsec};
 
     // Magic and version first: they sit where version 1 had them (its header was 128 bytes), so an old
     // file is named as one.

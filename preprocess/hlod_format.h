@@ -205,6 +205,14 @@ public:
     const std::vector<HlodSection>& sections() const { return sections_; }
     uint64_t file_size() const { return file_size_; }
     const std::filesystem::path& path() const { return path_; }
+    // Which file this is, whatever path it was opened by: two HlodFiles with equal identities read the
+    // same bytes (a file rewritten in place since gets a new modification time).
+    struct Identity {
+        uint64_t device = 0, inode = 0, size = 0;
+        int64_t modified_ns = 0;
+        bool operator==(const Identity&) const = default;
+    };
+    const Identity& identity() const { return identity_; }
 
     // Reads node's payload and checks its checksum; throws naming the cube on mismatch. Safe to call
     // from several threads at once (positioned reads).
@@ -227,6 +235,7 @@ private:
     std::filesystem::path path_;
     FileHandle file_;
     uint64_t file_size_ = 0;
+    Identity identity_;
     HlodHeader header_;
     std::vector<HlodSection> sections_;
     std::vector<HlodNode> nodes_;

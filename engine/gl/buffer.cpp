@@ -5,6 +5,12 @@
 
 namespace strata::gl {
 
+uint64_t max_storage_block_bytes() {
+    GLint64 bytes = 0;
+    glGetInteger64v(GL_MAX_SHADER_STORAGE_BLOCK_SIZE, &bytes);
+    return uint64_t(bytes);
+}
+
 Buffer::Buffer(std::size_t size_bytes, GLbitfield storage_flags, const void* initial_data)
     : size_(size_bytes), storage_flags_(storage_flags) {
     // GL rejects empty storage; an empty buffer is Buffer{}.
@@ -32,6 +38,7 @@ void Buffer::upload(std::size_t offset_bytes, const void* data, std::size_t size
 
 void Buffer::download(std::size_t offset_bytes, void* out, std::size_t size_bytes) const {
     check_range("download", offset_bytes, size_bytes);
+    glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);  // storage-buffer writes of earlier draws become visible
     glGetNamedBufferSubData(id(), static_cast<GLintptr>(offset_bytes), static_cast<GLsizeiptr>(size_bytes), out);
 }
 

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <ranges>
 #include <type_traits>
 #include <vector>
@@ -19,6 +20,13 @@ concept BufferElement = std::is_trivially_copyable_v<T>;
 template <class R>
 concept BufferData = std::ranges::contiguous_range<R> && std::ranges::sized_range<R> &&
                      BufferElement<std::ranges::range_value_t<R>>;
+
+// Storage flags: contents fixed at creation, or replaceable with upload().
+inline constexpr GLbitfield kFixedStorage = 0, kDynamicStorage = GL_DYNAMIC_STORAGE_BIT;
+
+// The most bytes one storage-buffer binding may hold (GL_MAX_SHADER_STORAGE_BLOCK_SIZE). Needs a
+// current context.
+uint64_t max_storage_block_bytes();
 
 class Buffer {
 public:
@@ -38,8 +46,8 @@ public:
         upload(offset_bytes, std::ranges::data(data), byte_size(data));
     }
 
-    // Copies bytes back to the CPU (glGetNamedBufferSubData: waits for the GPU). Throws GlError when
-    // the range is outside the buffer.
+    // Copies bytes back to the CPU (glGetNamedBufferSubData: waits for the GPU), shaders' writes to
+    // it included. Throws GlError when the range is outside the buffer.
     void download(std::size_t offset_bytes, void* out, std::size_t size_bytes) const;
     template <BufferElement T>
     std::vector<T> download(std::size_t count, std::size_t offset_bytes = 0) const {

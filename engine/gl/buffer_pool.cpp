@@ -61,17 +61,14 @@ void RangeAllocator::free(uint64_t offset, uint64_t size) {
 
 namespace {
 
-uint64_t max_binding_units() {
-    GLint64 max_block = 0;
-    glGetInteger64v(GL_MAX_SHADER_STORAGE_BLOCK_SIZE, &max_block);
-    return uint64_t(max_block) / BufferPool::kUnitBytes;
-}
+uint64_t max_binding_units() { return max_storage_block_bytes() / BufferPool::kUnitBytes; }
 
 }  // namespace
 
-BufferPool::BufferPool(uint64_t page_bytes)
-    : page_units_(std::max<uint64_t>(1, (page_bytes + kUnitBytes - 1) / kUnitBytes)), max_units_(max_binding_units()) {
-    page_units_ = std::min(page_units_, max_units_);
+BufferPool::BufferPool(uint64_t page_bytes) : max_units_(max_binding_units()) { set_page_bytes(page_bytes); }
+
+void BufferPool::set_page_bytes(uint64_t page_bytes) {
+    page_units_ = std::min(std::max<uint64_t>(1, (page_bytes + kUnitBytes - 1) / kUnitBytes), max_units_);
 }
 
 BufferPool::Block BufferPool::allocate(uint64_t units) {
@@ -82,12 +79,14 @@ BufferPool::Block BufferPool::allocate(uint64_t units) {
         if (!pages_[p].buffer.id()) continue;
         if (const auto offset = pages_[p].ranges.allocate(units)) return {p, *offset, units};
     }
-    // A new page, in the first slot a freed page left.
-    const uint64_t capacity = std::max(units, page_units_);
+    // A new page, in the first slot a freed page left: as large as the pool already is, from
+    // kFirstPageBytes up to the page size, so that a small scene takes little more than it holds.
+    const uint64_t grown = std::max(kFirstPageBytes / kUnitBytes, capacity_bytes() / kUnitBytes);
+    const uint64_t capacity = std::max(units, std::min(grown, page_units_));
     uint32_t p = 0;
     while (p < pages_.size() && pages_[p].buffer.id()) ++p;
     if (p == pages_.size()) pages_.emplace_back();
-    pages_[p] = Page{Buffer(capacity * kUnitBytes, GL_DYNAMIC_STORAGE_BIT), RangeAllocator(capacity)};
+    pages_[p] = Page{Buffer(capacity * kUnitBytes, kDynamicStorage), RangeAllocator(capacity)};
     return {p, *pages_[p].ranges.allocate(units), units};
 }
 

@@ -48,10 +48,14 @@ public:
         explicit operator bool() const { return page != ~0u; }
     };
 
-    // Pages of `page_bytes` (rounded up to whole units, at most what one storage-buffer binding may
-    // hold: GL_MAX_SHADER_STORAGE_BLOCK_SIZE); a block larger than that gets a page of its own size.
-    // Needs a current GL context.
+    // Pages of up to `page_bytes` (rounded up to whole units, at most what one storage-buffer binding
+    // may hold: GL_MAX_SHADER_STORAGE_BLOCK_SIZE): each new page as large as the pool already is, from
+    // kFirstPageBytes on; a block larger than a page gets a page of its own size. Needs a current GL
+    // context.
     explicit BufferPool(uint64_t page_bytes);
+    static constexpr uint64_t kFirstPageBytes = uint64_t(1) << 20;
+    // For pages made from now on.
+    void set_page_bytes(uint64_t page_bytes);
 
     // Places `units` (≥ 1) units; throws GlError when one binding cannot hold that many.
     Block allocate(uint64_t units);

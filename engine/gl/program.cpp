@@ -95,5 +95,8 @@ void Program::set(GLint location, const glm::mat3& value) const {
 void Program::set(GLint location, const glm::mat4& value) const {
     glProgramUniformMatrix4fv(id(), location, 1, GL_FALSE, glm::value_ptr(value));
 }
+void Program::set(GLint location, std::span<const float> values) const {
+    glProgramUniform1fv(id(), location, GLsizei(values.size()), values.data());
+}
 
 }  // namespace strata::gl

@@ -11,6 +11,7 @@
 #include <functional>
 #include <initializer_list>
 #include <map>
+#include <span>
 #include <string>
 #include <string_view>
 
@@ -42,6 +43,7 @@ public:
     void set(GLint location, const glm::ivec2& value) const;
     void set(GLint location, const glm::mat3& value) const;
     void set(GLint location, const glm::mat4& value) const;
+    void set(GLint location, std::span<const float> values) const;  // a float array uniform, from its first element
     template <class T>
     void set(std::string_view uniform, const T& value) const {
         set(uniform_location(uniform), value);

@@ -1,11 +1,14 @@
 // What a Drawable's draw() gets from the renderer: the view, the frame's statistics, the GPU cache,
-// and the shading code every program shares (lights in a uniform block, the fragment outputs).
+// the shading code every program shares (lights in a uniform block, the fragment outputs), and the
+// draws it submits (engine/render/draw_call.h): drawables issue no GL of their own.
 #pragma once
 
 #include <cstdint>
 
 #include <glm/glm.hpp>
 
+#include "engine/gl/vertex_array.h"
+#include "engine/render/draw_call.h"
 #include "engine/render/gpu_cache.h"
 #include "engine/scene/camera.h"
 #include "engine/scene/render_list.h"
@@ -41,6 +44,18 @@ struct DrawContext {
     const RenderList& list;  // the draw items' data (an HLOD item's cubes)
     GpuCache& cache;
     FrameStats& stats;
+    gl::VertexArray& vertex_array;  // attribute-less: holds the index buffer of the call drawn
+
+    // `index_count` indices of call.indices from the first.
+    void draw_elements(const DrawCall& call, uint32_t index_count);
+    // `count` IndexedDrawCommands of `commands` from the `first`, one multi-draw.
+    void draw_indirect(const DrawCall& call, const gl::Buffer& commands, uint64_t first, uint32_t count);
+    // `instances` instances of `vertices` vertices, without indices.
+    void draw_instanced(const DrawCall& call, uint32_t vertices, uint32_t instances);
+
+private:
+    void apply(const DrawCall& call);
+    void restore(const DrawCall& call);
 };
 
 // GLSL shared by every scene program's fragment stage: the lights block (binding 0, filled by the

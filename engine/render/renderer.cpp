@@ -141,16 +141,13 @@ FrameStats Renderer::render(Node& scene, const Camera& camera, gl::Framebuffer& 
     target.bind();
     target.clear(s.background);
     upload_lights(list_, camera);
-    empty_vertex_array_.bind();
-    glPolygonMode(GL_FRONT_AND_BACK, GL_FILL);  // drawables that change state put it back; start clean anyway
     GLuint timer = 0;
     if (s.measure_gpu_time) {
         glCreateQueries(GL_TIME_ELAPSED, 1, &timer);
         glBeginQuery(GL_TIME_ELAPSED, timer);
     }
-    DrawContext context{camera, view, projection, glm::dvec3(glm::inverse(view)[3]), list_, cache_, stats};
+    DrawContext context{camera, view, projection, glm::dvec3(glm::inverse(view)[3]), list_, cache_, stats, empty_vertex_array_};
     for (const DrawItem& item : list_.opaque) item.drawable->draw(context, item);
-    empty_vertex_array_.bind();
     if (timer) {
         glEndQuery(GL_TIME_ELAPSED);
         GLuint64 nanoseconds = 0;

@@ -154,6 +154,25 @@ TEST_F(BufferPoolTest, NewPagesWhenFullAndAPageOfItsOwnForALargeBlock) {
     EXPECT_EQ(pool.used_bytes(), 0u);
 }
 
+// Pages grow with the pool, from 1 MiB up to the page size: a small scene takes little more than it
+// holds, a large one takes few pages. A new page size applies to pages made from then on.
+TEST_F(BufferPoolTest, PagesGrowAsLargeAsThePoolUpToThePageSize) {
+    constexpr uint64_t MiB = uint64_t(1) << 20, unit = BufferPool::kUnitBytes;
+    BufferPool pool(8 * MiB);
+    std::vector<BufferPool::Block> blocks;
+    std::vector<uint64_t> sizes;
+    for (int k = 0; k < 6; ++k) {
+        // Each block fills a page of its own: as large as the pool is, at least 1 MiB, at most 8 MiB.
+        const uint64_t grown = std::min<uint64_t>(std::max<uint64_t>(MiB, pool.capacity_bytes()), 8 * MiB);
+        blocks.push_back(pool.allocate(grown / unit));
+        sizes.push_back(pool.page(blocks.back().page).size());
+    }
+    EXPECT_EQ(sizes, (std::vector<uint64_t>{MiB, MiB, 2 * MiB, 4 * MiB, 8 * MiB, 8 * MiB}));
+    pool.set_page_bytes(2 * MiB);
+    const BufferPool::Block small = pool.allocate(1);
+    EXPECT_EQ(pool.page(small.page).size(), 2 * MiB);
+}
+
 TEST_F(BufferPoolTest, ABlockNoBindingCanHoldIsAnError) {
     GLint64 max_block = 0;
     glGetInteger64v(GL_MAX_SHADER_STORAGE_BLOCK_SIZE, &max_block);

@@ -7,8 +7,13 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cerrno>
+#include <cstring>
 #include <fstream>
 #include <set>
+
+#include <fcntl.h>
+#include <unistd.h>
 
 #include <glm/gtc/matrix_transform.hpp>
 
@@ -222,6 +227,93 @@ TEST_F(Streaming, ACubeThatCannotBeReadLeavesItsParentStandingInAndACaptureNames
     }
 }
 
+// The descriptor a model reads `path` through (HlodFile keeps it open), found in /proc/self/fd; -1 if none.
+int descriptor_of(const std::filesystem::path& path) {
+    const std::filesystem::path target = std::filesystem::canonical(path);
+    for (const auto& entry : std::filesystem::directory_iterator("/proc/self/fd")) {
+        std::error_code error;
+        if (std::filesystem::read_symlink(entry.path(), error) == target) return std::stoi(entry.path().filename().string());
+    }
+    return -1;
+}
+
+// Faults (issue 16 §4): a read error. The model's descriptor is swapped, under it, for /proc/self/mem,
+// whose low offsets (the payloads' offsets are a few MB at most) are unmapped addresses: every pread
+// there fails with EIO in the kernel, as a failing disk's would. The cube is reported by file and
+// cube with the system's reason, its parent stands in watertight, and a capture fails with that message.
+TEST_F(Streaming, AReadErrorIsReportedByFileAndCubeWhileItsParentStandsIn) {
+    test::TempDir dir;
+    const std::filesystem::path copy = dir / "bunny.hlod";
+    std::filesystem::copy_file(test::bunny_hlod(), copy);
+    auto cache = std::make_shared<StreamCache>(uint64_t(16) << 20, 2);  // pins the coarse levels only
+    auto model = HlodModel::open(copy, cache);
+    model->set_kappa0(2.5);
+    auto root = std::make_shared<Group>();
+    root->add(model);
+    // The coarse levels first, read as usual: a far view until nothing is missing or loading.
+    Camera camera;
+    aim(camera, *model, centre_of(*model) + 3 * model->header().root_size * glm::dvec3(0, 0.3, 1));
+    for (int frame = 0; frame < 200; ++frame) {
+        const Culled culled = cull_frame(*root, *model, camera);
+        if (culled.stand_ins == 0 && !cache->has_requests() && cache->stats().in_flight == 0) break;
+        cache->update();
+        cache->wait_for_a_load();
+    }
+    uint32_t target = kNoCube;  // the finest cube with the most triangles: the view goes there
+    for (uint32_t c = 0; c < model->cubes().size(); ++c) {
+        const HlodNode& n = model->cubes()[c].node;
+        if (n.level == model->header().max_level && (target == kNoCube || n.triangle_count > model->cubes()[target].node.triangle_count))
+            target = c;
+    }
+    ASSERT_NE(target, kNoCube);
+    ASSERT_FALSE(cache->resident(0, target));
+    const int fd = descriptor_of(copy);
+    ASSERT_GE(fd, 0) << "the model does not hold " << copy << " open";
+    const int mem = ::open("/proc/self/mem", O_RDONLY | O_CLOEXEC);
+    ASSERT_GE(mem, 0);
+    char byte;
+    errno = 0;
+    if (::pread(mem, &byte, 1, off_t(model->cubes()[target].node.offset)) != -1 || errno != EIO) {
+        ::close(mem);
+        GTEST_SKIP() << "the payload's offset is mapped in this process: no read error to be had from /proc/self/mem";
+    }
+    ASSERT_GE(::dup2(mem, fd), 0);
+    ::close(mem);
+    // Near the target every cube not yet read fails: the first the view asks for is the one it lacks.
+    const Box cell = model->cell(model->cubes()[target].node);
+    aim(camera, *model, cell.center() + model->origin() + glm::dvec3(0, 0, 0.02 * model->header().root_size));
+    uint32_t broken = kNoCube;
+    for (int frame = 0; frame < 60 && broken == kNoCube; ++frame) {
+        const Culled culled = cull_frame(*root, *model, camera);
+        for (const uint32_t c : culled.cubes) ASSERT_TRUE(model->resident(c));
+        ASSERT_EQ(test::odd_edges(test::drawn_triangles(*model, culled.cubes, culled.eye, *culled.kappa)), 0u) << "frame " << frame;
+        cache->update();
+        cache->wait_for_a_load();
+        for (uint32_t c = 0; c < model->cubes().size() && broken == kNoCube; ++c)
+            if (cache->failure(0, c)) broken = c;
+    }
+    ASSERT_NE(broken, kNoCube) << "no read was tried";
+    const std::string message = *cache->failure(0, broken);
+    EXPECT_NE(message.find(copy.string()), std::string::npos) << message;
+    EXPECT_NE(message.find(describe_cube(model->cubes()[broken].node)), std::string::npos) << message;
+    EXPECT_NE(message.find(std::strerror(EIO)), std::string::npos) << message;
+    // Its parent stands in, watertight, on every frame from now on.
+    for (int frame = 0; frame < 10; ++frame) {
+        const Culled culled = cull_frame(*root, *model, camera);
+        EXPECT_NE(std::find(culled.cubes.begin(), culled.cubes.end(), model->parent(broken)), culled.cubes.end()) << "frame " << frame;
+        for (const uint32_t c : culled.cubes) ASSERT_TRUE(model->resident(c));
+        ASSERT_EQ(test::odd_edges(test::drawn_triangles(*model, culled.cubes, culled.eye, *culled.kappa)), 0u) << "frame " << frame;
+        cache->update();
+    }
+    cull_frame(*root, *model, camera);
+    try {
+        cache->wait_for_requests();
+        FAIL() << "a capture waited for a cube that cannot be read";
+    } catch (const std::runtime_error& e) {
+        EXPECT_NE(std::string(e.what()).find(std::strerror(EIO)), std::string::npos) << e.what();
+    }
+}
+
 class StreamingRender : public Streaming {
 protected:
     static void SetUpTestSuite() { context_ = gl::create_headless_context(); }
@@ -306,6 +398,80 @@ TEST_F(StreamingRender, AFileDeletedOrReplacedWhileOpenIsStillReadAsOpened) {
     const auto model = HlodModel::open(path);
     std::filesystem::rename(other, path);
     EXPECT_EQ(full_detail_frame(model), reference) << "replaced";
+}
+
+// Models from the same file (issue 16 §1): opened twice, by its path and by a hard link, two
+// instances side by side load each cube once, count it once in the budget and hold one block of it on
+// the GPU; their full-detail frame equals two models loaded whole, and either draws on alone once the
+// other is gone. A copy of the file (another inode) shares nothing.
+TEST_F(StreamingRender, ModelsOpenedOnTheSameFileShareTheirCubesInMemoryAndOnTheGpu) {
+    test::TempDir dir;
+    const std::filesystem::path path = dir / "bunny.hlod", link = dir / "link.hlod", copy = dir / "copy.hlod";
+    std::filesystem::copy_file(test::bunny_hlod(), path);
+    std::filesystem::create_hard_link(path, link);
+    std::filesystem::copy_file(test::bunny_hlod(), copy);
+    const auto whole = HlodModel::load(test::bunny_hlod());
+    const double size = whole->header().root_size;
+    // Two instances, the second beside the first; the camera sees both.
+    auto scene_of = [&](const std::shared_ptr<HlodModel>& a, const std::shared_ptr<HlodModel>& b) {
+        auto root = std::make_shared<Group>();
+        for (const auto& [model, x] : {std::pair{a, 0.0}, std::pair{b, 0.6 * size}}) {
+            if (!model) continue;
+            model->set_pixel_error(1.0);
+            auto place = std::make_shared<Transform>();
+            place->set_matrix(glm::translate(glm::dmat4(1.0), glm::dvec3(x, 0, 0)));
+            place->add(model);
+            root->add(place);
+        }
+        return root;
+    };
+    Camera camera;
+    aim(camera, *whole, centre_of(*whole) + glm::dvec3(0.3 * size, 0.2 * size, 1.4 * size));
+    camera.look_at(camera.position, centre_of(*whole) + glm::dvec3(0.3 * size, 0, 0));
+    gl::Framebuffer target({.width = camera.width, .height = camera.height, .samples = 1});
+    RenderSettings full;
+    full.full_detail = true;
+    auto frame = [&](const std::shared_ptr<Group>& root, Renderer& renderer, FrameStats* stats = nullptr) {
+        const FrameStats s = renderer.render(*root, camera, target, full);
+        if (stats) *stats = s;
+        return target.read_color();
+    };
+    Renderer reference_renderer;
+    const std::vector<float> reference = frame(scene_of(whole, HlodModel::load(test::bunny_hlod())), reference_renderer);
+    const std::shared_ptr<StreamCache>& cache = StreamCache::shared();  // the one a full-detail frame waits on
+    const uint64_t budget = cache->budget();
+    cache->set_budget(2 * decoded_bytes(*whole));  // both views fit; 5 % of it pins the coarse levels only
+    // One model alone: what one copy of the view's cubes holds, in the cache and on the GPU.
+    uint64_t one_resident = 0, one_gpu = 0;
+    {
+        const auto a = HlodModel::open(path, cache);
+        FrameStats stats;
+        Renderer renderer;
+        frame(scene_of(a, a), renderer, &stats);  // the same node twice: one model's cubes by construction
+        one_resident = cache->stats().resident_bytes;
+        one_gpu = stats.bytes_resident;
+    }
+    ASSERT_GT(one_resident, 0u);
+    auto a = HlodModel::open(path, cache), b = HlodModel::open(link, cache);
+    FrameStats stats;
+    Renderer renderer;
+    EXPECT_EQ(frame(scene_of(a, b), renderer, &stats), reference);
+    EXPECT_EQ(cache->stats().resident_bytes, one_resident) << "each cube loaded once for both models";
+    // On the GPU, one copy of the cubes too: what one model drawn twice holds (the view's buffers,
+    // its band ends, fades and draw commands, counted per draw in both cases). Two models each with
+    // their own blocks would hold twice the pool's pages.
+    EXPECT_EQ(stats.bytes_resident, one_gpu);
+    a.reset();
+    EXPECT_EQ(frame(scene_of(nullptr, b), renderer), frame(scene_of(nullptr, HlodModel::load(test::bunny_hlod())), reference_renderer))
+        << "the model left draws on alone";
+    EXPECT_EQ(cache->stats().resident_bytes, one_resident) << "its cubes stay while a model reads them";
+    const auto c = HlodModel::open(copy, cache);
+    EXPECT_EQ(frame(scene_of(b, c), renderer), reference);
+    EXPECT_GT(cache->stats().resident_bytes, one_resident + one_resident / 2) << "a copy of the file is another file";
+    b.reset();
+    frame(scene_of(nullptr, c), renderer);
+    EXPECT_LT(cache->stats().resident_bytes, one_resident + one_resident / 2) << "the cubes went with the last model reading them";
+    cache->set_budget(budget);
 }
 
 // Prefetch (issue 16 §1): frames at one view told the pose a coming frame will have load what that
