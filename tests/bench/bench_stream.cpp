@@ -3,13 +3,14 @@
 // own, so that its peak RSS is its own.
 //
 //   bench_stream --model M.hlod [--memory 1G] [--size 1280x720] [--frames 2000] [--instances 10]
-//                [--soak 1000] [--capture 60] [--load-rate BYTES_PER_S] [--no-whole]
+//                [--soak 1000] [--capture 60] [--load-rate BYTES_PER_S] [--no-whole] [--shared]
 //
 // - open: time to open, to the first frame (interactive: what is resident), to converge (interactive
 //   frames until nothing stands in, fades or is asked for) and to a full-detail frame from a cold
 //   cache; peak RSS against the budget; beside loading the model whole (unless --no-whole).
-// - museum: --instances copies of the model in a row under transforms, the budget a tenth of their
-//   decoded size (or --memory if smaller), a flythrough of --frames interactive frames that cuts to
+// - museum: --instances copies of the model in a row under transforms, each opened from a copy of the
+//   file of its own (distinct files: nothing shared) or, with --shared, all from the one file (its
+//   cubes shared); the budget a tenth of their decoded size (or --memory if smaller), a flythrough of --frames interactive frames that cuts to
 //   another copy every 200 frames: frame time median and p95, frames to converge after each cut,
 //   peak RSS; and hole pixels: every 50th frame is drawn again, in another process, with one copy of
 //   the model loaded whole under each instance's transform, both on magenta; a pixel the reference
@@ -28,6 +29,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <functional>
 #include <string>
@@ -82,6 +84,8 @@ struct Options {
     int width = 1280, height = 720, frames = 2000, instances = 10, soak = 1000, capture = 60;
     double load_rate = 0;
     bool whole = true;
+    bool shared = false;
+    std::vector<std::string> instance_files;  // the museum's: copies of the model, or the model itself
 };
 
 // Runs `part` in a child process (its own GL context, cache and peak RSS); false if it failed.
@@ -202,18 +206,18 @@ struct Museum {
     std::shared_ptr<strata::Group> scene = std::make_shared<strata::Group>();
     std::vector<std::shared_ptr<strata::Transform>> places;
     strata::Box bounds;
-    uint64_t decoded = 0;  // every instance's cubes, decoded
+    uint64_t decoded = 0;  // every distinct file's cubes, decoded
 };
 
 Museum museum(const Options& o) {
     Museum m;
     const auto probe = strata::HlodModel::open(o.model);
     for (const strata::HlodCube& cube : probe->cubes()) m.decoded += probe->cube_bytes_bound(cube.node);
-    m.decoded *= uint64_t(o.instances);
+    if (!o.shared) m.decoded *= uint64_t(o.instances);
     const strata::Box b = probe->bound();
     const double spacing = 2.5 * b.radius();
     for (int i = 0; i < o.instances; ++i) {
-        auto model = strata::HlodModel::open(o.model);
+        auto model = strata::HlodModel::open(o.instance_files[size_t(i)]);
         model->set_pixel_error(1.0);
         auto place = std::make_shared<strata::Transform>();
         glm::dmat4 matrix = glm::translate(glm::dmat4(1.0), glm::dvec3(spacing * i, 0, 0));
@@ -441,6 +445,7 @@ bool parse(int argc, char** argv, Options& o) {
         else if (a == "--capture") o.capture = std::stoi(value());
         else if (a == "--load-rate") o.load_rate = std::stod(value());
         else if (a == "--no-whole") o.whole = false;
+        else if (a == "--shared") o.shared = true;
         else return false;
     }
     return !o.model.empty();
@@ -453,7 +458,7 @@ int main(int argc, char** argv) {
     try {
         if (!parse(argc, argv, o)) {
             std::fprintf(stderr, "usage: bench_stream --model M.hlod [--memory 1G] [--size 1280x720] [--frames 2000] [--instances 10] "
-                                 "[--soak 1000] [--capture 60] [--load-rate BYTES_PER_S] [--no-whole]\n");
+                                 "[--soak 1000] [--capture 60] [--load-rate BYTES_PER_S] [--no-whole] [--shared]\n");
             return 2;
         }
     } catch (const std::exception& e) {
@@ -465,7 +470,23 @@ int main(int argc, char** argv) {
     bool ok = in_child("open", [&] { part_open(o); });
     ok &= in_child("open, full detail", [&] { part_open_full_detail(o); });
     if (o.whole) ok &= in_child("whole", [&] { part_whole(o); });
-    if (o.frames > 0) ok &= in_child("museum", [&] { part_museum(o); }) && in_child("museum holes", [&] { part_holes(o); });
+    if (o.frames > 0) {
+        // Distinct files: a copy of the model per instance, in a directory of its own (removed after).
+        std::filesystem::path copies;
+        if (!o.shared) copies = std::filesystem::temp_directory_path() / ("bench_stream-" + std::to_string(::getpid()));
+        for (int i = 0; i < o.instances; ++i) {
+            if (o.shared) {
+                o.instance_files.push_back(o.model);
+                continue;
+            }
+            std::filesystem::create_directories(copies);
+            o.instance_files.push_back((copies / ("instance" + std::to_string(i) + ".hlod")).string());
+            std::filesystem::copy_file(o.model, o.instance_files.back(), std::filesystem::copy_options::overwrite_existing);
+        }
+        std::printf("museum files: %s\n", o.shared ? "one, shared by every instance" : "a copy of the model per instance");
+        ok &= in_child("museum", [&] { part_museum(o); }) && in_child("museum holes", [&] { part_holes(o); });
+        if (!copies.empty()) std::filesystem::remove_all(copies);
+    }
     if (o.soak > 0) ok &= in_child("soak", [&] { part_soak(o); });
     if (o.capture > 0) ok &= in_child("capture", [&] { part_capture(o); });
     return ok ? 0 : 1;
