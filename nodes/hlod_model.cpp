@@ -112,6 +112,7 @@ class CubeSource : public StreamSource {
 public:
     CubeSource(std::shared_ptr<const HlodFile> file, const HlodModel& model) : file_(std::move(file)) {
         for (uint32_t c = 0; c < model.cubes().size(); ++c) {
+            levels_.push_back(model.cubes()[c].node.level);
             parents_.push_back(model.parent(c));
             bounds_.push_back(model.cube_bytes_bound(model.cubes()[c].node));
             gpu_bounds_.push_back(model.cube_gpu_bytes_bound(model.cubes()[c].node));
@@ -121,6 +122,20 @@ public:
     uint32_t parent(uint32_t cube) const override { return parents_[cube]; }
     uint64_t item_bytes(uint32_t cube) const override { return bounds_[cube]; }
     uint64_t item_gpu_bytes(uint32_t cube) const override { return gpu_bounds_[cube]; }
+    // The coarse levels whose cubes fit in 5 % of the budget together; the root always, since nothing
+    // is drawn without it.
+    std::vector<uint32_t> pinned_items(uint64_t budget) const override {
+        const uint32_t finest = *std::max_element(levels_.begin(), levels_.end());
+        std::vector<uint64_t> level_bytes(finest + 1, 0);
+        for (uint32_t c = 0; c < levels_.size(); ++c) level_bytes[levels_[c]] += bounds_[c];
+        uint64_t pinned = 0;
+        uint32_t levels = 0;
+        while (levels <= finest && pinned + level_bytes[levels] <= budget / 20) pinned += level_bytes[levels++];
+        std::vector<uint32_t> cubes;
+        for (uint32_t c = 0; c < levels_.size(); ++c)
+            if (levels_[c] < std::max(levels, 1u)) cubes.push_back(c);
+        return cubes;
+    }
     Loaded load(uint32_t cube, const std::shared_ptr<const void>& parent) override {
         const HlodNode& node = file_->nodes()[cube];
         auto data = std::make_shared<CubeData>(file_->read_cube(node));
@@ -138,7 +153,7 @@ public:
 
 private:
     std::shared_ptr<const HlodFile> file_;
-    std::vector<uint32_t> parents_;
+    std::vector<uint32_t> parents_, levels_;
     std::vector<uint64_t> bounds_, gpu_bounds_;
 };
 
@@ -220,15 +235,6 @@ std::shared_ptr<HlodModel> HlodModel::open(const std::filesystem::path& path, st
     if (!shared) shared = SharedSource::add(cache, file->identity(), std::make_shared<CubeSource>(file, *model));
     const StreamCache::SourceId source = shared->source;
     model->stream_ = std::make_unique<Stream>(Stream{shared, *cache, source});
-    // Coarse levels whose cubes fit in 5 % of the budget together stay resident; the root always,
-    // since nothing is drawn without it.
-    std::vector<uint64_t> level_bytes(finest + 1, 0);
-    for (const HlodCube& cube : model->cubes_) level_bytes[cube.node.level] += model->cube_bytes_bound(cube.node);
-    uint64_t pinned = 0;
-    uint32_t levels = 0;
-    while (levels <= finest && pinned + level_bytes[levels] <= cache->budget() / 20) pinned += level_bytes[levels++];
-    for (uint32_t c = 0; c < model->cubes_.size(); ++c)
-        if (model->cubes_[c].node.level < std::max(levels, 1u)) cache->pin(source, c);
     return model;
 }
 

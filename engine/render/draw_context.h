@@ -33,7 +33,7 @@ struct FrameStats {
     double cull_ms = 0;          // CPU: traversal, selection and sorting; full detail: and waiting for the cubes
     double draw_ms = 0;          // CPU: issuing the draws (the GPU may still be working)
     double gpu_ms = -1;          // GPU: the draws, from a timer query; −1 unless asked for
-    uint64_t bytes_resident = 0; // GPU memory of the drawables drawn
+    uint64_t bytes_resident = 0; // GPU memory of the drawables drawn (what several draw from, counted once)
 };
 
 struct DrawContext {

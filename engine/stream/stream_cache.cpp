@@ -46,7 +46,21 @@ StreamCache::SourceId StreamCache::add(std::shared_ptr<StreamSource> source) {
     entry.items.resize(source->item_count());
     entry.source = std::move(source);
     sources_.push_back(std::move(entry));
-    return SourceId(sources_.size() - 1);
+    const SourceId id(sources_.size() - 1);
+    pin_for_budget(id);
+    return id;
+}
+
+void StreamCache::pin_for_budget(SourceId id) {
+    Source& s = sources_[id];
+    for (Item& it : s.items) it.pinned = false;
+    std::erase_if(pinned_, [&](const auto& p) { return p.first == id; });
+    for (const uint32_t index : s.source->pinned_items(budget_)) {
+        Item& it = s.items.at(index);
+        if (it.pinned) continue;
+        it.pinned = true;
+        pinned_.push_back({id, index});
+    }
 }
 
 void StreamCache::remove(SourceId id) {
@@ -83,13 +97,6 @@ void StreamCache::prefetch(SourceId source, uint32_t index, double priority) {
 }
 
 void StreamCache::touch(SourceId source, uint32_t index) { item(source, index).last_used = frame_; }
-
-void StreamCache::pin(SourceId source, uint32_t index) {
-    Item& it = item(source, index);
-    if (it.pinned) return;
-    it.pinned = true;
-    pinned_.push_back({source, index});
-}
 
 void StreamCache::loader_loop() {
     for (;;) {
@@ -380,6 +387,8 @@ void StreamCache::set_load_rate(double bytes_per_second) {
 void StreamCache::set_budget(uint64_t budget_bytes) {
     if (budget_bytes == 0) throw std::invalid_argument("the streaming budget must be positive");
     budget_ = budget_bytes;
+    for (SourceId id = 0; id < sources_.size(); ++id)
+        if (!sources_[id].removed) pin_for_budget(id);
 }
 
 }  // namespace strata

@@ -45,6 +45,9 @@ public:
     virtual uint64_t item_bytes(uint32_t item) const = 0;
     // Of that bound, what the item takes on the GPU (what a separate GPU budget counts).
     virtual uint64_t item_gpu_bytes(uint32_t) const { return 0; }
+    // The items to keep resident under a budget (a model's coarse levels): never evicted, loaded first
+    // and counted in the budget. Asked when the source is added and again whenever the budget changes.
+    virtual std::vector<uint32_t> pinned_items(uint64_t /*budget*/) const { return {}; }
     // Runs on a loader thread, given the parent's value (null for a root). Throws std::exception on
     // failure, with a message that names the source and the item.
     virtual Loaded load(uint32_t item, const std::shared_ptr<const void>& parent) = 0;
@@ -94,8 +97,6 @@ public:
     void prefetch(SourceId source, uint32_t item, double priority);
     // Marks a resident item as used by this frame: not evicted by the next update().
     void touch(SourceId source, uint32_t item);
-    // Never evicted (a model's coarse levels): pinned items are loaded first and count in the budget.
-    void pin(SourceId source, uint32_t item);
 
     // Takes in finished loads, evicts to make room, starts the most wanted requests the budget allows,
     // then ends the frame: requests and touches are cleared.
@@ -123,7 +124,8 @@ public:
 
     Stats stats() const;
     uint64_t budget() const { return budget_; }
-    // A new budget; what no longer fits is evicted by the next update() as room is needed.
+    // A new budget; each source's pinned items are chosen again for it (StreamSource::pinned_items),
+    // and what no longer fits is evicted by the next update() as room is needed.
     void set_budget(uint64_t budget_bytes);
     // A cap on the GPU's share of the budget on its own (0: none): loads and evictions keep the GPU
     // bytes of resident items and loads in flight within it too.
@@ -182,6 +184,8 @@ private:
     void start_load(SourceId source, uint32_t item, uint64_t bound, uint64_t gpu_bound, std::vector<Job>& jobs);
     void queue_jobs(std::vector<Job>& jobs);
     void evict(SourceId source, uint32_t item);
+    // Pins what the source asks to keep under the budget now, and unpins the rest of its items.
+    void pin_for_budget(SourceId source);
     Item& item(SourceId source, uint32_t item);
     const Item& item(SourceId source, uint32_t item) const;
     uint64_t used() const { return resident_bytes_ + reserved_bytes_; }

@@ -15,8 +15,9 @@
 //   peak RSS; and hole pixels: every 50th frame is drawn again, in another process, with one copy of
 //   the model loaded whole under each instance's transform, both on magenta; a pixel the reference
 //   covers that the streamed frame left magenta is a hole.
-// - soak: --soak full-detail frames of a slow orbit, dropped after reading back: RSS at the start,
-//   middle and end, and its slope.
+// - soak: --soak full-detail frames of a slow orbit, dropped after reading back: RSS at 10 %, half way
+//   and the end, and its slope, over the run and its second half; the same for what the process holds
+//   beside the cache's cubes, which a leak grows and a cache filling toward its budget does not.
 // - capture: --capture full-detail frames of a path, with a cold cache, a warm one and three budgets
 //   (the largest working set, twice it, --memory): frames with bytes that differ from the first run.
 #include <sys/resource.h>
@@ -258,6 +259,8 @@ void part_museum(const Options& o) {
     std::ofstream uncovered(holes_file(), std::ios::binary | std::ios::trunc);
     int since_cut = 0;
     bool converged_since_cut = false;
+    std::string hold_report;  // per cut, at the end of its still view
+    char held_line[4096];
     for (int f = 0; f < o.frames; ++f) {
         Camera camera;
         museum_camera(o, m, f, camera);
@@ -277,6 +280,13 @@ void part_museum(const Options& o) {
             converged_since_cut = true;
             converge_frames.push_back(since_cut);
         }
+        if (f % 200 == kHoldFrames - 1) {  // the end of the still view: what keeps it from converging
+            const strata::StreamCache::Stats cache = strata::StreamCache::shared()->stats();
+            std::snprintf(held_line, sizeof held_line, "%s%s%d: %s, %" PRIu64 " stand-ins, %" PRIu64 " loads pending, %s resident, %s short",
+                          hold_report.c_str(), hold_report.empty() ? "" : "; ", f / 200, converged_since_cut ? "converged" : "not converged",
+                          stats.stand_ins, stats.loads_pending, mib(cache.resident_bytes).c_str(), mib(cache.shortfall).c_str());
+            hold_report = held_line;
+        }
         if (f % 50 == 49) {
             const std::vector<float> shown = target.read_color();
             std::vector<char> mask(shown.size() / 4);
@@ -294,6 +304,7 @@ void part_museum(const Options& o) {
                 o.instances, mib(m.decoded).c_str(), double(m.decoded) / double(budget), mib(budget).c_str(), o.frames, o.width,
                 o.height, quantile(frame_ms, 0.5), quantile(frame_ms, 0.95), quantile(converged, 0.5), quantile(converged, 1.0),
                 never, converge_frames.size(), mib(peak_rss()).c_str());
+    std::printf("museum cuts, after %d still frames: %s\n", kHoldFrames, hold_report.c_str());
 }
 
 // The museum's holes: the same frames drawn with one copy of the model loaded whole under every
@@ -358,23 +369,32 @@ void part_soak(const Options& o) {
     strata::Renderer renderer;
     RenderSettings full;
     full.full_detail = true;
-    std::vector<uint64_t> samples;  // RSS after every tenth of the run
-    uint64_t resident_start = 0, resident_end = 0;  // what the cache held then
+    std::vector<uint64_t> samples, held;  // RSS after every tenth of the run, and what the cache held then
     for (int f = 0; f < o.soak; ++f) {
         Camera camera;
         aim(camera, o, model->bound(), 2 * glm::pi<double>() * f / std::max(o.soak, 1) * 3, 1.1 + 0.6 * std::sin(0.01 * f));
         const FrameStats stats = renderer.render(scene, camera, target, full);
         (void)target.read_color();  // dropped, as a capture loop drops a frame once written
-        if (f % std::max(o.soak / 10, 1) == 0 || f == o.soak - 1) samples.push_back(rss());
-        if (samples.size() == 2 && !resident_start) resident_start = stats.memory_resident;
-        resident_end = stats.memory_resident;
+        if (f % std::max(o.soak / 10, 1) == 0 || f == o.soak - 1) {
+            samples.push_back(rss());
+            held.push_back(stats.memory_resident);
+        }
     }
-    const uint64_t start = samples[1 < samples.size() ? 1 : 0], middle = samples[samples.size() / 2], end = samples.back();
-    const double slope = (double(end) - double(start)) / std::max(1.0, 0.9 * o.soak) * 1000.0;
+    // From 10 % on: the first frames load the coarse levels and warm the driver.
+    const size_t first = samples.size() > 1 ? 1 : 0, half = samples.size() / 2, last = samples.size() - 1;
+    auto slope = [&](const std::vector<uint64_t>& v, size_t from, size_t to) {  // MiB per 1000 frames
+        const double frames = double(o.soak) * double(to - from) / double(samples.size() - 1);
+        return (double(v[to]) - double(v[from])) / std::max(1.0, frames) * 1000.0 / double(1 << 20);
+    };
+    std::vector<uint64_t> beside(samples.size());  // what the process holds beyond the cache: a leak grows it
+    for (size_t k = 0; k < samples.size(); ++k) beside[k] = samples[k] - std::min(samples[k], held[k]);
     std::printf("soak: %d full-detail frames at %dx%d under %s: RSS %s at 10 %%, %s at half, %s at the end (slope %+.2f MiB per "
-                "1000 frames), the cache holding %s and then %s; peak RSS %s\n",
-                o.soak, o.width, o.height, mib(o.memory).c_str(), mib(start).c_str(), mib(middle).c_str(), mib(end).c_str(),
-                slope / double(1 << 20), mib(resident_start).c_str(), mib(resident_end).c_str(), mib(peak_rss()).c_str());
+                "1000 frames; %+.2f over the second half), the cache holding %s, %s, %s; RSS beside the cache %s, %s, %s (slope "
+                "%+.2f; %+.2f over the second half); peak RSS %s\n",
+                o.soak, o.width, o.height, mib(o.memory).c_str(), mib(samples[first]).c_str(), mib(samples[half]).c_str(),
+                mib(samples[last]).c_str(), slope(samples, first, last), slope(samples, half, last), mib(held[first]).c_str(),
+                mib(held[half]).c_str(), mib(held[last]).c_str(), mib(beside[first]).c_str(), mib(beside[half]).c_str(),
+                mib(beside[last]).c_str(), slope(beside, first, last), slope(beside, half, last), mib(peak_rss()).c_str());
 }
 
 // FNV-1a over a frame's bytes.

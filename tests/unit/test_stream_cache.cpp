@@ -29,6 +29,10 @@ public:
     uint32_t parent(uint32_t item) const override { return parents_[item]; }
     uint64_t item_bytes(uint32_t) const override { return 1100; }
     uint64_t item_gpu_bytes(uint32_t) const override { return 550; }
+    // Kept resident: `pinned` items under a budget of at least `pin_budget`, none under a smaller one.
+    std::vector<uint32_t> pinned_items(uint64_t budget) const override { return budget >= pin_budget ? pinned : std::vector<uint32_t>{}; }
+    std::vector<uint32_t> pinned;
+    uint64_t pin_budget = 0;
     static uint64_t actual_bytes(uint32_t item) { return 1000 + 10 * (item % 7); }
     uint32_t first_of_level(int level) const { return first_of_level_[size_t(level)]; }
 
@@ -346,12 +350,14 @@ TEST(StreamCache, RemovingASourceDropsItsItemsAndDiscardsItsRunningLoads) {
     EXPECT_EQ(s.in_flight, 0u);
 }
 
-TEST(StreamCache, PinnedItemsLoadFirstAndStay) {
+// Pinned items load first and stay; a budget too small for the source's pins releases them, and they
+// are evicted as room is needed like any other item.
+TEST(StreamCache, PinnedItemsLoadFirstAndStayUntilTheBudgetNoLongerPinsThem) {
     auto tree = std::make_shared<TreeSource>(3);
+    tree->pinned = {0, 1};
+    tree->pin_budget = 4 * 1100;
     StreamCache cache(4 * 1100, 1);
     const auto id = cache.add(tree);
-    cache.pin(id, 0);
-    cache.pin(id, 1);
     for (int frame = 0; frame < 8; ++frame) {  // each frame a new leaf under item 2, none touched again
         cache.request(id, tree->first_of_level(2) + 8 + uint32_t(frame), 1.0);
         cache.wait_for_requests();
@@ -359,6 +365,12 @@ TEST(StreamCache, PinnedItemsLoadFirstAndStay) {
         EXPECT_TRUE(cache.resident(id, 1));
     }
     EXPECT_GT(cache.stats().evicted, 4u);
+    // Three items' room: the pins go, and a leaf under item 2 takes item 1's place (least recently used).
+    cache.set_budget(3 * 1100);
+    cache.request(id, tree->first_of_level(2) + 16, 1.0);
+    cache.wait_for_requests();
+    EXPECT_FALSE(cache.resident(id, 1)) << "item 1 was still pinned under a budget that pins nothing";
+    EXPECT_LE(cache.stats().resident_bytes, 3u * 1100);
     EXPECT_THROW(StreamCache(0, 1), std::invalid_argument);
 }
 

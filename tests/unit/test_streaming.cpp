@@ -155,26 +155,41 @@ TEST_F(Streaming, AFlyInWithLoadsAtDiskSpeedOrATenthOfItNeverCracks) {
     fly_in_never_cracks(10e6);
 }
 
+// A copy of the bunny model to break, opened for streaming through a cache of its own whose budget
+// pins the coarse levels only.
+struct BreakableCopy {
+    test::TempDir dir;
+    std::filesystem::path path = dir / "bunny.hlod";
+    std::shared_ptr<StreamCache> cache = std::make_shared<StreamCache>(uint64_t(16) << 20, 2);
+    std::shared_ptr<HlodModel> model;
+    std::shared_ptr<Group> root = std::make_shared<Group>();
+    BreakableCopy() {
+        std::filesystem::copy_file(test::bunny_hlod(), path);
+        model = HlodModel::open(path, cache);
+        model->set_kappa0(2.5);
+        root->add(model);
+    }
+    // The finest cube with the most triangles.
+    uint32_t largest_finest_cube() const {
+        uint32_t largest = 0;
+        for (uint32_t c = 0; c < model->cubes().size(); ++c) {
+            const HlodNode& n = model->cubes()[c].node, &best = model->cubes()[largest].node;
+            if (n.level > best.level || (n.level == best.level && n.triangle_count > best.triangle_count)) largest = c;
+        }
+        return largest;
+    }
+};
+
 // Faults (issue 16 §4): a cube whose payload turns corrupt after the model was opened fails to load,
 // named by file and cube; its parent stands in for it (and its siblings) on every frame, with no crack
 // and no crash; a capture that needs it fails with that message; a truncated file fails alike.
 TEST_F(Streaming, ACubeThatCannotBeReadLeavesItsParentStandingInAndACaptureNamesIt) {
-    test::TempDir dir;
-    const std::filesystem::path copy = dir / "bunny.hlod";
-    std::filesystem::copy_file(test::bunny_hlod(), copy);
-    auto cache = std::make_shared<StreamCache>(uint64_t(16) << 20, 2);  // pins the coarse levels only
-    auto model = HlodModel::open(copy, cache);
-    model->set_kappa0(2.5);
-    auto root = std::make_shared<Group>();
-    root->add(model);
-    // The finest cube with the most triangles, seen from just off its cell.
-    uint32_t broken = kNoCube;
-    for (uint32_t c = 0; c < model->cubes().size(); ++c) {
-        const HlodNode& n = model->cubes()[c].node;
-        if (n.level == model->header().max_level && (broken == kNoCube || n.triangle_count > model->cubes()[broken].node.triangle_count))
-            broken = c;
-    }
-    ASSERT_NE(broken, kNoCube);
+    const BreakableCopy breakable;
+    const std::filesystem::path& copy = breakable.path;
+    const std::shared_ptr<StreamCache>& cache = breakable.cache;
+    const std::shared_ptr<HlodModel>& model = breakable.model;
+    const std::shared_ptr<Group>& root = breakable.root;
+    const uint32_t broken = breakable.largest_finest_cube();  // seen from just off its cell
     {  // one byte of its payload flipped: its checksum no longer matches
         std::fstream file(copy, std::ios::in | std::ios::out | std::ios::binary);
         const auto at = std::streamoff(model->cubes()[broken].node.offset + model->cubes()[broken].node.size / 2);
@@ -242,14 +257,11 @@ int descriptor_of(const std::filesystem::path& path) {
 // there fails with EIO in the kernel, as a failing disk's would. The cube is reported by file and
 // cube with the system's reason, its parent stands in watertight, and a capture fails with that message.
 TEST_F(Streaming, AReadErrorIsReportedByFileAndCubeWhileItsParentStandsIn) {
-    test::TempDir dir;
-    const std::filesystem::path copy = dir / "bunny.hlod";
-    std::filesystem::copy_file(test::bunny_hlod(), copy);
-    auto cache = std::make_shared<StreamCache>(uint64_t(16) << 20, 2);  // pins the coarse levels only
-    auto model = HlodModel::open(copy, cache);
-    model->set_kappa0(2.5);
-    auto root = std::make_shared<Group>();
-    root->add(model);
+    const BreakableCopy breakable;
+    const std::filesystem::path& copy = breakable.path;
+    const std::shared_ptr<StreamCache>& cache = breakable.cache;
+    const std::shared_ptr<HlodModel>& model = breakable.model;
+    const std::shared_ptr<Group>& root = breakable.root;
     // The coarse levels first, read as usual: a far view until nothing is missing or loading.
     Camera camera;
     aim(camera, *model, centre_of(*model) + 3 * model->header().root_size * glm::dvec3(0, 0.3, 1));
@@ -259,13 +271,7 @@ TEST_F(Streaming, AReadErrorIsReportedByFileAndCubeWhileItsParentStandsIn) {
         cache->update();
         cache->wait_for_a_load();
     }
-    uint32_t target = kNoCube;  // the finest cube with the most triangles: the view goes there
-    for (uint32_t c = 0; c < model->cubes().size(); ++c) {
-        const HlodNode& n = model->cubes()[c].node;
-        if (n.level == model->header().max_level && (target == kNoCube || n.triangle_count > model->cubes()[target].node.triangle_count))
-            target = c;
-    }
-    ASSERT_NE(target, kNoCube);
+    const uint32_t target = breakable.largest_finest_cube();  // where the view goes
     ASSERT_FALSE(cache->resident(0, target));
     const int fd = descriptor_of(copy);
     ASSERT_GE(fd, 0) << "the model does not hold " << copy << " open";
