@@ -79,7 +79,8 @@ public:
     // Opens a model for streaming (DESIGN.md §7): reads the header and the node table only. Cubes load
     // on the cache's threads as views ask for them (cull() asks for the children a stand-in lacks),
     // each with its parent; meanwhile stand-ins draw (set_residency). The coarse levels whose cubes fit
-    // in 5 % of the budget together stay resident. Throws std::runtime_error naming the file.
+    // in 5 % of the budget together stay resident, chosen again when the budget changes. Throws
+    // std::runtime_error naming the file.
     static std::shared_ptr<HlodModel> open(const std::filesystem::path& path,
                                            std::shared_ptr<StreamCache> cache = StreamCache::shared());
     ~HlodModel() override;
