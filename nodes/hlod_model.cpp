@@ -268,21 +268,35 @@ void HlodModel::sync_residency() {
     set_residency(std::move(resident));
 }
 
-uint64_t HlodModel::request_refinement(const HlodView& view, const std::vector<uint32_t>& drawn, Ask ask) const {
+uint64_t HlodModel::request_refinement(const HlodView& view, const std::vector<uint32_t>& drawn, const std::vector<uint32_t>& examined,
+                                       Ask ask) const {
     StreamCache& cache = stream_->cache;
     auto ask_for = [&](uint32_t cube, double priority) {
-        if (ask == Ask::request) cache.request(stream_->source, cube, priority);
-        else cache.prefetch(stream_->source, cube, priority);
+        if (ask == Ask::prefetch) cache.prefetch(stream_->source, cube, priority);
+        else cache.request(stream_->source, cube, priority);
     };
     if (!resident_[root_]) ask_for(root_, INFINITY);
+    if (ask != Ask::prefetch)
+        for (const uint32_t c : drawn) cache.touch(stream_->source, c);
+    std::vector<uint32_t> drawn_sorted = drawn;
+    std::sort(drawn_sorted.begin(), drawn_sorted.end());
     uint64_t stand_ins = 0;
-    for (const uint32_t c : drawn) {
-        if (ask == Ask::request) cache.touch(stream_->source, c);
-        if (!lacks_child_[c] || suitable(c, view)) continue;
+    for (const uint32_t c : examined) {
+        if (!resident_[c]) continue;
+        const bool unsuitable = !suitable(c, view);
+        if (ask == Ask::full_detail) {  // an unsuitable cube needs all its children: without one it stands in
+            cache.touch(stream_->source, c);
+            if (unsuitable)
+                for (const uint32_t child : cubes_[c].children)
+                    if (child != kNoCube && resident_[child]) cache.touch(stream_->source, child);
+        }
+        if (!lacks_child_[c] || !unsuitable) continue;
         ++stand_ins;
-        // A stand-in drawn closer than its switch distance: the nearer it is, the sooner its children.
+        // A stand-in closer than its switch distance: the nearer it is, the sooner its children. That
+        // ratio is above 1 for an unsuitable cube; below 1 for one not drawn, so that they come after.
         const double s = header_.cube_size(cubes_[c].node.level);
-        const double priority = (*view.kappa)[c] * s / std::max(box_distance(view.eye, cell(cubes_[c].node)), 1e-6 * s);
+        double priority = (*view.kappa)[c] * s / std::max(box_distance(view.eye, cell(cubes_[c].node)), 1e-6 * s);
+        if (!std::binary_search(drawn_sorted.begin(), drawn_sorted.end(), c)) priority /= 1 + priority;
         for (const uint32_t child : cubes_[c].children)
             if (child != kNoCube && !resident_[child]) ask_for(child, priority);
     }
@@ -295,8 +309,9 @@ void HlodModel::prefetch_for(const Lookahead& ahead, const glm::dmat4& world_fro
     const Frustum frustum = Frustum::from_matrix(ahead.clip_from_world * world_from_node * lattice_to_node());
     view.frustum = &frustum;
     std::vector<uint32_t> drawn;
-    select(view, drawn);
-    request_refinement(view, drawn, Ask::prefetch);
+    SelectionBasis basis;
+    select(view, drawn, nullptr, &basis);
+    request_refinement(view, drawn, basis.examined, Ask::prefetch);
 }
 
 void HlodModel::set_residency(std::vector<uint8_t> resident) {
@@ -339,11 +354,14 @@ bool HlodModel::Capping::capped(uint32_t c) {
     return capped;
 }
 
-std::vector<uint32_t> HlodModel::Capping::capped_cubes() const {
-    std::vector<uint32_t> capped;
-    for (const auto& [cube, is_capped] : memo_)
-        if (is_capped) capped.push_back(cube);
-    return capped;
+HlodModel::SelectionBasis HlodModel::Capping::basis() const {
+    SelectionBasis basis;
+    basis.examined.reserve(memo_.size());
+    for (const auto& [cube, is_capped] : memo_) {
+        basis.examined.push_back(cube);
+        if (is_capped) basis.capped.push_back(cube);
+    }
+    return basis;
 }
 
 Kappas HlodModel::Capping::morph_kappas(const std::vector<uint32_t>& capped) const {
@@ -463,14 +481,14 @@ bool HlodModel::suitable(uint32_t cube, const HlodView& view) const {
     return box_distance(view.eye, cell(node)) >= (*view.kappa)[cube] * header_.cube_size(node.level);
 }
 
-void HlodModel::select(const HlodView& view, std::vector<uint32_t>& out, Kappas* morph, std::vector<uint32_t>* capped) const {
+void HlodModel::select(const HlodView& view, std::vector<uint32_t>& out, Kappas* morph, SelectionBasis* basis) const {
     out.clear();
     Capping capping(*this, view);
     select_from(root_, view, capping, view.plane_mask, out);
-    if (!morph && !capped) return;
-    std::vector<uint32_t> capped_here = capping.capped_cubes();
-    if (morph) *morph = capping.morph_kappas(capped_here);
-    if (capped) *capped = std::move(capped_here);
+    if (!morph && !basis) return;
+    SelectionBasis found = capping.basis();
+    if (morph) *morph = capping.morph_kappas(found.capped);
+    if (basis) *basis = std::move(found);
 }
 
 void HlodModel::select_from(uint32_t c, const HlodView& view, Capping& capping, uint8_t mask, std::vector<uint32_t>& out) const {
@@ -617,14 +635,14 @@ void HlodModel::cull(CullVisitor& cull) {
     const bool fades = !cull.full_detail();
     if (fades) view.fade = &fade_;
     Kappas morph;
-    std::vector<uint32_t> capped;
-    select(view, selection_, &morph, fades ? &capped : nullptr);
+    SelectionBasis basis;
+    select(view, selection_, &morph, &basis);
     if (stream_) {
-        cull.count_stand_ins(request_refinement(view, selection_, Ask::request));
+        cull.count_stand_ins(request_refinement(view, selection_, basis.examined, fades ? Ask::interactive : Ask::full_detail));
         for (const Lookahead& ahead : cull.lookahead()) prefetch_for(ahead, cull.model());
     }
     if (fades) {
-        advance_fades(capped);
+        advance_fades(basis.capped);
         cull.count_fading(fading_.size());
     }
     if (!selection_.empty()) cull.add(*this, selection_.data(), uint32_t(selection_.size()), std::move(morph));

@@ -155,12 +155,17 @@ public:
     glm::dmat4 lattice_to_node() const;
     glm::dvec3 origin() const { return {header_.origin[0], header_.origin[1], header_.origin[2]}; }
 
+    // What a selection rests on beside the cubes it draws: the cubes it capped, and every cube it
+    // asked about (drawn, refined, or asked whether it caps a neighbour, which may lie outside the
+    // frustum), whose residency decides what it draws.
+    struct SelectionBasis {
+        std::vector<uint32_t> capped, examined;
+    };
     // The coarsest suitable cubes (DESIGN.md §3) that meet the frustum, front to back, and the stand-ins
     // for cubes not resident. `morph`, if given, receives the κ to morph them with: view.kappa, with the
     // band ends of the cubes the view caps set to 0 (the same pointer when it caps none).
-    // `capped`, if given, receives the cubes the view capped.
-    void select(const HlodView& view, std::vector<uint32_t>& out, Kappas* morph = nullptr,
-                std::vector<uint32_t>* capped = nullptr) const;
+    // `basis`, if given, receives what the selection rests on.
+    void select(const HlodView& view, std::vector<uint32_t>& out, Kappas* morph = nullptr, SelectionBasis* basis = nullptr) const;
     // A cube's cell in the lattice frame.
     Box cell(const HlodNode& node) const;
     // The box around everything a cube draws, morphed or not: its cell grown by 1.5·σ0·s_l (the
@@ -243,8 +248,8 @@ private:
     public:
         Capping(const HlodModel& model, const HlodView& view) : model_(model), view_(view) {}
         bool capped(uint32_t cube);
-        // The cubes found capped so far.
-        std::vector<uint32_t> capped_cubes() const;
+        // The cubes found capped so far, and all those asked about.
+        SelectionBasis basis() const;
         // view.kappa with the band ends of `capped` (capped_cubes()) set to 0, and the view's fades.
         Kappas morph_kappas(const std::vector<uint32_t>& capped) const;
 
@@ -281,11 +286,15 @@ private:
     std::unique_ptr<Stream> stream_;
     // The octree from the node table (links, neighbours, errors); cube data is not read.
     void read_octree(const HlodFile& file);
-    // Streamed: asks the cache for what the selection lacks (requests, with what it draws marked as
-    // used; or prefetches, for a view to come). Returns how many drawn cubes stand in for missing
-    // children.
-    enum class Ask { request, prefetch };
-    uint64_t request_refinement(const HlodView& view, const std::vector<uint32_t>& drawn, Ask ask) const;
+    // Streamed: asks the cache for the children of every cube the selection rests on (`examined`,
+    // SelectionBasis) that stands in, drawn or not: one outside the frustum caps the drawn cubes
+    // beside it. The children of drawn stand-ins come first. For an interactive frame these are
+    // requests, and what it draws is marked used; a full-detail frame marks everything it rests on,
+    // so that loading what it waits for never evicts what it needs; a view to come prefetches.
+    // Returns how many stand in.
+    enum class Ask { interactive, full_detail, prefetch };
+    uint64_t request_refinement(const HlodView& view, const std::vector<uint32_t>& drawn, const std::vector<uint32_t>& examined,
+                                Ask ask) const;
     // Streamed: prefetches what a coming view's selection lacks (one level a frame, as for the view).
     void prefetch_for(const Lookahead& ahead, const glm::dmat4& world_from_node) const;
     std::vector<uint8_t> resident_, lacks_child_;      // per cube: lacks_child_, resident without a child

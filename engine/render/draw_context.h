@@ -21,7 +21,7 @@ struct FrameStats {
     uint64_t triangles = 0;
     uint64_t cubes = 0;          // HLOD cubes drawn
     uint64_t nodes_culled = 0;
-    uint64_t stand_ins = 0;        // streamed HLOD cubes drawn in place of children not yet loaded
+    uint64_t stand_ins = 0;        // streamed HLOD cubes standing in for children not yet loaded (drawn, or holding drawn ones back)
     uint64_t fading = 0;           // streamed HLOD cubes whose children are fading in, or held back beside them
     uint64_t loads_pending = 0;    // streamed cubes the view asked for that are loading or waiting for room
     uint64_t memory_resident = 0;  // bytes streamed models hold (CPU and GPU), after this frame's update

@@ -26,7 +26,7 @@ struct CullStats {
     uint64_t nodes_visited = 0;
     uint64_t nodes_culled = 0;  // subtrees dropped by the frustum
     uint64_t bound_tests = 0;   // bounds tested against planes (none below a wholly visible node)
-    uint64_t stand_ins = 0;     // streamed cubes drawn in place of children not yet loaded
+    uint64_t stand_ins = 0;     // streamed cubes standing in for children not yet loaded: drawn, or holding drawn ones back
     uint64_t fading = 0;        // streamed cubes whose children are still fading in, or held back
 };
 
