@@ -4,6 +4,10 @@
 //
 //   bench_stream --model M.hlod [--memory 1G] [--size 1280x720] [--frames 2000] [--instances 10]
 //                [--soak 1000] [--capture 60] [--load-rate BYTES_PER_S] [--no-whole] [--shared]
+//                [--only open|museum|soak|capture]
+//
+// --only runs that one part in this process (no child: for a profiler such as heaptrack); the museum
+// then skips its holes.
 //
 // - open: time to open, to the first frame (interactive: what is resident), to converge (interactive
 //   frames until nothing stands in, fades or is asked for) and to a full-detail frame from a cold
@@ -12,14 +16,17 @@
 //   file of its own (distinct files: nothing shared) or, with --shared, all from the one file (its
 //   cubes shared); the budget a tenth of their decoded size (or --memory if smaller), a flythrough of --frames interactive frames that cuts to
 //   another copy every 200 frames: frame time median and p95, frames to converge after each cut,
-//   peak RSS; and hole pixels: every 50th frame is drawn again, in another process, with one copy of
+//   peak RSS and where the memory went at the highest RSS sampled (the cache's bytes, the renderer's
+//   GPU buffers beside the cubes' blocks, what malloc holds); and hole pixels: every 50th frame is drawn again, in another process, with one copy of
 //   the model loaded whole under each instance's transform, both on magenta; a pixel the reference
 //   covers that the streamed frame left magenta is a hole.
 // - soak: --soak full-detail frames of a slow orbit, dropped after reading back: RSS at 10 %, half way
 //   and the end, and its slope, over the run and its second half; the same for what the process holds
 //   beside the cache's cubes, which a leak grows and a cache filling toward its budget does not.
 // - capture: --capture full-detail frames of a path, with a cold cache, a warm one and three budgets
-//   (the largest working set, twice it, --memory): frames with bytes that differ from the first run.
+//   (the largest working set, twice it, --memory): frames with bytes that differ from the first run,
+//   and the first few of them.
+#include <malloc.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -87,11 +94,24 @@ struct Options {
     bool whole = true;
     bool shared = false;
     std::vector<std::string> instance_files;  // the museum's: copies of the model, or the model itself
+    std::string only;  // one part, in this process
 };
 
-// Runs `part` in a child process (its own GL context, cache and peak RSS); false if it failed.
+bool in_process = false;  // --only: the part runs here
+
+// Runs `part` in a child process (its own GL context, cache and peak RSS), or here with --only; false
+// if it failed.
 bool in_child(const char* name, const std::function<void()>& part) {
     std::fflush(stdout);
+    if (in_process) {
+        try {
+            part();
+            return true;
+        } catch (const std::exception& e) {
+            std::fprintf(stderr, "bench_stream: %s: %s\n", name, e.what());
+            return false;
+        }
+    }
     const pid_t pid = fork();
     if (pid < 0) return false;
     if (pid == 0) {
@@ -261,6 +281,8 @@ void part_museum(const Options& o) {
     bool converged_since_cut = false;
     std::string hold_report;  // per cut, at the end of its still view
     char held_line[4096];
+    std::string at_peak;  // where the memory went when RSS last peaked
+    uint64_t peak_seen = 0;
     for (int f = 0; f < o.frames; ++f) {
         Camera camera;
         museum_camera(o, m, f, camera);
@@ -279,6 +301,18 @@ void part_museum(const Options& o) {
         if (!converged_since_cut && stats.frames_unconverged == 0) {
             converged_since_cut = true;
             converge_frames.push_back(since_cut);
+        }
+        if (f % 10 == 0 && rss() > peak_seen) {
+            peak_seen = rss();
+            const struct mallinfo2 heap = mallinfo2();
+            char line[512];
+            std::snprintf(line, sizeof line,
+                          "frame %d: RSS %s; the cache holds %s (%s of it GPU blocks); the renderer's GPU buffers (pool pages and "
+                          "tables) %s; malloc holds %s from the system, %s of it in use, %s free in its heaps",
+                          f, mib(peak_seen).c_str(), mib(stats.memory_resident).c_str(), mib(stats.memory_resident_gpu).c_str(),
+                          mib(stats.bytes_resident).c_str(), mib(heap.arena + heap.hblkhd).c_str(), mib(heap.uordblks + heap.hblkhd).c_str(),
+                          mib(heap.fordblks).c_str());
+            at_peak = line;
         }
         if (f % 200 == kHoldFrames - 1) {  // the end of the still view: what keeps it from converging
             const strata::StreamCache::Stats cache = strata::StreamCache::shared()->stats();
@@ -305,6 +339,7 @@ void part_museum(const Options& o) {
                 o.height, quantile(frame_ms, 0.5), quantile(frame_ms, 0.95), quantile(converged, 0.5), quantile(converged, 1.0),
                 never, converge_frames.size(), mib(peak_rss()).c_str());
     std::printf("museum cuts, after %d still frames: %s\n", kHoldFrames, hold_report.c_str());
+    std::printf("museum memory at the highest RSS sampled (every 10th frame), %s\n", at_peak.c_str());
 }
 
 // The museum's holes: the same frames drawn with one copy of the model loaded whole under every
@@ -436,17 +471,20 @@ void part_capture(const Options& o) {
     std::vector<uint64_t> reference, warm, cold_b, warm_b;
     uint64_t working_set = 0, ignored = 0;
     capture_run(o, o.memory, reference, warm, working_set);
+    // How many frames differ from the reference, and the first few of them.
     auto differing = [&](const std::vector<uint64_t>& run) {
+        std::string frames;
         size_t n = 0;
-        for (size_t f = 0; f < run.size(); ++f) n += run[f] != reference[f];
-        return n;
+        for (size_t f = 0; f < run.size(); ++f)
+            if (run[f] != reference[f] && ++n <= 5) frames += (n == 1 ? " (frame " : ", ") + std::to_string(f);
+        return std::to_string(n) + (n > 5 ? frames + ", …)" : n > 0 ? frames + ")" : "");
     };
-    std::printf("capture: %d full-detail frames at %dx%d; frames differing from the cold run under %s: warm %zu", o.capture, o.width,
-                o.height, mib(o.memory).c_str(), differing(warm));
+    std::printf("capture: %d full-detail frames at %dx%d; frames differing from the cold run under %s: warm %s", o.capture, o.width,
+                o.height, mib(o.memory).c_str(), differing(warm).c_str());
     // The working set bounds a frame's cubes; a load also reserves its cube's bound while in flight.
     for (const uint64_t budget : {working_set + working_set / 8, 2 * working_set}) {
         capture_run(o, budget, cold_b, warm_b, ignored);
-        std::printf(", budget %s: cold %zu, warm %zu", mib(budget).c_str(), differing(cold_b), differing(warm_b));
+        std::printf(", budget %s: cold %s, warm %s", mib(budget).c_str(), differing(cold_b).c_str(), differing(warm_b).c_str());
     }
     std::printf(" (largest resident after a frame %s)\n", mib(working_set).c_str());
 }
@@ -466,9 +504,11 @@ bool parse(int argc, char** argv, Options& o) {
         else if (a == "--load-rate") o.load_rate = std::stod(value());
         else if (a == "--no-whole") o.whole = false;
         else if (a == "--shared") o.shared = true;
+        else if (a == "--only") o.only = value();
         else return false;
     }
-    return !o.model.empty();
+    const bool known = o.only.empty() || o.only == "open" || o.only == "museum" || o.only == "soak" || o.only == "capture";
+    return !o.model.empty() && known;
 }
 
 }  // namespace
@@ -478,7 +518,8 @@ int main(int argc, char** argv) {
     try {
         if (!parse(argc, argv, o)) {
             std::fprintf(stderr, "usage: bench_stream --model M.hlod [--memory 1G] [--size 1280x720] [--frames 2000] [--instances 10] "
-                                 "[--soak 1000] [--capture 60] [--load-rate BYTES_PER_S] [--no-whole] [--shared]\n");
+                                 "[--soak 1000] [--capture 60] [--load-rate BYTES_PER_S] [--no-whole] [--shared] "
+                                 "[--only open|museum|soak|capture]\n");
             return 2;
         }
     } catch (const std::exception& e) {
@@ -487,10 +528,15 @@ int main(int argc, char** argv) {
     }
     std::printf("bench_stream: %s at %dx%d, 1 pixel of error, llvmpipe or the GPU's driver; times are wall clock\n", o.model.c_str(),
                 o.width, o.height);
-    bool ok = in_child("open", [&] { part_open(o); });
-    ok &= in_child("open, full detail", [&] { part_open_full_detail(o); });
-    if (o.whole) ok &= in_child("whole", [&] { part_whole(o); });
-    if (o.frames > 0) {
+    in_process = !o.only.empty();
+    auto runs = [&](const char* part) { return o.only.empty() || o.only == part; };
+    bool ok = true;
+    if (runs("open")) {
+        ok &= in_child("open", [&] { part_open(o); });
+        if (!in_process) ok &= in_child("open, full detail", [&] { part_open_full_detail(o); });
+        if (o.whole && !in_process) ok &= in_child("whole", [&] { part_whole(o); });
+    }
+    if (o.frames > 0 && runs("museum")) {
         // Distinct files: a copy of the model per instance, in a directory of its own (removed after).
         std::filesystem::path copies;
         if (!o.shared) copies = std::filesystem::temp_directory_path() / ("bench_stream-" + std::to_string(::getpid()));
@@ -504,10 +550,10 @@ int main(int argc, char** argv) {
             std::filesystem::copy_file(o.model, o.instance_files.back(), std::filesystem::copy_options::overwrite_existing);
         }
         std::printf("museum files: %s\n", o.shared ? "one, shared by every instance" : "a copy of the model per instance");
-        ok &= in_child("museum", [&] { part_museum(o); }) && in_child("museum holes", [&] { part_holes(o); });
+        ok &= in_child("museum", [&] { part_museum(o); }) && (in_process || in_child("museum holes", [&] { part_holes(o); }));
         if (!copies.empty()) std::filesystem::remove_all(copies);
     }
-    if (o.soak > 0) ok &= in_child("soak", [&] { part_soak(o); });
-    if (o.capture > 0) ok &= in_child("capture", [&] { part_capture(o); });
+    if (o.soak > 0 && runs("soak")) ok &= in_child("soak", [&] { part_soak(o); });
+    if (o.capture > 0 && runs("capture")) ok &= in_child("capture", [&] { part_capture(o); });
     return ok ? 0 : 1;
 }
