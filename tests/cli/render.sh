@@ -83,9 +83,11 @@ check "wireframe: background inside a face" "$(pixels pixel "$WORK/octa_wire.png
 # --no-morph: from close by (two levels drawn) the same triangles, drawn unmorphed: other pixels.
 close_up=(--size 96x72 --samples 1 --eye 0.34,0.23,1.25 --target 0,0,0)
 expect_success "morphed" "$STRATA" render "$WORK/bunny.hlod" -o "$WORK/morph.png" "${close_up[@]}"
-morphed_summary=$(sed 's/, cull.*//' "$WORK/out.txt")
+# The draw calls are left out: one per run of cubes on one pool page, so they follow the order in
+# which the loader threads happened to deliver the cubes, not what is drawn.
+morphed_summary=$(sed 's/, [0-9]* draw calls//; s/, cull.*//' "$WORK/out.txt")
 expect_success "without morph" "$STRATA" render "$WORK/bunny.hlod" -o "$WORK/no_morph.png" "${close_up[@]}" --no-morph
-check "--no-morph draws the same cubes" "$(sed 's/, cull.*//; s/no_morph/morph/' "$WORK/out.txt")" "$morphed_summary"
+check "--no-morph draws the same cubes" "$(sed 's/, [0-9]* draw calls//; s/, cull.*//; s/no_morph/morph/' "$WORK/out.txt")" "$morphed_summary"
 read -r differing _ <<<"$(pixels changed "$WORK/morph.png" "$WORK/no_morph.png" 0)"
 check_that "--no-morph moves pixels ($differing)" "$differing > 0"
 
