@@ -635,8 +635,8 @@ void HlodModel::cull(CullVisitor& cull) {
     const bool fades = !cull.full_detail();
     if (fades) view.fade = &fade_;
     Kappas morph;
-    SelectionBasis basis;
-    select(view, selection_, &morph, &basis);
+    SelectionBasis basis;  // what streaming asks for and fades follow; a model loaded whole drawn at full detail needs neither
+    select(view, selection_, &morph, stream_ || fades ? &basis : nullptr);
     if (stream_) {
         cull.count_stand_ins(request_refinement(view, selection_, basis.examined, fades ? Ask::interactive : Ask::full_detail));
         for (const Lookahead& ahead : cull.lookahead()) prefetch_for(ahead, cull.model());

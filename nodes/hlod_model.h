@@ -250,7 +250,7 @@ private:
         bool capped(uint32_t cube);
         // The cubes found capped so far, and all those asked about.
         SelectionBasis basis() const;
-        // view.kappa with the band ends of `capped` (capped_cubes()) set to 0, and the view's fades.
+        // view.kappa with the band ends of `capped` (basis().capped) set to 0, and the view's fades.
         Kappas morph_kappas(const std::vector<uint32_t>& capped) const;
 
     private:

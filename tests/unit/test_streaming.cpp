@@ -48,10 +48,13 @@ struct Culled {
     uint64_t stand_ins = 0;
     uint64_t fading = 0;
 };
-Culled cull_frame(Node& root, const HlodModel& model, const Camera& camera) {
+// Interactive, without frustum culling (the whole selection, for the crack check); or full detail,
+// culled as the renderer culls.
+Culled cull_frame(Node& root, const HlodModel& model, const Camera& camera, bool full_detail = false) {
     RenderList list;
     CullVisitor cull(camera, camera.view_matrix(), camera.projection_matrix(camera.near_clip, camera.far_clip), list);
-    cull.set_frustum_culling(false);
+    cull.set_frustum_culling(full_detail);
+    cull.set_full_detail(full_detail);
     root.accept(cull);
     Culled out{{}, model.kappas_for(camera), camera.position - model.origin(), cull.stats().stand_ins, cull.stats().fading};
     for (const DrawItem& item : list.opaque) {
@@ -153,20 +156,9 @@ TEST_F(Streaming, AFlyInDrawsOnlyResidentCubesAndNeverCracks) { fly_in_never_cra
 // cull asked for, again until it asks for nothing.
 Culled full_detail_cull(Node& root, const HlodModel& model, const Camera& camera, StreamCache* cache) {
     for (;;) {
-        RenderList list;
-        CullVisitor cull(camera, camera.view_matrix(), camera.projection_matrix(camera.near_clip, camera.far_clip), list);
-        cull.set_full_detail(true);
-        root.accept(cull);
-        if (cache && cache->has_requests()) {
-            cache->wait_for_requests();
-            continue;
-        }
-        Culled out{{}, model.kappas_for(camera), camera.position - model.origin(), cull.stats().stand_ins, 0};
-        for (const DrawItem& item : list.opaque) {
-            out.cubes.assign(list.item_data.begin() + item.first, list.item_data.begin() + item.first + item.count);
-            out.kappa = std::static_pointer_cast<const CubeKappas>(item.state);
-        }
-        return out;
+        Culled out = cull_frame(root, model, camera, true);
+        if (!cache || !cache->has_requests()) return out;
+        cache->wait_for_requests();
     }
 }
 
