@@ -101,9 +101,9 @@ bool in_process = false;  // --only: the part runs here
 
 // Runs `part` in a child process (its own GL context, cache and peak RSS), or here with --only; false
 // if it failed.
-bool in_child(const char* name, const std::function<void()>& part) {
+bool run_part(const char* name, const std::function<void()>& part) {
     std::fflush(stdout);
-    if (in_process) {
+    auto run = [&] {
         try {
             part();
             return true;
@@ -111,19 +111,14 @@ bool in_child(const char* name, const std::function<void()>& part) {
             std::fprintf(stderr, "bench_stream: %s: %s\n", name, e.what());
             return false;
         }
-    }
+    };
+    if (in_process) return run();
     const pid_t pid = fork();
     if (pid < 0) return false;
     if (pid == 0) {
-        try {
-            part();
-        } catch (const std::exception& e) {
-            std::fprintf(stderr, "bench_stream: %s: %s\n", name, e.what());
-            std::fflush(stdout);
-            _exit(1);
-        }
+        const bool ok = run();
         std::fflush(stdout);
-        _exit(0);
+        _exit(ok ? 0 : 1);
     }
     int status = 0;
     waitpid(pid, &status, 0);
@@ -532,9 +527,9 @@ int main(int argc, char** argv) {
     auto runs = [&](const char* part) { return o.only.empty() || o.only == part; };
     bool ok = true;
     if (runs("open")) {
-        ok &= in_child("open", [&] { part_open(o); });
-        if (!in_process) ok &= in_child("open, full detail", [&] { part_open_full_detail(o); });
-        if (o.whole && !in_process) ok &= in_child("whole", [&] { part_whole(o); });
+        ok &= run_part("open", [&] { part_open(o); });
+        if (!in_process) ok &= run_part("open, full detail", [&] { part_open_full_detail(o); });
+        if (o.whole && !in_process) ok &= run_part("whole", [&] { part_whole(o); });
     }
     if (o.frames > 0 && runs("museum")) {
         // Distinct files: a copy of the model per instance, in a directory of its own (removed after).
@@ -550,10 +545,10 @@ int main(int argc, char** argv) {
             std::filesystem::copy_file(o.model, o.instance_files.back(), std::filesystem::copy_options::overwrite_existing);
         }
         std::printf("museum files: %s\n", o.shared ? "one, shared by every instance" : "a copy of the model per instance");
-        ok &= in_child("museum", [&] { part_museum(o); }) && (in_process || in_child("museum holes", [&] { part_holes(o); }));
+        ok &= run_part("museum", [&] { part_museum(o); }) && (in_process || run_part("museum holes", [&] { part_holes(o); }));
         if (!copies.empty()) std::filesystem::remove_all(copies);
     }
-    if (o.soak > 0 && runs("soak")) ok &= in_child("soak", [&] { part_soak(o); });
-    if (o.capture > 0 && runs("capture")) ok &= in_child("capture", [&] { part_capture(o); });
+    if (o.soak > 0 && runs("soak")) ok &= run_part("soak", [&] { part_soak(o); });
+    if (o.capture > 0 && runs("capture")) ok &= run_part("capture", [&] { part_capture(o); });
     return ok ? 0 : 1;
 }
