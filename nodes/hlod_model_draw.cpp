@@ -337,6 +337,20 @@ void sync_blocks(const HlodModel& model, CubesGpu& gpu) {
     gl::check_gl("uploading HLOD cubes");
 }
 
+// Places this owner's blocks on the page the pool is emptying again, elsewhere, from the cubes' data
+// (BufferPool::retiring_page): what keeps the pages near what their blocks hold as cubes come and go.
+void leave_retiring_page(const HlodModel& model, CubesGpu& gpu) {
+    const uint32_t page = gpu.pool->retiring_page();
+    if (page == gl::BufferPool::kNoPage) return;
+    for (uint32_t c = 0; c < gpu.placed.size(); ++c) {
+        PlacedCube& placed = gpu.placed[c];
+        if (placed.block.page != page) continue;
+        gpu.pool->free(placed.block);
+        place_cube(gpu, *placed.data, c, model.header().has_colors());
+    }
+    gl::check_gl("moving HLOD cubes off a retiring pool page");
+}
+
 // The scene pool's page: a 64th of a streamed model's budget (1 to 16 MiB), so that what the pages
 // hold beyond their cubes' own bytes stays small beside the budget; 16 MiB for models loaded whole.
 uint64_t pool_page_bytes(const HlodModel& model) {
@@ -448,6 +462,7 @@ void HlodModel::draw(DrawContext& context, const DrawItem& item) {
     CubesGpu& cubes = context.cache.get_owned<CubesGpu>(cube_owner(), [&] { return make_cubes_gpu(*this, pool.pool); });
     HlodGpu& gpu = context.cache.get<HlodGpu>(*this, [&] { return make_gpu(*this); });
     sync_blocks(*this, cubes);
+    leave_retiring_page(*this, cubes);
     set_view_uniforms(*this, programs.surface, gpu, context, item);
 
     // This frame's commands in the selection's order (front to back) in one indirect buffer, drawn as

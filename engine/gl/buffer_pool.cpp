@@ -76,7 +76,7 @@ BufferPool::Block BufferPool::allocate(uint64_t units) {
         throw GlError("BufferPool: a block of " + std::to_string(units * kUnitBytes) + " bytes; one storage buffer binding holds at most " +
                       std::to_string(max_units_ * kUnitBytes));
     for (uint32_t p = 0; p < pages_.size(); ++p) {
-        if (!pages_[p].buffer.id()) continue;
+        if (!pages_[p].buffer.id() || p == retiring_) continue;
         if (const auto offset = pages_[p].ranges.allocate(units)) return {p, *offset, units};
     }
     // A new page, in the first slot a freed page left: as large as the pool already is, from
@@ -90,12 +90,29 @@ BufferPool::Block BufferPool::allocate(uint64_t units) {
     return {p, *pages_[p].ranges.allocate(units), units};
 }
 
+void BufferPool::choose_retiring_page() {
+    if (retiring_ != kNoPage) return;
+    uint64_t free_units = 0, most_free = 0;
+    uint32_t emptiest = kNoPage;
+    for (uint32_t p = 0; p < pages_.size(); ++p) {
+        if (!pages_[p].buffer.id()) continue;
+        const RangeAllocator& ranges = pages_[p].ranges;
+        free_units += ranges.capacity() - ranges.used();
+        if (ranges.capacity() - ranges.used() > most_free) most_free = ranges.capacity() - ranges.used(), emptiest = p;
+    }
+    if (free_units > 2 * page_units_) retiring_ = emptiest;
+}
+
 void BufferPool::free(Block& block) {
     if (!block) return;
     Page& page = pages_.at(block.page);
     page.ranges.free(block.offset, block.units);
-    if (page.ranges.used() == 0) page = Page{};
+    if (page.ranges.used() == 0) {
+        page = Page{};
+        if (block.page == retiring_) retiring_ = kNoPage;
+    }
     block = {};
+    choose_retiring_page();
 }
 
 void BufferPool::upload(const Block& block, uint64_t offset_units, const void* data, uint64_t size_bytes) {

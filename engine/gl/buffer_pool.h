@@ -47,6 +47,7 @@ public:
         uint64_t units = 0;
         explicit operator bool() const { return page != ~0u; }
     };
+    static constexpr uint32_t kNoPage = ~0u;
 
     // Pages of up to `page_bytes` (rounded up to whole units, at most what one storage-buffer binding
     // may hold: GL_MAX_SHADER_STORAGE_BLOCK_SIZE): each new page as large as the pool already is, from
@@ -57,10 +58,16 @@ public:
     // For pages made from now on.
     void set_page_bytes(uint64_t page_bytes);
 
-    // Places `units` (≥ 1) units; throws GlError when one binding cannot hold that many.
+    // Places `units` (≥ 1) units, never on the retiring page; throws GlError when one binding cannot
+    // hold that many.
     Block allocate(uint64_t units);
     // Frees a block (and its page once empty); the block becomes empty. An empty block is ignored.
     void free(Block& block);
+    // Evictions leave pages partly empty, and a page goes back only once empty, so the pages could come
+    // to hold far more than their blocks. Once they hold more than two pages' worth of free room, the
+    // page with the most of it retires: nothing more is placed there, and the blocks' owners place them
+    // again elsewhere (from the data they keep) until it is empty and freed. kNoPage: none retiring.
+    uint32_t retiring_page() const { return retiring_; }
     // Writes bytes at `offset_units` into the block. Throws GlError when they do not fit in it.
     void upload(const Block& block, uint64_t offset_units, const void* data, uint64_t size_bytes);
 
@@ -72,12 +79,16 @@ public:
     uint64_t page_units() const { return page_units_; }
 
 private:
+    // Chooses the page to retire when none is and the pages' free room has passed the limit.
+    void choose_retiring_page();
+
     struct Page {
         Buffer buffer;  // empty once freed
         RangeAllocator ranges{0};
     };
     uint64_t page_units_, max_units_;
     std::vector<Page> pages_;
+    uint32_t retiring_ = kNoPage;
 };
 
 }  // namespace strata::gl

@@ -173,6 +173,36 @@ TEST_F(BufferPoolTest, PagesGrowAsLargeAsThePoolUpToThePageSize) {
     EXPECT_EQ(pool.page(small.page).size(), 2 * MiB);
 }
 
+// Pages that evictions left partly empty go back: once the free room passes two pages, the page with
+// the most retires (nothing more is placed there) until its owners have placed its blocks elsewhere.
+TEST_F(BufferPoolTest, ThePageWithTheMostFreeRoomRetiresOnceThePagesHoldMoreThanTwoPagesOfIt) {
+    BufferPool pool(1024);  // 64 units a page
+    std::vector<BufferPool::Block> blocks;
+    for (int k = 0; k < 10; ++k) blocks.push_back(pool.allocate(32));  // two a page, five pages
+    ASSERT_EQ(pool.page_count(), 5u);
+    pool.free(blocks[8]);  // page 4
+    pool.free(blocks[1]), pool.free(blocks[3]), pool.free(blocks[5]);  // pages 0, 1, 2: free room 128 units
+    EXPECT_EQ(pool.retiring_page(), BufferPool::kNoPage) << "two pages of free room are allowed";
+    pool.free(blocks[7]);  // page 3: 160 units free, 32 on each page
+    const uint32_t retiring = pool.retiring_page();
+    ASSERT_NE(retiring, BufferPool::kNoPage);
+    const BufferPool::Block placed = pool.allocate(32);
+    EXPECT_NE(placed.page, retiring) << "nothing is placed on a retiring page";
+    // Its owner places its last block again elsewhere: the page goes back, and no other retires.
+    BufferPool::Block& last = blocks[2 * retiring + 1] ? blocks[2 * retiring + 1] : blocks[2 * retiring];
+    ASSERT_EQ(last.page, retiring);
+    pool.upload(last, 0, words(5, 128).data(), 128 * 4);
+    const std::vector<uint32_t> kept = pool.page(retiring).download<uint32_t>(128, last.offset * 16);
+    pool.free(last);
+    last = pool.allocate(32);
+    pool.upload(last, 0, kept.data(), 128 * 4);
+    EXPECT_EQ(pool.page(retiring).id(), 0u);
+    EXPECT_EQ(pool.retiring_page(), BufferPool::kNoPage);
+    EXPECT_EQ(pool.capacity_bytes(), 4 * 1024u);
+    EXPECT_EQ(pool.used_bytes(), 6 * 32 * 16u);
+    EXPECT_EQ(pool.page(last.page).download<uint32_t>(128, last.offset * 16), words(5, 128));
+}
+
 TEST_F(BufferPoolTest, ABlockNoBindingCanHoldIsAnError) {
     GLint64 max_block = 0;
     glGetInteger64v(GL_MAX_SHADER_STORAGE_BLOCK_SIZE, &max_block);
