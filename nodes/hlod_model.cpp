@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
+#include <mutex>
 #include <unordered_map>
 #include <stdexcept>
 
@@ -150,6 +152,11 @@ public:
         const uint64_t bytes = HlodModel::cube_bytes(*data), gpu_bytes = HlodModel::cube_gpu_bytes(*data);
         return {std::shared_ptr<const CubeData>(std::move(data)), bytes, gpu_bytes};
     }
+    void residency_changed() override {
+        if (on_residency_changed) on_residency_changed();
+    }
+    // Set by the shared source: every model reading the file takes in what changed.
+    std::function<void()> on_residency_changed;
 
 private:
     std::shared_ptr<const HlodFile> file_;
@@ -167,6 +174,24 @@ struct HlodModel::SharedSource {
     StreamCache::SourceId source;
     HlodFile::Identity file;
     ~SharedSource() { cache->remove(source); }
+
+    // The models reading the file. Each takes in what the cache loaded or evicted as soon as it
+    // changes, drawn or not: one outside the view would otherwise hold on to the cubes the cache
+    // evicted (and their GPU blocks) until a frame next culls it, beyond the budget.
+    void attach(HlodModel* model) const {
+        std::lock_guard lock(models_mutex);
+        models.push_back(model);
+    }
+    void detach(HlodModel* model) const {
+        std::lock_guard lock(models_mutex);
+        std::erase(models, model);
+    }
+    void sync_models() const {
+        std::lock_guard lock(models_mutex);
+        for (HlodModel* model : models) model->sync_residency();
+    }
+    mutable std::mutex models_mutex{};
+    mutable std::vector<HlodModel*> models{};
 
     static std::shared_ptr<const SharedSource> find(const StreamCache& cache, const HlodFile::Identity& file) {
         std::lock_guard lock(registry_mutex);
@@ -232,9 +257,14 @@ std::shared_ptr<HlodModel> HlodModel::open(const std::filesystem::path& path, st
             }
     }
     std::shared_ptr<const SharedSource> shared = SharedSource::find(*cache, file->identity());
-    if (!shared) shared = SharedSource::add(cache, file->identity(), std::make_shared<CubeSource>(file, *model));
+    if (!shared) {
+        auto cube_source = std::make_shared<CubeSource>(file, *model);
+        shared = SharedSource::add(cache, file->identity(), cube_source);
+        cube_source->on_residency_changed = [source = shared.get()] { source->sync_models(); };
+    }
     const StreamCache::SourceId source = shared->source;
     model->stream_ = std::make_unique<Stream>(Stream{shared, *cache, source});
+    shared->attach(model.get());
     return model;
 }
 
@@ -249,7 +279,9 @@ std::optional<HlodDebugView> debug_view_named(std::string_view name) {
     return std::nullopt;
 }
 
-HlodModel::~HlodModel() = default;
+HlodModel::~HlodModel() {
+    if (stream_) stream_->shared->detach(this);
+}
 
 std::shared_ptr<const void> HlodModel::cube_owner() const {
     if (stream_) return stream_->shared;

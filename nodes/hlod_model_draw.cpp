@@ -238,32 +238,45 @@ CubeBlock cube_block(uint64_t vertices, uint64_t parents, uint64_t indices, bool
     return b;
 }
 
-// A resident cube on the GPU: the data its block was made from, the block and its draw command.
+// A resident cube on the GPU: the data its block was made from (`alive` tells when the cache and
+// every model have let go of it; while it is held, `data` cannot name another cube's data), the block
+// and its draw command.
 struct PlacedCube {
     const CubeData* data = nullptr;
+    std::weak_ptr<const CubeData> alive;
     gl::BufferPool::Block block;
     IndexedDrawCommand command{};
 };
 
+struct CubesGpu;
+
 // The scene's pool (one per renderer): every HLOD model's cube blocks, so that what its pages hold
-// beyond the blocks is one scene's slack, not one per model.
+// beyond the blocks is one scene's slack, not one per model; and the owners placing blocks in it.
 constexpr uint32_t kPoolKey = 3;
 struct ScenePool : GpuCache::Entry {
     std::shared_ptr<gl::BufferPool> pool;
+    std::vector<CubesGpu*> owners;
     uint64_t counted_frame = ~uint64_t(0);  // the frame whose statistics have counted its pages
+    uint64_t swept_frame = ~uint64_t(0);    // the frame that last freed the blocks of evicted cubes
 };
 
 // The cubes of one owner (HlodModel::cube_owner: a file streamed through a cache, or a model loaded
 // whole) on the GPU: a block per resident cube and the per-cube tables that do not depend on the
 // view, shared by every model drawing those cubes.
 struct CubesGpu : GpuCache::Entry {
-    explicit CubesGpu(std::shared_ptr<gl::BufferPool> scene_pool) : pool(std::move(scene_pool)) {}
+    CubesGpu(ScenePool& scene, bool with_colors) : scene_pool(scene), pool(scene.pool), colors(with_colors) {
+        scene_pool.owners.push_back(this);
+    }
     ~CubesGpu() override {
         for (PlacedCube& cube : placed) pool->free(cube.block);
+        std::erase(scene_pool.owners, this);
     }
+    ScenePool& scene_pool;  // outlives its owners: the GPU cache drops shared entries last
     std::shared_ptr<gl::BufferPool> pool;
+    bool colors;
     std::pair<uint32_t, uint64_t> synced{~0u, ~uint64_t(0)};  // the model and residency version last synced to
-    std::vector<PlacedCube> placed;  // per cube
+    std::vector<PlacedCube> placed;      // per cube
+    std::vector<uint32_t> placed_cubes;  // the cubes with a block, in no order
     gl::Buffer cubes;
     gl::Buffer links;          // per cube: neighbours and parent
     gl::Buffer color_offsets;  // per cube
@@ -285,11 +298,14 @@ struct HlodGpu : GpuCache::Entry {
 uint32_t pack_pair(uint32_t low, uint32_t high) { return (low & 0xffffu) | high << 16; }
 
 // Uploads a resident cube into a new block of the pool and makes its draw command.
-void place_cube(CubesGpu& gpu, const CubeData& c, uint32_t index, bool colors) {
+void place_cube(CubesGpu& gpu, const std::shared_ptr<const CubeData>& data, uint32_t index) {
+    const CubeData& c = *data;
+    const bool colors = gpu.colors;
     const CubeBlock layout = cube_block(c.vertex_count(), c.parents.size(), c.indices.size(), colors);
     PlacedCube& placed = gpu.placed[index];
     placed.block = gpu.pool->allocate(layout.units);
-    placed.data = &c;
+    placed.data = data.get();
+    placed.alive = data;
     const uint64_t base = placed.block.offset;
     std::vector<std::array<uint32_t, 4>> units(layout.units, {0, 0, 0, 0});
     for (uint32_t v = 0; v < c.vertex_count(); ++v) {
@@ -327,28 +343,37 @@ void sync_blocks(const HlodModel& model, CubesGpu& gpu) {
     if (gpu.synced == version) return;
     gpu.synced = version;
     const auto& cubes = model.cubes();
+    gpu.placed_cubes.clear();
     for (uint32_t c = 0; c < cubes.size(); ++c) {
         PlacedCube& placed = gpu.placed[c];
-        if (placed.data == cubes[c].data.get()) continue;
-        gpu.pool->free(placed.block);
-        placed.data = nullptr;
-        if (cubes[c].data) place_cube(gpu, *cubes[c].data, c, model.header().has_colors());
+        if (placed.data != cubes[c].data.get()) {
+            gpu.pool->free(placed.block);
+            placed = {};
+            if (cubes[c].data) place_cube(gpu, cubes[c].data, c);
+        }
+        if (placed.block) gpu.placed_cubes.push_back(c);
     }
     gl::check_gl("uploading HLOD cubes");
 }
 
-// Places this owner's blocks on the page the pool is emptying again, elsewhere, from the cubes' data
-// (BufferPool::retiring_page): what keeps the pages near what their blocks hold as cubes come and go.
-void leave_retiring_page(const HlodModel& model, CubesGpu& gpu) {
-    const uint32_t page = gpu.pool->retiring_page();
-    if (page == gl::BufferPool::kNoPage) return;
-    for (uint32_t c = 0; c < gpu.placed.size(); ++c) {
-        PlacedCube& placed = gpu.placed[c];
-        if (placed.block.page != page) continue;
-        gpu.pool->free(placed.block);
-        place_cube(gpu, *placed.data, c, model.header().has_colors());
+// Once a frame, for every owner in the scene's pool, drawn this frame or not: frees the blocks of
+// cubes the cache and the models have let go of (a model outside the view is not drawn, and would
+// keep them until it is), and places the blocks on the page the pool is emptying again, elsewhere
+// (BufferPool::retiring_page): what keeps the pages near what the resident cubes hold.
+void sweep_pool(ScenePool& scene) {
+    for (CubesGpu* owner : scene.owners) {
+        const uint32_t retiring = scene.pool->retiring_page();
+        std::erase_if(owner->placed_cubes, [&](uint32_t c) {
+            PlacedCube& placed = owner->placed[c];
+            const std::shared_ptr<const CubeData> data = placed.alive.lock();
+            if (data && placed.block.page != retiring) return false;
+            scene.pool->free(placed.block);
+            placed = {};
+            if (data) place_cube(*owner, data, c);
+            return !data;
+        });
     }
-    gl::check_gl("moving HLOD cubes off a retiring pool page");
+    gl::check_gl("freeing and moving HLOD cubes' blocks");
 }
 
 // The scene pool's page: a 64th of a streamed model's budget (1 to 16 MiB), so that what the pages
@@ -359,8 +384,8 @@ uint64_t pool_page_bytes(const HlodModel& model) {
     return 16 * MiB;
 }
 
-std::unique_ptr<CubesGpu> make_cubes_gpu(const HlodModel& model, std::shared_ptr<gl::BufferPool> pool) {
-    auto gpu = std::make_unique<CubesGpu>(std::move(pool));
+std::unique_ptr<CubesGpu> make_cubes_gpu(const HlodModel& model, ScenePool& pool) {
+    auto gpu = std::make_unique<CubesGpu>(pool, model.header().has_colors());
     const auto& cubes = model.cubes();
     std::vector<std::array<uint32_t, 4>> records;
     for (const HlodCube& c : cubes) records.push_back({c.node.level, c.node.i, c.node.j, c.node.k});
@@ -459,10 +484,10 @@ void HlodModel::draw(DrawContext& context, const DrawItem& item) {
         return entry;
     });
     pool.pool->set_page_bytes(pool_page_bytes(*this));
-    CubesGpu& cubes = context.cache.get_owned<CubesGpu>(cube_owner(), [&] { return make_cubes_gpu(*this, pool.pool); });
+    CubesGpu& cubes = context.cache.get_owned<CubesGpu>(cube_owner(), [&] { return make_cubes_gpu(*this, pool); });
     HlodGpu& gpu = context.cache.get<HlodGpu>(*this, [&] { return make_gpu(*this); });
     sync_blocks(*this, cubes);
-    leave_retiring_page(*this, cubes);
+    if (std::exchange(pool.swept_frame, context.cache.frame()) != context.cache.frame()) sweep_pool(pool);
     set_view_uniforms(*this, programs.surface, gpu, context, item);
 
     // This frame's commands in the selection's order (front to back) in one indirect buffer, drawn as

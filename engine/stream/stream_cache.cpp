@@ -281,7 +281,16 @@ void StreamCache::start_load(SourceId source, uint32_t index, uint64_t bound, ui
     jobs.push_back({source, index, s.source, parent == StreamSource::kNoItem ? nullptr : s.items[parent].value});
 }
 
+void StreamCache::tell_changes() {
+    for (Source& s : sources_) {
+        if (s.removed || s.told_version == s.version) continue;
+        s.told_version = s.version;
+        s.source->residency_changed();
+    }
+}
+
 void StreamCache::queue_jobs(std::vector<Job>& jobs) {
+    tell_changes();  // what evictions freed goes before the loads take more; arrivals are told too
     if (jobs.empty()) return;
     {
         const std::lock_guard lock(mutex_);

@@ -51,6 +51,11 @@ public:
     // Runs on a loader thread, given the parent's value (null for a root). Throws std::exception on
     // failure, with a message that names the source and the item.
     virtual Loaded load(uint32_t item, const std::shared_ptr<const void>& parent) = 0;
+    // Called on the cache's caller's thread once what is resident of the source has changed (items
+    // came in or left), before any new load starts: whatever holds the source's values (a model not
+    // drawn this frame) lets go of the evicted ones now, so that they count against the budget only
+    // while the cache holds them. It may read the cache (value(), version()), never change it.
+    virtual void residency_changed() {}
 };
 
 class StreamCache {
@@ -151,6 +156,7 @@ private:
         std::shared_ptr<StreamSource> source;
         std::vector<Item> items;
         uint64_t version = 0;
+        uint64_t told_version = 0;  // the version residency_changed() was last called for
         bool removed = false;
     };
     struct Job {
@@ -182,6 +188,8 @@ private:
     void start_prefetches();
     // Starts loading an absent item whose parent is resident, reserving `bound`; adds its job.
     void start_load(SourceId source, uint32_t item, uint64_t bound, uint64_t gpu_bound, std::vector<Job>& jobs);
+    // Tells each source whose residency changed since it was last told (StreamSource::residency_changed).
+    void tell_changes();
     void queue_jobs(std::vector<Job>& jobs);
     void evict(SourceId source, uint32_t item);
     // Pins what the source asks to keep under the budget now, and unpins the rest of its items.

@@ -665,5 +665,57 @@ TEST_F(StreamingRender, OneRendererThroughAFlyInThatEvictsKeepsItsPoolToTheResid
     EXPECT_EQ(target.read_color(), reference);
 }
 
+// A model the view has left is not culled, so it does not take in what the cache evicts when a frame
+// culls it: it must let go of the evicted cubes at once all the same (StreamSource::residency_changed),
+// or the scene holds more than the budget counts. Two copies of the scan far apart: close-ups of one,
+// then of the other, under a budget that holds one at a time.
+TEST_F(StreamingRender, AModelOutOfViewLetsGoOfTheCubesTheCacheEvicts) {
+    StreamCache& cache = *StreamCache::shared();
+    const uint64_t budget = cache.budget();
+    test::TempDir dir;
+    std::filesystem::copy_file(test::bunny_hlod(), dir / "a.hlod");
+    std::filesystem::copy_file(test::bunny_hlod(), dir / "b.hlod");
+    // A budget that holds one close-up's working set and a half; set first, since a model opened under
+    // a larger one would have all its levels pinned.
+    cache.set_budget(decoded_bytes(*HlodModel::load(test::bunny_hlod())));
+    uint64_t working_set = 0;
+    full_detail_frame(HlodModel::open(test::bunny_hlod()), &working_set);
+    cache.set_budget(working_set * 3 / 2);
+    const auto a = HlodModel::open(dir / "a.hlod"), b = HlodModel::open(dir / "b.hlod");
+    const double size = a->header().root_size;
+    auto root = std::make_shared<Group>();
+    for (const auto& [model, x] : {std::pair{a, 0.0}, std::pair{b, 20 * size}}) {
+        model->set_pixel_error(1.0);
+        auto place = std::make_shared<Transform>();
+        place->set_matrix(glm::translate(glm::dmat4(1.0), glm::dvec3(x, 0, 0)));
+        place->add(model);
+        root->add(place);
+    }
+    auto held = [](const HlodModel& model) {
+        uint64_t bytes = 0;
+        for (const HlodCube& cube : model.cubes())
+            if (cube.data) bytes += HlodModel::cube_bytes(*cube.data);
+        return bytes;
+    };
+    Renderer renderer;
+    RenderSettings full;
+    full.full_detail = true;
+    const uint64_t evicted_before = cache.stats().evicted;
+    for (int view = 0; view < 4; ++view) {
+        const double x = view % 2 == 0 ? 0.0 : 20 * size;
+        const double angle = 1.3 * view;
+        Camera camera;
+        aim(camera, *a, centre_of(*a) + glm::dvec3(x, 0, 0) + 0.5 * size * glm::dvec3(std::sin(angle), 0.2, std::cos(angle)));
+        camera.look_at(camera.position, centre_of(*a) + glm::dvec3(x, 0, 0));
+        gl::Framebuffer target({.width = camera.width, .height = camera.height, .samples = 1});
+        const FrameStats stats = renderer.render(*root, camera, target, full);
+        EXPECT_EQ(stats.stand_ins, 0u);
+        // Exact: what the two models hold is what the cache counts, the one out of view included.
+        EXPECT_EQ(held(*a) + held(*b), cache.stats().resident_bytes) << "view " << view;
+    }
+    EXPECT_GT(cache.stats().evicted, evicted_before) << "the close-ups did not evict: nothing was tested";
+    cache.set_budget(budget);
+}
+
 }  // namespace
 }  // namespace strata
