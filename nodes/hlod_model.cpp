@@ -152,11 +152,11 @@ public:
         const uint64_t bytes = HlodModel::cube_bytes(*data), gpu_bytes = HlodModel::cube_gpu_bytes(*data);
         return {std::shared_ptr<const CubeData>(std::move(data)), bytes, gpu_bytes};
     }
-    void residency_changed() override {
-        if (on_residency_changed) on_residency_changed();
+    void residency_changed(const std::vector<uint32_t>& cubes, uint64_t version) override {
+        if (on_residency_changed) on_residency_changed(cubes, version);
     }
     // Set by the shared source: every model reading the file takes in what changed.
-    std::function<void()> on_residency_changed;
+    std::function<void(const std::vector<uint32_t>&, uint64_t)> on_residency_changed;
 
 private:
     std::shared_ptr<const HlodFile> file_;
@@ -186,9 +186,9 @@ struct HlodModel::SharedSource {
         std::lock_guard lock(models_mutex);
         std::erase(models, model);
     }
-    void sync_models() const {
+    void take_changes(const std::vector<uint32_t>& cubes, uint64_t version) const {
         std::lock_guard lock(models_mutex);
-        for (HlodModel* model : models) model->sync_residency();
+        for (HlodModel* model : models) model->take_residency_changes(cubes, version);
     }
     mutable std::mutex models_mutex{};
     mutable std::vector<HlodModel*> models{};
@@ -260,7 +260,9 @@ std::shared_ptr<HlodModel> HlodModel::open(const std::filesystem::path& path, st
     if (!shared) {
         auto cube_source = std::make_shared<CubeSource>(file, *model);
         shared = SharedSource::add(cache, file->identity(), cube_source);
-        cube_source->on_residency_changed = [source = shared.get()] { source->sync_models(); };
+        cube_source->on_residency_changed = [source = shared.get()](const std::vector<uint32_t>& cubes, uint64_t version) {
+            source->take_changes(cubes, version);
+        };
     }
     const StreamCache::SourceId source = shared->source;
     model->stream_ = std::make_unique<Stream>(Stream{shared, *cache, source});
@@ -298,6 +300,24 @@ void HlodModel::sync_residency() {
         resident[c] = cubes_[c].data != nullptr;
     }
     set_residency(std::move(resident));
+}
+
+void HlodModel::take_residency_changes(const std::vector<uint32_t>& changed, uint64_t version) {
+    if (stream_->synced == ~uint64_t(0)) return sync_residency();  // never synced: take it all
+    for (const uint32_t c : changed) {
+        cubes_[c].data = std::static_pointer_cast<const CubeData>(stream_->cache.value(stream_->source, c));
+        resident_[c] = cubes_[c].data != nullptr;
+    }
+    auto lacks_a_child = [&](uint32_t c) {
+        for (const uint32_t child : cubes_[c].children)
+            if (child != kNoCube && !resident_[child]) return true;
+        return false;
+    };
+    for (const uint32_t c : changed)
+        for (const uint32_t cube : {c, parent_[c]})
+            if (cube != kNoCube) lacks_child_[cube] = resident_[cube] && lacks_a_child(cube);
+    stream_->synced = version;
+    ++residency_version_;
 }
 
 uint64_t HlodModel::request_refinement(const HlodView& view, const std::vector<uint32_t>& drawn, const std::vector<uint32_t>& examined,

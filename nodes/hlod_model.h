@@ -87,6 +87,10 @@ public:
     // Streamed: takes in what the cache loaded or evicted since the last call (the cubes' data and
     // set_residency); cull() calls it. Render thread.
     void sync_residency();
+    // Streamed: takes in the cubes that came in or left as the cache reports them
+    // (StreamSource::residency_changed), in time proportional to the changes; a model that has not
+    // synced yet takes it all. Render thread.
+    void take_residency_changes(const std::vector<uint32_t>& cubes, uint64_t version);
     // What a cube takes once resident, in CPU and GPU memory together: a bound from the node table's
     // counts, and the exact figure for decoded data. The streaming budget counts these.
     uint64_t cube_bytes_bound(const HlodNode& node) const;
@@ -132,7 +136,7 @@ public:
     // std::invalid_argument on a resident cube whose parent is not, or a list of the wrong length.
     void set_residency(std::vector<uint8_t> resident);
     bool resident(uint32_t cube) const { return resident_[cube] != 0; }
-    uint64_t residency_version() const { return residency_version_; }  // counts set_residency calls
+    uint64_t residency_version() const { return residency_version_; }  // counts changes of residency
     // Interactive frames: per cube, 1 once settled; 0 while capped; then 1/kFadeFrames more
     // each frame, so that children that arrive late (and cubes no longer held back) fade in
     // (nodes/README.md, "Stand-ins"). cull() advances it; full-detail frames ignore it.
@@ -302,7 +306,7 @@ private:
     std::vector<uint32_t> fading_;                       // the cubes whose fade is below 1
     // Ends an interactive frame's fades: the cubes capped in it to 0, the others fading a step on.
     void advance_fades(const std::vector<uint32_t>& capped);
-    uint64_t residency_version_ = 0;                     // counts set_residency calls
+    uint64_t residency_version_ = 0;                     // counts changes of residency
     // The last κ computed, with what it was computed from (a gain, or −κ0 for a uniform κ).
     mutable std::mutex kappas_mutex_;
     mutable double cached_key_ = 0;

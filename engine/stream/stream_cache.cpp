@@ -5,6 +5,7 @@
 #include <cmath>
 #include <queue>
 #include <stdexcept>
+#include <utility>
 
 #include "preprocess/byte_size.h"
 
@@ -75,6 +76,7 @@ void StreamCache::remove(SourceId id) {
     }
     s.removed = true;
     s.items.clear();
+    s.changed.clear();
     std::erase_if(pinned_, [&](const auto& p) { return p.first == id; });
 }
 
@@ -167,6 +169,7 @@ void StreamCache::take_in_finished() {
         ++resident_items_;
         ++loaded_;
         ++s.version;
+        s.changed.push_back(d.item);
     }
 }
 
@@ -180,6 +183,7 @@ void StreamCache::evict(SourceId source, uint32_t index) {
     --resident_items_;
     ++evicted_;
     ++s.version;
+    s.changed.push_back(index);
     if (const uint32_t parent = s.source->parent(index); parent != StreamSource::kNoItem) --s.items[parent].children_held;
 }
 
@@ -283,9 +287,9 @@ void StreamCache::start_load(SourceId source, uint32_t index, uint64_t bound, ui
 
 void StreamCache::tell_changes() {
     for (Source& s : sources_) {
-        if (s.removed || s.told_version == s.version) continue;
-        s.told_version = s.version;
-        s.source->residency_changed();
+        if (s.removed || s.changed.empty()) continue;
+        const std::vector<uint32_t> changed = std::exchange(s.changed, {});
+        s.source->residency_changed(changed, s.version);
     }
 }
 

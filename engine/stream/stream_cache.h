@@ -51,11 +51,12 @@ public:
     // Runs on a loader thread, given the parent's value (null for a root). Throws std::exception on
     // failure, with a message that names the source and the item.
     virtual Loaded load(uint32_t item, const std::shared_ptr<const void>& parent) = 0;
-    // Called on the cache's caller's thread once what is resident of the source has changed (items
-    // came in or left), before any new load starts: whatever holds the source's values (a model not
-    // drawn this frame) lets go of the evicted ones now, so that they count against the budget only
-    // while the cache holds them. It may read the cache (value(), version()), never change it.
-    virtual void residency_changed() {}
+    // Called on the cache's caller's thread once what is resident of the source has changed, before
+    // any new load starts, with the items that came in or left (in no order, maybe twice) and the
+    // source's version after them: whatever holds the source's values (a model not drawn this frame)
+    // lets go of the evicted ones now, so that they count against the budget only while the cache
+    // holds them. It may read the cache (value(), version()), never change it.
+    virtual void residency_changed(const std::vector<uint32_t>& /*items*/, uint64_t /*version*/) {}
 };
 
 class StreamCache {
@@ -156,7 +157,7 @@ private:
         std::shared_ptr<StreamSource> source;
         std::vector<Item> items;
         uint64_t version = 0;
-        uint64_t told_version = 0;  // the version residency_changed() was last called for
+        std::vector<uint32_t> changed;  // items that came in or left since residency_changed()
         bool removed = false;
     };
     struct Job {
