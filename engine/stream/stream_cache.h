@@ -55,7 +55,8 @@ public:
     // any new load starts, with the items that came in or left (in no order, maybe twice) and the
     // source's version after them: whatever holds the source's values (a model not drawn this frame)
     // lets go of the evicted ones now, so that they count against the budget only while the cache
-    // holds them. It may read the cache (value(), version()), never change it.
+    // holds them. It may read the cache (value(), version()), never change it, and must not throw:
+    // the loads it comes before are not queued yet.
     virtual void residency_changed(const std::vector<uint32_t>& /*items*/, uint64_t /*version*/) {}
 };
 
