@@ -302,20 +302,21 @@ void HlodModel::sync_residency() {
     set_residency(std::move(resident));
 }
 
+bool HlodModel::lacks_a_child(const std::vector<uint8_t>& resident, uint32_t cube) const {
+    for (const uint32_t child : cubes_[cube].children)
+        if (child != kNoCube && !resident[child]) return true;
+    return false;
+}
+
 void HlodModel::take_residency_changes(const std::vector<uint32_t>& changed, uint64_t version) {
     if (stream_->synced == ~uint64_t(0)) return sync_residency();  // never synced: take it all
     for (const uint32_t c : changed) {
         cubes_[c].data = std::static_pointer_cast<const CubeData>(stream_->cache.value(stream_->source, c));
         resident_[c] = cubes_[c].data != nullptr;
     }
-    auto lacks_a_child = [&](uint32_t c) {
-        for (const uint32_t child : cubes_[c].children)
-            if (child != kNoCube && !resident_[child]) return true;
-        return false;
-    };
     for (const uint32_t c : changed)
         for (const uint32_t cube : {c, parent_[c]})
-            if (cube != kNoCube) lacks_child_[cube] = resident_[cube] && lacks_a_child(cube);
+            if (cube != kNoCube) lacks_child_[cube] = resident_[cube] && lacks_a_child(resident_, cube);
     stream_->synced = version;
     ++residency_version_;
 }
@@ -372,8 +373,7 @@ void HlodModel::set_residency(std::vector<uint8_t> resident) {
     for (uint32_t c = 0; c < cubes_.size(); ++c) {
         if (resident[c] && parent_[c] != kNoCube && !resident[parent_[c]])
             throw std::invalid_argument("residency: " + describe_cube(cubes_[c].node) + " is resident without its parent");
-        for (const uint32_t child : cubes_[c].children)
-            if (child != kNoCube && !resident[child]) lacks_child[c] = resident[c];
+        lacks_child[c] = resident[c] && lacks_a_child(resident, c);
     }
     resident_ = std::move(resident);
     lacks_child_ = std::move(lacks_child);

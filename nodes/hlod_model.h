@@ -302,6 +302,8 @@ private:
     // Streamed: prefetches what a coming view's selection lacks (one level a frame, as for the view).
     void prefetch_for(const Lookahead& ahead, const glm::dmat4& world_from_node) const;
     std::vector<uint8_t> resident_, lacks_child_;      // per cube: lacks_child_, resident without a child
+    // Whether one of the cube's children is not resident under `resident` (a flag per cube).
+    bool lacks_a_child(const std::vector<uint8_t>& resident, uint32_t cube) const;
     std::vector<float> fade_;                            // per cube, see fade()
     std::vector<uint32_t> fading_;                       // the cubes whose fade is below 1
     // Ends an interactive frame's fades: the cubes capped in it to 0, the others fading a step on.
