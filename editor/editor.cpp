@@ -590,9 +590,10 @@ void Editor::draw_stats_overlay() {
     const ImGuiWindowFlags flags = ImGuiWindowFlags_NoDecoration | ImGuiWindowFlags_AlwaysAutoResize | ImGuiWindowFlags_NoSavedSettings |
                                    ImGuiWindowFlags_NoFocusOnAppearing | ImGuiWindowFlags_NoNav | ImGuiWindowFlags_NoInputs;
     if (ImGui::Begin("stats", nullptr, flags))
-        ImGui::Text("%.0f fps  %.1f ms  |  %.2f M triangles  %llu cubes  |  streamed %s, %llu loading, %llu stand-ins, %s  |  ui %.2f ms",
+        ImGui::Text("%.0f fps  %.1f ms  |  %.2f M triangles  %llu cubes  |  streamed %s + tables %s, %llu loading, %llu stand-ins, %s  |  ui %.2f ms",
                     fps_, 1000.0 / std::max(fps_, 1e-6), stats_.triangles / 1e6, (unsigned long long)stats_.cubes,
-                    describe_bytes(stats_.memory_resident).c_str(), (unsigned long long)stats_.loads_pending,
+                    describe_bytes(stats_.memory_resident).c_str(), describe_bytes(stats_.memory_tables).c_str(),
+                    (unsigned long long)stats_.loads_pending,
                     (unsigned long long)stats_.stand_ins,
                     stats_.frames_unconverged == 0 ? "converged" : ("converging for " + std::to_string(stats_.frames_unconverged) + " frames").c_str(),
                     timings_.ui_ms);

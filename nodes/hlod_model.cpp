@@ -32,13 +32,13 @@ double box_distance(const glm::dvec3& p, const Box& box) {
 
 }  // namespace
 
-void HlodModel::read_octree(const HlodFile& file) {
-    path_ = file.path();
-    header_ = file.header();
-    set_name(path_.stem().string());
-    set_kappa0(2.0);  // the default, raised to what this model's σ0 needs for its morph
+std::shared_ptr<HlodModel::Tree> HlodModel::read_octree(const HlodFile& file) {
+    auto tree = std::make_shared<Tree>();
+    Tree& t = *tree;
+    t.header = file.header();
     const auto& nodes = file.nodes();
-    if (nodes.empty()) throw std::runtime_error(path_.string() + ": the model has no cubes");
+    const std::string name = file.path().string();
+    if (nodes.empty()) throw std::runtime_error(name + ": the model has no cubes");
 
     // Octree links: each cube finds its parent, children and neighbours by (level, i, j, k).
     std::unordered_map<uint64_t, uint32_t> index;
@@ -50,54 +50,69 @@ void HlodModel::read_octree(const HlodFile& file) {
         const auto it = index.find(key(level, uint32_t(i), uint32_t(j), uint32_t(k)));
         return it == index.end() ? kNoCube : it->second;
     };
-    cubes_.resize(nodes.size());
+    t.cubes.resize(nodes.size());
     for (uint32_t c = 0; c < nodes.size(); ++c) {
-        HlodCube& cube = cubes_[c];
+        HlodCube& cube = t.cubes[c];
         cube.node = nodes[c];
         cube.children.fill(kNoCube);
         index[key(nodes[c].level, nodes[c].i, nodes[c].j, nodes[c].k)] = c;
     }
-    if (find(0, 0, 0, 0) == kNoCube) throw std::runtime_error(path_.string() + ": the model has no root cube");
-    parent_.assign(nodes.size(), kNoCube);
-    neighbours_.resize(nodes.size());
+    if (find(0, 0, 0, 0) == kNoCube) throw std::runtime_error(name + ": the model has no root cube");
+    t.parent.assign(nodes.size(), kNoCube);
+    t.neighbours.resize(nodes.size());
     for (uint32_t c = 0; c < nodes.size(); ++c) {
         const HlodNode& n = nodes[c];
         for (int d = 0; d < 27; ++d)
-            neighbours_[c][d] = find(n.level, int64_t(n.i) + d % 3 - 1, int64_t(n.j) + d / 3 % 3 - 1, int64_t(n.k) + d / 9 - 1);
+            t.neighbours[c][d] = find(n.level, int64_t(n.i) + d % 3 - 1, int64_t(n.j) + d / 3 % 3 - 1, int64_t(n.k) + d / 9 - 1);
         if (n.level == 0) continue;
         const uint32_t parent = find(n.level - 1, n.i / 2, n.j / 2, n.k / 2);
-        if (parent == kNoCube) throw std::runtime_error(path_.string() + ": " + describe_cube(n) + " has no parent cube");
-        cubes_[parent].children[octant_of(n)] = c;
-        parent_[c] = parent;
+        if (parent == kNoCube) throw std::runtime_error(name + ": " + describe_cube(n) + " has no parent cube");
+        t.cubes[parent].children[octant_of(n)] = c;
+        t.parent[c] = parent;
     }
-    root_ = find(0, 0, 0, 0);
-    finest_first_.resize(nodes.size());
-    for (uint32_t c = 0; c < nodes.size(); ++c) finest_first_[c] = c;
-    std::stable_sort(finest_first_.begin(), finest_first_.end(), [&](uint32_t a, uint32_t b) { return nodes[a].level > nodes[b].level; });
-    resident_.assign(nodes.size(), 0);
-    lacks_child_.assign(nodes.size(), 0);
-    level_error_.assign(header_.max_level + 1, 0.0);
+    t.root = find(0, 0, 0, 0);
+    t.finest_first.resize(nodes.size());
+    for (uint32_t c = 0; c < nodes.size(); ++c) t.finest_first[c] = c;
+    std::stable_sort(t.finest_first.begin(), t.finest_first.end(), [&](uint32_t a, uint32_t b) { return nodes[a].level > nodes[b].level; });
+    t.resident.assign(nodes.size(), 0);
+    t.lacks_child.assign(nodes.size(), 0);
+    t.level_error.assign(t.header.max_level + 1, 0.0);
     for (const HlodNode& n : nodes) {
-        double& worst = level_error_[n.level];
-        worst = std::max(worst, double(n.error) / header_.cube_size(n.level));
+        double& worst = t.level_error[n.level];
+        worst = std::max(worst, double(n.error) / t.header.cube_size(n.level));
     }
+    return tree;
+}
+
+uint64_t HlodModel::Tree::table_bytes() const {
+    auto held = [](const auto& v) { return uint64_t(v.capacity()) * sizeof(v[0]); };
+    return held(cubes) + held(level_error) + held(neighbours) + held(parent) + held(finest_first) + held(resident) + held(lacks_child);
+}
+
+void HlodModel::adopt(std::shared_ptr<Tree> tree, const std::filesystem::path& path) {
+    tree_ = std::move(tree);
+    path_ = path;
+    set_name(path_.stem().string());
+    set_kappa0(2.0);  // the default, raised to what this model's σ0 needs for its morph
+    fade_.assign(tree_->cubes.size(), 1.0f);
 }
 
 std::shared_ptr<HlodModel> HlodModel::load(const std::filesystem::path& path) {
     HlodFile file(path);
     std::shared_ptr<HlodModel> model(new HlodModel());
-    model->read_octree(file);
+    model->adopt(read_octree(file), file.path());
+    Tree& tree = *model->tree_;
     // Coarse to fine, so each cube finds its parents' vertices already decoded.
-    for (auto c = model->finest_first_.rbegin(); c != model->finest_first_.rend(); ++c) {
-        HlodCube& cube = model->cubes_[*c];
+    for (auto c = tree.finest_first.rbegin(); c != tree.finest_first.rend(); ++c) {
+        HlodCube& cube = tree.cubes[*c];
         auto data = std::make_shared<CubeData>(file.read_cube(cube.node));
-        const uint32_t parent = model->parent_[*c];
-        resolve_parents(*data, parent == kNoCube ? data->vertices : model->cubes_[parent].data->vertices,
+        const uint32_t parent = tree.parent[*c];
+        resolve_parents(*data, parent == kNoCube ? data->vertices : tree.cubes[parent].data->vertices,
                         path.string() + ": " + describe_cube(cube.node));
         cube.data = std::move(data);
     }
-    model->set_residency(std::vector<uint8_t>(model->cubes_.size(), 1));
-    for (HlodCube& cube : model->cubes_) {
+    model->set_residency(std::vector<uint8_t>(tree.cubes.size(), 1));
+    for (HlodCube& cube : tree.cubes) {
         for (uint32_t v = 0; v < cube.data->vertex_count(); ++v) {
             const glm::vec3 p = model->vertex_position(cube, v);
             model->bound_.expand(glm::dvec3(p) + model->origin());
@@ -112,30 +127,23 @@ namespace {
 // checksum checked, decoded, and given their parents' vertices from the parent the cache hands over.
 class CubeSource : public StreamSource {
 public:
-    CubeSource(std::shared_ptr<const HlodFile> file, const HlodModel& model) : file_(std::move(file)) {
-        for (uint32_t c = 0; c < model.cubes().size(); ++c) {
-            levels_.push_back(model.cubes()[c].node.level);
-            parents_.push_back(model.parent(c));
-            bounds_.push_back(model.cube_bytes_bound(model.cubes()[c].node));
-            gpu_bounds_.push_back(model.cube_gpu_bytes_bound(model.cubes()[c].node));
-        }
-    }
+    CubeSource(std::shared_ptr<const HlodFile> file, std::vector<uint32_t> parents) : file_(std::move(file)), parents_(std::move(parents)) {}
     uint32_t item_count() const override { return uint32_t(parents_.size()); }
     uint32_t parent(uint32_t cube) const override { return parents_[cube]; }
-    uint64_t item_bytes(uint32_t cube) const override { return bounds_[cube]; }
-    uint64_t item_gpu_bytes(uint32_t cube) const override { return gpu_bounds_[cube]; }
+    uint64_t item_bytes(uint32_t cube) const override { return HlodModel::cube_bytes_bound(file_->header(), file_->nodes()[cube]); }
+    uint64_t item_gpu_bytes(uint32_t cube) const override { return HlodModel::cube_gpu_bytes_bound(file_->header(), file_->nodes()[cube]); }
     // The coarse levels whose cubes fit in 5 % of the budget together; the root always, since nothing
     // is drawn without it.
     std::vector<uint32_t> pinned_items(uint64_t budget) const override {
-        const uint32_t finest = *std::max_element(levels_.begin(), levels_.end());
-        std::vector<uint64_t> level_bytes(finest + 1, 0);
-        for (uint32_t c = 0; c < levels_.size(); ++c) level_bytes[levels_[c]] += bounds_[c];
+        const auto& nodes = file_->nodes();
+        std::vector<uint64_t> level_bytes(file_->header().max_level + 1, 0);
+        for (uint32_t c = 0; c < nodes.size(); ++c) level_bytes[nodes[c].level] += item_bytes(c);
         uint64_t pinned = 0;
         uint32_t levels = 0;
-        while (levels <= finest && pinned + level_bytes[levels] <= budget / 20) pinned += level_bytes[levels++];
+        while (levels < level_bytes.size() && pinned + level_bytes[levels] <= budget / 20) pinned += level_bytes[levels++];
         std::vector<uint32_t> cubes;
-        for (uint32_t c = 0; c < levels_.size(); ++c)
-            if (levels_[c] < std::max(levels, 1u)) cubes.push_back(c);
+        for (uint32_t c = 0; c < nodes.size(); ++c)
+            if (nodes[c].level < std::max(levels, 1u)) cubes.push_back(c);
         return cubes;
     }
     Loaded load(uint32_t cube, const std::shared_ptr<const void>& parent) override {
@@ -155,43 +163,36 @@ public:
     void residency_changed(const std::vector<uint32_t>& cubes, uint64_t version) override {
         if (on_residency_changed) on_residency_changed(cubes, version);
     }
-    // Set by the shared source: every model reading the file takes in what changed.
+    // Set by the shared source: the file's tree takes in what changed.
     std::function<void(const std::vector<uint32_t>&, uint64_t)> on_residency_changed;
+    // What it and its file's node table hold per cube.
+    uint64_t table_bytes() const {
+        return uint64_t(parents_.capacity()) * sizeof(uint32_t) + uint64_t(file_->nodes().capacity()) * sizeof(HlodNode);
+    }
 
 private:
     std::shared_ptr<const HlodFile> file_;
-    std::vector<uint32_t> parents_, levels_;
-    std::vector<uint64_t> bounds_, gpu_bounds_;
+    std::vector<uint32_t> parents_;
 };
+
+// What one CubeKappas holds for `cubes` cubes: κ and band ends, and fades where it has them.
+uint64_t kappas_bytes(uint64_t cubes, bool fades) {
+    return cubes * (sizeof(double) + sizeof(std::array<float, 2>) + (fades ? sizeof(float) : 0));
+}
 
 }  // namespace
 
-// A streamed file's source in a cache, removed with the last model that reads it. Models opening a
-// file already open through the same cache (found by the file's identity, whatever the path) take
-// the same source: its cubes load once, count once and are drawn from one copy.
+// A streamed file's source in a cache and the tree its models share, removed with the last model
+// that reads it. Models opening a file already open through the same cache (found by the file's
+// identity, whatever the path) take the same source and tree: its cubes load once, count once and are
+// drawn from one copy, and its per-cube tables are held (and counted in the budget) once.
 struct HlodModel::SharedSource {
     std::shared_ptr<StreamCache> cache;
-    StreamCache::SourceId source;
+    std::shared_ptr<Tree> tree;
+    StreamCache::Held tables;  // the tree, the node table, the source and the GPU tables of the cubes
+    StreamCache::SourceId source = 0;
     HlodFile::Identity file;
     ~SharedSource() { cache->remove(source); }
-
-    // The models reading the file. Each takes in what the cache loaded or evicted as soon as it
-    // changes, drawn or not: one outside the view would otherwise hold on to the cubes the cache
-    // evicted (and their GPU blocks) until a frame next culls it, beyond the budget.
-    void attach(HlodModel* model) const {
-        std::lock_guard lock(models_mutex);
-        models.push_back(model);
-    }
-    void detach(HlodModel* model) const {
-        std::lock_guard lock(models_mutex);
-        std::erase(models, model);
-    }
-    void take_changes(const std::vector<uint32_t>& cubes, uint64_t version) const {
-        std::lock_guard lock(models_mutex);
-        for (HlodModel* model : models) model->take_residency_changes(cubes, version);
-    }
-    mutable std::mutex models_mutex{};
-    mutable std::vector<HlodModel*> models{};
 
     static std::shared_ptr<const SharedSource> find(const StreamCache& cache, const HlodFile::Identity& file) {
         std::lock_guard lock(registry_mutex);
@@ -200,9 +201,21 @@ struct HlodModel::SharedSource {
             if (auto shared = weak.lock(); shared && shared->cache.get() == &cache && shared->file == file) return shared;
         return nullptr;
     }
-    static std::shared_ptr<const SharedSource> add(const std::shared_ptr<StreamCache>& cache, const HlodFile::Identity& file,
-                                                   std::shared_ptr<StreamSource> source) {
-        std::shared_ptr<const SharedSource> shared(new SharedSource{cache, cache->add(std::move(source)), file});
+    // The tree takes in what the cache loaded or evicted as soon as it changes, whether a model on it
+    // is drawn or not: one outside the view would otherwise hold on to the cubes the cache evicted
+    // (and their GPU blocks) until a frame next culls it, beyond the budget.
+    static std::shared_ptr<const SharedSource> add(const std::shared_ptr<StreamCache>& cache, const std::shared_ptr<const HlodFile>& file,
+                                                   std::shared_ptr<Tree> tree) {
+        auto cube_source = std::make_shared<CubeSource>(file, tree->parent);
+        const uint64_t cubes = tree->cubes.size();
+        const TableBytes gpu = gpu_tables_per_owner(cubes);
+        StreamCache::Held tables = cache->hold(tree->table_bytes() + cube_source->table_bytes() + kappas_bytes(cubes, false) + gpu.bytes,
+                                               gpu.gpu_bytes, file->path().string() + ": the tables of its " + std::to_string(cubes) + " cubes");
+        const StreamCache::SourceId source = cache->add(cube_source);
+        cube_source->on_residency_changed = [cache = cache.get(), tree = tree.get(), source](const std::vector<uint32_t>& changed, uint64_t version) {
+            tree->take_changes(*cache, source, changed, version);
+        };
+        std::shared_ptr<const SharedSource> shared(new SharedSource{cache, std::move(tree), std::move(tables), source, file->identity()});
         std::lock_guard lock(registry_mutex);
         registry.push_back(shared);
         return shared;
@@ -223,50 +236,48 @@ uint64_t HlodModel::cube_gpu_bytes(const CubeData& d) {
     return gpu_block_bytes(d.vertices.size(), d.parents.size(), d.indices.size(), !d.vertices.colors.empty());
 }
 
-uint64_t HlodModel::cube_gpu_bytes_bound(const HlodNode& node) const {
-    return gpu_block_bytes(node.vertex_count, node.vertex_count, 3 * uint64_t(node.triangle_count), header_.has_colors());
+uint64_t HlodModel::cube_gpu_bytes_bound(const HlodHeader& header, const HlodNode& node) {
+    return gpu_block_bytes(node.vertex_count, node.vertex_count, 3 * uint64_t(node.triangle_count), header.has_colors());
 }
 
-uint64_t HlodModel::cube_bytes_bound(const HlodNode& node) const {
+uint64_t HlodModel::cube_bytes_bound(const HlodHeader& header, const HlodNode& node) {
     // Per vertex, for itself and for its parent's copy (at most one per vertex): positions, normals,
     // colours, UVs; then its parent index and entry, the indices, and the GPU block.
-    const uint64_t attributes = 3 * 2 + 2 * 2 + (header_.has_colors() ? 4 : 0) + (header_.has_uvs() ? 8 : 0);
+    const uint64_t attributes = 3 * 2 + 2 * 2 + (header.has_colors() ? 4 : 0) + (header.has_uvs() ? 8 : 0);
     const uint64_t cpu = (2 * attributes + 4 + 4) * uint64_t(node.vertex_count) + 3 * 4 * uint64_t(node.triangle_count);
-    return cpu + cube_gpu_bytes_bound(node);
+    return cpu + cube_gpu_bytes_bound(header, node);
 }
 
 std::shared_ptr<HlodModel> HlodModel::open(const std::filesystem::path& path, std::shared_ptr<StreamCache> cache) {
     auto file = std::make_shared<const HlodFile>(path);
+    std::shared_ptr<const SharedSource> shared = SharedSource::find(*cache, file->identity());
+    if (!shared) shared = SharedSource::add(cache, file, read_octree(*file));  // nothing resident yet
     std::shared_ptr<HlodModel> model(new HlodModel());
-    model->read_octree(*file);  // nothing resident yet
+    model->adopt(shared->tree, file->path());
     // The bound, before any cube is read: the input's box (BNDS) grown by the coarsest lattice's
     // rounding, else the finest cubes' cells grown by the vertices' overhang.
-    const uint32_t finest = model->header_.max_level;
-    const HlodHeader& h = model->header_;
+    const HlodHeader& h = model->header();
+    const uint32_t finest = h.max_level;
     if (h.has_bounds) {
         const glm::dvec3 rounding(h.lattice_step(0));
         model->bound_.expand(glm::dvec3(h.bounds_lo[0], h.bounds_lo[1], h.bounds_lo[2]) - rounding);
         model->bound_.expand(glm::dvec3(h.bounds_hi[0], h.bounds_hi[1], h.bounds_hi[2]) + rounding);
     } else {
         const glm::dvec3 grow(h.sigma0 * h.cube_size(finest));
-        for (const HlodCube& cube : model->cubes_)
+        for (const HlodCube& cube : model->cubes())
             if (cube.node.level == finest) {
                 const Box cell = model->cell(cube.node);
                 model->bound_.expand(cell.lo - grow + model->origin());
                 model->bound_.expand(cell.hi + grow + model->origin());
             }
     }
-    std::shared_ptr<const SharedSource> shared = SharedSource::find(*cache, file->identity());
-    if (!shared) {
-        auto cube_source = std::make_shared<CubeSource>(file, *model);
-        shared = SharedSource::add(cache, file->identity(), cube_source);
-        cube_source->on_residency_changed = [source = shared.get()](const std::vector<uint32_t>& cubes, uint64_t version) {
-            source->take_changes(cubes, version);
-        };
-    }
-    const StreamCache::SourceId source = shared->source;
-    model->stream_ = std::make_unique<Stream>(Stream{shared, *cache, source});
-    shared->attach(model.get());
+    // Its own per-cube state: its fades, the κ it morphs with (the last drawn and the next), and
+    // their GPU copies.
+    const uint64_t cubes = model->cubes().size();
+    const TableBytes gpu = gpu_tables_per_model(cubes);
+    StreamCache::Held tables = cache->hold(uint64_t(model->fade_.capacity()) * sizeof(float) + 2 * kappas_bytes(cubes, true) + gpu.bytes,
+                                           gpu.gpu_bytes, file->path().string() + ": a model's tables for its " + std::to_string(cubes) + " cubes");
+    model->stream_ = std::make_unique<Stream>(Stream{shared, *cache, shared->source, std::move(tables)});
     return model;
 }
 
@@ -281,44 +292,41 @@ std::optional<HlodDebugView> debug_view_named(std::string_view name) {
     return std::nullopt;
 }
 
-HlodModel::~HlodModel() {
-    if (stream_) stream_->shared->detach(this);
-}
+HlodModel::~HlodModel() = default;
 
-std::shared_ptr<const void> HlodModel::cube_owner() const {
-    if (stream_) return stream_->shared;
-    return lifetime().lock();
-}
+std::shared_ptr<const void> HlodModel::cube_owner() const { return tree_; }
 
-void HlodModel::sync_residency() {
-    const uint64_t version = stream_->cache.version(stream_->source);
-    if (version == stream_->synced) return;
-    stream_->synced = version;
-    std::vector<uint8_t> resident(cubes_.size());
-    for (uint32_t c = 0; c < cubes_.size(); ++c) {
-        cubes_[c].data = std::static_pointer_cast<const CubeData>(stream_->cache.value(stream_->source, c));
-        resident[c] = cubes_[c].data != nullptr;
+void HlodModel::sync_residency() { tree_->sync(stream_->cache, stream_->source); }
+
+void HlodModel::Tree::sync(const StreamCache& cache, uint32_t source) {
+    const uint64_t version = cache.version(source);
+    if (version == synced) return;
+    synced = version;
+    std::vector<uint8_t> now(cubes.size());
+    for (uint32_t c = 0; c < cubes.size(); ++c) {
+        cubes[c].data = std::static_pointer_cast<const CubeData>(cache.value(source, c));
+        now[c] = cubes[c].data != nullptr;
     }
-    set_residency(std::move(resident));
+    set_residency(std::move(now));
 }
 
-bool HlodModel::lacks_a_child(const std::vector<uint8_t>& resident, uint32_t cube) const {
-    for (const uint32_t child : cubes_[cube].children)
-        if (child != kNoCube && !resident[child]) return true;
+bool HlodModel::Tree::lacks_a_child(const std::vector<uint8_t>& flags, uint32_t cube) const {
+    for (const uint32_t child : cubes[cube].children)
+        if (child != kNoCube && !flags[child]) return true;
     return false;
 }
 
-void HlodModel::take_residency_changes(const std::vector<uint32_t>& changed, uint64_t version) {
-    if (stream_->synced == ~uint64_t(0)) return sync_residency();  // never synced: take it all
+void HlodModel::Tree::take_changes(const StreamCache& cache, uint32_t source, const std::vector<uint32_t>& changed, uint64_t version) {
+    if (synced == ~uint64_t(0)) return sync(cache, source);  // never synced: take it all
     for (const uint32_t c : changed) {
-        cubes_[c].data = std::static_pointer_cast<const CubeData>(stream_->cache.value(stream_->source, c));
-        resident_[c] = cubes_[c].data != nullptr;
+        cubes[c].data = std::static_pointer_cast<const CubeData>(cache.value(source, c));
+        resident[c] = cubes[c].data != nullptr;
     }
     for (const uint32_t c : changed)
-        for (const uint32_t cube : {c, parent_[c]})
-            if (cube != kNoCube) lacks_child_[cube] = resident_[cube] && lacks_a_child(resident_, cube);
-    stream_->synced = version;
-    ++residency_version_;
+        for (const uint32_t cube : {c, parent[c]})
+            if (cube != kNoCube) lacks_child[cube] = resident[cube] && lacks_a_child(resident, cube);
+    synced = version;
+    ++residency_version;
 }
 
 uint64_t HlodModel::request_refinement(const HlodView& view, const std::vector<uint32_t>& drawn, const std::vector<uint32_t>& examined,
@@ -328,30 +336,30 @@ uint64_t HlodModel::request_refinement(const HlodView& view, const std::vector<u
         if (ask == Ask::prefetch) cache.prefetch(stream_->source, cube, priority);
         else cache.request(stream_->source, cube, priority);
     };
-    if (!resident_[root_]) ask_for(root_, INFINITY);
+    if (!tree_->resident[tree_->root]) ask_for(tree_->root, INFINITY);
     if (ask != Ask::prefetch)
         for (const uint32_t c : drawn) cache.touch(stream_->source, c);
     std::vector<uint32_t> drawn_sorted = drawn;
     std::sort(drawn_sorted.begin(), drawn_sorted.end());
     uint64_t stand_ins = 0;
     for (const uint32_t c : examined) {
-        if (!resident_[c]) continue;
+        if (!tree_->resident[c]) continue;
         const bool unsuitable = !suitable(c, view);
         if (ask == Ask::full_detail) {  // an unsuitable cube needs all its children: without one it stands in
             cache.touch(stream_->source, c);
             if (unsuitable)
-                for (const uint32_t child : cubes_[c].children)
-                    if (child != kNoCube && resident_[child]) cache.touch(stream_->source, child);
+                for (const uint32_t child : tree_->cubes[c].children)
+                    if (child != kNoCube && tree_->resident[child]) cache.touch(stream_->source, child);
         }
-        if (!lacks_child_[c] || !unsuitable) continue;
+        if (!tree_->lacks_child[c] || !unsuitable) continue;
         ++stand_ins;
         // A stand-in closer than its switch distance: the nearer it is, the sooner its children. That
         // ratio is above 1 for an unsuitable cube; below 1 for one not drawn, so that they come after.
-        const double s = header_.cube_size(cubes_[c].node.level);
-        double priority = (*view.kappa)[c] * s / std::max(box_distance(view.eye, cell(cubes_[c].node)), 1e-6 * s);
+        const double s = tree_->header.cube_size(tree_->cubes[c].node.level);
+        double priority = (*view.kappa)[c] * s / std::max(box_distance(view.eye, cell(tree_->cubes[c].node)), 1e-6 * s);
         if (!std::binary_search(drawn_sorted.begin(), drawn_sorted.end(), c)) priority /= 1 + priority;
-        for (const uint32_t child : cubes_[c].children)
-            if (child != kNoCube && !resident_[child]) ask_for(child, priority);
+        for (const uint32_t child : tree_->cubes[c].children)
+            if (child != kNoCube && !tree_->resident[child]) ask_for(child, priority);
     }
     return stand_ins;
 }
@@ -367,18 +375,19 @@ void HlodModel::prefetch_for(const Lookahead& ahead, const glm::dmat4& world_fro
     request_refinement(view, drawn, basis.examined, Ask::prefetch);
 }
 
-void HlodModel::set_residency(std::vector<uint8_t> resident) {
-    if (resident.size() != cubes_.size()) throw std::invalid_argument("residency: one flag per cube is needed");
-    std::vector<uint8_t> lacks_child(cubes_.size(), 0);
-    for (uint32_t c = 0; c < cubes_.size(); ++c) {
-        if (resident[c] && parent_[c] != kNoCube && !resident[parent_[c]])
-            throw std::invalid_argument("residency: " + describe_cube(cubes_[c].node) + " is resident without its parent");
-        lacks_child[c] = resident[c] && lacks_a_child(resident, c);
+void HlodModel::set_residency(std::vector<uint8_t> resident) { tree_->set_residency(std::move(resident)); }
+
+void HlodModel::Tree::set_residency(std::vector<uint8_t> flags) {
+    if (flags.size() != cubes.size()) throw std::invalid_argument("residency: one flag per cube is needed");
+    std::vector<uint8_t> lacks(cubes.size(), 0);
+    for (uint32_t c = 0; c < cubes.size(); ++c) {
+        if (flags[c] && parent[c] != kNoCube && !flags[parent[c]])
+            throw std::invalid_argument("residency: " + describe_cube(cubes[c].node) + " is resident without its parent");
+        lacks[c] = flags[c] && lacks_a_child(flags, c);
     }
-    resident_ = std::move(resident);
-    lacks_child_ = std::move(lacks_child);
-    if (fade_.size() != cubes_.size()) fade_.assign(cubes_.size(), 1.0f);
-    ++residency_version_;
+    resident = std::move(flags);
+    lacks_child = std::move(lacks);
+    ++residency_version;
 }
 
 void HlodModel::advance_fades(const std::vector<uint32_t>& capped) {
@@ -392,12 +401,12 @@ void HlodModel::advance_fades(const std::vector<uint32_t>& capped) {
 
 bool HlodModel::Capping::capped(uint32_t c) {
     if (const auto it = memo_.find(c); it != memo_.end()) return it->second;
-    bool capped = model_.lacks_child_[c] && !model_.suitable(c, view_);
+    bool capped = model_.tree_->lacks_child[c] && !model_.suitable(c, view_);
     // A capped cube of the parent's level next to this one keeps it from refining, so that nothing drawn
     // beside that cube is two levels finer; so does one whose children are still fading in, so that
     // nothing finer is drawn beside vertices that are not yet at λ = 1.
-    if (const uint32_t parent = model_.parent_[c]; !capped && parent != kNoCube)
-        for (const uint32_t n : model_.neighbours_[parent])
+    if (const uint32_t parent = model_.tree_->parent[c]; !capped && parent != kNoCube)
+        for (const uint32_t n : model_.tree_->neighbours[parent])
             if (n != kNoCube && ((view_.fade && (*view_.fade)[n] < 1.0f) || this->capped(n))) {
                 capped = true;
                 break;
@@ -451,44 +460,44 @@ Kappas HlodModel::kappas_for(const Camera& camera) const {
     const double tx = camera.tan_half_fov_x(), ty = std::tan(glm::radians(camera.fov_y_degrees) / 2);
     const double focal = camera.width / (2 * tx);
     const double gain = 1 + focal * (1 + tx * tx + ty * ty) / pixel_error_;  // the 1: the error's own extent
-    const std::lock_guard lock(kappas_mutex_);
-    if (cached_kappas_ && cached_key_ == gain) return cached_kappas_;
-    cached_key_ = gain;
-    return cached_kappas_ = make_kappas(kappas_for_gain(gain));
+    const std::lock_guard lock(tree_->kappas_mutex);
+    if (tree_->kappas && tree_->kappas_key == gain) return tree_->kappas;
+    tree_->kappas_key = gain;
+    return tree_->kappas = make_kappas(kappas_for_gain(gain));
 }
 
 Kappas HlodModel::uniform_kappas(double kappa) const {
-    const std::lock_guard lock(kappas_mutex_);
-    if (cached_kappas_ && cached_key_ == -kappa) return cached_kappas_;
-    cached_key_ = -kappa;
-    return cached_kappas_ = make_kappas(std::vector<double>(cubes_.size(), kappa));
+    const std::lock_guard lock(tree_->kappas_mutex);
+    if (tree_->kappas && tree_->kappas_key == -kappa) return tree_->kappas;
+    tree_->kappas_key = -kappa;
+    return tree_->kappas = make_kappas(std::vector<double>(tree_->cubes.size(), kappa));
 }
 
 std::vector<double> HlodModel::kappas_for_gain(double gain) const {
-    const double sigma0 = header_.sigma0;
-    std::vector<double> kappa(cubes_.size(), min_kappa0());
-    for (uint32_t c = 0; c < cubes_.size(); ++c) {
+    const double sigma0 = tree_->header.sigma0;
+    std::vector<double> kappa(tree_->cubes.size(), min_kappa0());
+    for (uint32_t c = 0; c < tree_->cubes.size(); ++c) {
         // The full resolution is exempt. A coarser cube c draws within 1.5·σ0·s_l of its cell (the
         // vertices' overhang, then the morph's travel), so its nearest drawn point is (κ_c − 1.5σ0)·s_l
         // away: its own bound needs κ_c ≥ 1.5σ0 + g·e_c/s_l. The children of c and of its neighbours
         // morph toward them within kMorphCubes·s_{l+1} of c's band end, (κ_c − σ0)·s_l, when c holds
         // their vertices: their parents' bounds need κ_c ≥ σ0 + kMorphCubes/2 + g·e_n/s_l for every
         // neighbour n, which also covers c's own bound.
-        const HlodNode& node = cubes_[c].node;
-        if (node.level == header_.max_level) continue;
+        const HlodNode& node = tree_->cubes[c].node;
+        if (node.level == tree_->header.max_level) continue;
         double worst = 0;
-        for (const uint32_t n : neighbours_[c])
-            if (n != kNoCube) worst = std::max(worst, double(cubes_[n].node.error));
-        kappa[c] = std::max(kappa[c], sigma0 + kMorphCubes / 2 + worst / header_.cube_size(node.level) * gain);
+        for (const uint32_t n : tree_->neighbours[c])
+            if (n != kNoCube) worst = std::max(worst, double(tree_->cubes[n].node.error));
+        kappa[c] = std::max(kappa[c], sigma0 + kMorphCubes / 2 + worst / tree_->header.cube_size(node.level) * gain);
     }
     // Nesting (nodes/README.md): a cube's κ is at most 2κ − 1 − 3σ0 − 0.25 of its parent and of its
     // parent's neighbours, which keeps each vertex's morph band a quarter cube wide and neighbouring
     // drawn cubes within a level; raising a coarser κ keeps its promise. Finest first, so each cube
     // is final before it raises the level above.
-    for (const uint32_t c : finest_first_) {
-        if (parent_[c] == kNoCube) continue;
+    for (const uint32_t c : tree_->finest_first) {
+        if (tree_->parent[c] == kNoCube) continue;
         const double least = (kappa[c] + 1.25 + 3 * sigma0) / 2;
-        for (const uint32_t n : neighbours_[parent_[c]])
+        for (const uint32_t n : tree_->neighbours[tree_->parent[c]])
             if (n != kNoCube) kappa[n] = std::max(kappa[n], least);
     }
     return kappa;
@@ -497,9 +506,9 @@ std::vector<double> HlodModel::kappas_for_gain(double gain) const {
 Kappas HlodModel::make_kappas(std::vector<double> kappa) const {
     auto out = std::make_shared<CubeKappas>();
     out->band_ends.resize(kappa.size());
-    const double sigma0 = header_.sigma0;
+    const double sigma0 = tree_->header.sigma0;
     for (uint32_t c = 0; c < kappa.size(); ++c) {
-        const double s = header_.cube_size(cubes_[c].node.level);
+        const double s = tree_->header.cube_size(tree_->cubes[c].node.level);
         out->band_ends[c] = {float((1.0 + kappa[c] + sigma0) * s), float((kappa[c] - sigma0) * s)};
     }
     out->kappa = std::move(kappa);
@@ -509,14 +518,14 @@ Kappas HlodModel::make_kappas(std::vector<double> kappa) const {
 glm::dmat4 HlodModel::lattice_to_node() const { return glm::translate(glm::dmat4(1.0), origin()); }
 
 Box HlodModel::cell(const HlodNode& node) const {
-    const double s = header_.cube_size(node.level);
+    const double s = tree_->header.cube_size(node.level);
     const glm::dvec3 lo = glm::dvec3(node.i, node.j, node.k) * s;
     return Box::from(lo, lo + glm::dvec3(s));
 }
 
 Box HlodModel::cull_box(const HlodNode& node) const {
     const Box cell_box = cell(node);
-    const glm::dvec3 grow(1.5 * header_.sigma0 * header_.cube_size(node.level));
+    const glm::dvec3 grow(1.5 * tree_->header.sigma0 * tree_->header.cube_size(node.level));
     return Box::from(cell_box.lo - grow, cell_box.hi + grow);
 }
 
@@ -527,16 +536,16 @@ HlodView HlodModel::view_for(const Camera& camera, const glm::dvec3& eye) const 
 }
 
 bool HlodModel::suitable(uint32_t cube, const HlodView& view) const {
-    const HlodNode& node = cubes_[cube].node;
-    if (node.level == header_.max_level) return true;
+    const HlodNode& node = tree_->cubes[cube].node;
+    if (node.level == tree_->header.max_level) return true;
     if (view.fixed_level >= 0) return int(node.level) >= view.fixed_level;
-    return box_distance(view.eye, cell(node)) >= (*view.kappa)[cube] * header_.cube_size(node.level);
+    return box_distance(view.eye, cell(node)) >= (*view.kappa)[cube] * tree_->header.cube_size(node.level);
 }
 
 void HlodModel::select(const HlodView& view, std::vector<uint32_t>& out, Kappas* morph, SelectionBasis* basis) const {
     out.clear();
     Capping capping(*this, view);
-    select_from(root_, view, capping, view.plane_mask, out);
+    select_from(tree_->root, view, capping, view.plane_mask, out);
     if (!morph && !basis) return;
     SelectionBasis found = capping.basis();
     if (morph) *morph = capping.morph_kappas(found.capped);
@@ -544,8 +553,8 @@ void HlodModel::select(const HlodView& view, std::vector<uint32_t>& out, Kappas*
 }
 
 void HlodModel::select_from(uint32_t c, const HlodView& view, Capping& capping, uint8_t mask, std::vector<uint32_t>& out) const {
-    const HlodCube& cube = cubes_[c];
-    if (!resident_[c]) return;  // only the root can be reached so: its parent would stand in
+    const HlodCube& cube = tree_->cubes[c];
+    if (!tree_->resident[c]) return;  // only the root can be reached so: its parent would stand in
     if (view.frustum && mask && !intersects(*view.frustum, cull_box(cube.node), mask)) return;
     if (drawn_here(c, view, capping)) {
         out.push_back(c);
@@ -571,8 +580,8 @@ glm::ivec3 HlodModel::lattice_steps(const HlodCube& cube, uint32_t v) const {
 glm::vec3 HlodModel::vertex_position(const HlodCube& cube, uint32_t v) const {
     const uint16_t* q = &cube.data->vertices.positions[3 * size_t(v)];
     const HlodNode& n = cube.node;
-    return {lattice_coordinate(header_, n.level, n.i, q[0]), lattice_coordinate(header_, n.level, n.j, q[1]),
-            lattice_coordinate(header_, n.level, n.k, q[2])};
+    return {lattice_coordinate(tree_->header, n.level, n.i, q[0]), lattice_coordinate(tree_->header, n.level, n.j, q[1]),
+            lattice_coordinate(tree_->header, n.level, n.k, q[2])};
 }
 
 glm::vec3 HlodModel::parent_position(const HlodCube& cube, uint32_t p) const {
@@ -580,12 +589,12 @@ glm::vec3 HlodModel::parent_position(const HlodCube& cube, uint32_t p) const {
     const HlodNode& n = cube.node;
     // At level 0 the table is the root's own vertices: decode it on the root's lattice (cell 0 / 2 = 0).
     const uint32_t level = n.level == 0 ? 0 : n.level - 1;
-    return {lattice_coordinate(header_, level, n.i / 2, q[0]), lattice_coordinate(header_, level, n.j / 2, q[1]),
-            lattice_coordinate(header_, level, n.k / 2, q[2])};
+    return {lattice_coordinate(tree_->header, level, n.i / 2, q[0]), lattice_coordinate(tree_->header, level, n.j / 2, q[1]),
+            lattice_coordinate(tree_->header, level, n.k / 2, q[2])};
 }
 
 int32_t HlodModel::overhang_steps() const {
-    return int32_t(std::ceil(double(header_.sigma0) * double(1 << kLatticeBits)));
+    return int32_t(std::ceil(double(tree_->header.sigma0) * double(1 << kLatticeBits)));
 }
 
 namespace {
@@ -607,18 +616,18 @@ void for_each_cell_holding(const glm::ivec3& q, int32_t reach, int shift, const 
 }  // namespace
 
 HlodModel::MorphBand HlodModel::morph_band(uint32_t c, const glm::ivec3& q, const CubeKappas& kappa) const {
-    const HlodNode& n = cubes_[c].node;
-    const uint32_t parent = parent_[c];
+    const HlodNode& n = tree_->cubes[c].node;
+    const uint32_t parent = tree_->parent[c];
     if (parent == kNoCube) return {kappa.band_ends[c][0], INFINITY};  // the root: nothing to morph toward
     // The vertex's own cube and its parent always hold it; their neighbours may too.
     auto fade = [&](uint32_t m) { return kappa.fade.empty() ? 1.0f : kappa.fade[m]; };
     MorphBand band{kappa.band_ends[c][0], kappa.band_ends[parent][1], fade(parent)};
     const glm::ivec3 cell(n.i, n.j, n.k);
     for_each_cell_holding(q, overhang_steps(), kLatticeBits, cell, [&](int slot) {
-        if (const uint32_t m = neighbours_[c][size_t(slot)]; m != kNoCube) band.start = std::max(band.start, kappa.band_ends[m][0]);
+        if (const uint32_t m = tree_->neighbours[c][size_t(slot)]; m != kNoCube) band.start = std::max(band.start, kappa.band_ends[m][0]);
     });
     for_each_cell_holding(q, overhang_steps(), kLatticeBits + 1, cell >> 1, [&](int slot) {
-        if (const uint32_t m = neighbours_[parent][size_t(slot)]; m != kNoCube) {
+        if (const uint32_t m = tree_->neighbours[parent][size_t(slot)]; m != kNoCube) {
             band.end = std::min(band.end, kappa.band_ends[m][1]);
             band.fade = std::min(band.fade, fade(m));
         }
@@ -627,16 +636,16 @@ HlodModel::MorphBand HlodModel::morph_band(uint32_t c, const glm::ivec3& q, cons
 }
 
 float HlodModel::morph_lambda(uint32_t c, const glm::ivec3& q, float d, const CubeKappas& kappa) const {
-    if (parent_[c] == kNoCube) return 1.0f;
+    if (tree_->parent[c] == kNoCube) return 1.0f;
     const MorphBand band = morph_band(c, q, kappa);
     int exponent = 0;
     // span = m·2^exponent, m in [0.5, 1)
-    std::frexp(std::min(band.end - band.start, morph_span_limit(cubes_[c].node.level)), &exponent);
+    std::frexp(std::min(band.end - band.start, morph_span_limit(tree_->cubes[c].node.level)), &exponent);
     return std::clamp((band.end - d) * std::ldexp(1.0f, 1 - exponent), 0.0f, 1.0f) * band.fade;  // as the shader
 }
 
 void HlodModel::morphed_positions(uint32_t c, const glm::vec3& eye, const CubeKappas& kappa, std::vector<glm::vec3>& out) const {
-    const HlodCube& cube = cubes_[c];
+    const HlodCube& cube = tree_->cubes[c];
     out.resize(cube.data->vertex_count());
     for (uint32_t v = 0; v < out.size(); ++v) {
         const glm::vec3 w = vertex_position(cube, v);
@@ -665,7 +674,7 @@ int HlodModel::orthographic_level(const Camera& camera) const {
     const double pixel = camera.ortho_height / camera.height;  // model units per pixel
     const double allowed = (pixel_error_ > 0 ? pixel_error_ : 1.0) * pixel;
     int level = 0;
-    while (level < int(header_.max_level) && level_error_[size_t(level)] * header_.cube_size(level) > allowed) ++level;
+    while (level < int(tree_->header.max_level) && tree_->level_error[size_t(level)] * tree_->header.cube_size(level) > allowed) ++level;
     return level;
 }
 

@@ -73,6 +73,39 @@ struct HlodView {
 };
 
 class HlodModel : public Drawable {
+    // What the models showing one file's cubes share: one per file streamed through a cache, so that
+    // ten instances of a scan hold its per-cube tables once (and count them once in the budget); one
+    // per model loaded whole. The octree from the node table, which cubes are resident with their
+    // data, and the κ last computed.
+    struct Tree {
+        HlodHeader header;
+        std::vector<HlodCube> cubes;
+        uint32_t root = 0;
+        std::vector<double> level_error;                   // ε_l
+        std::vector<std::array<uint32_t, 27>> neighbours;  // per cube
+        std::vector<uint32_t> parent;                      // per cube
+        std::vector<uint32_t> finest_first;                // cube indices, finest level first
+        std::vector<uint8_t> resident, lacks_child;        // per cube: lacks_child, resident without a child
+        uint64_t residency_version = 0;                    // counts changes of residency
+        uint64_t synced = ~uint64_t(0);                    // streamed: the source's version last taken in
+        // The last κ computed, with what it was computed from (a gain, or −κ0 for a uniform κ).
+        std::mutex kappas_mutex;
+        double kappas_key = 0;
+        Kappas kappas;
+
+        // Whether one of the cube's children is not resident under `resident` (a flag per cube).
+        bool lacks_a_child(const std::vector<uint8_t>& resident, uint32_t cube) const;
+        // Throws std::invalid_argument as HlodModel::set_residency does.
+        void set_residency(std::vector<uint8_t> resident);
+        // Streamed: takes in what the cache loaded or evicted since the last call.
+        void sync(const StreamCache& cache, uint32_t source);
+        // Streamed: takes in the cubes that came in or left (StreamSource::residency_changed), in time
+        // proportional to the changes; a tree that has not synced yet takes it all.
+        void take_changes(const StreamCache& cache, uint32_t source, const std::vector<uint32_t>& cubes, uint64_t version);
+        // What its per-cube tables hold in CPU memory (the cubes' data aside).
+        uint64_t table_bytes() const;
+    };
+
 public:
     // Reads and decodes every cube (checksums checked); throws std::runtime_error naming the file.
     static std::shared_ptr<HlodModel> load(const std::filesystem::path& path);
@@ -85,19 +118,23 @@ public:
                                            std::shared_ptr<StreamCache> cache = StreamCache::shared());
     ~HlodModel() override;
     // Streamed: takes in what the cache loaded or evicted since the last call (the cubes' data and
-    // set_residency); cull() calls it. Render thread.
+    // set_residency) for every model on the file; cull() calls it. Render thread.
     void sync_residency();
-    // Streamed: takes in the cubes that came in or left as the cache reports them
-    // (StreamSource::residency_changed), in time proportional to the changes; a model that has not
-    // synced yet takes it all. Render thread.
-    void take_residency_changes(const std::vector<uint32_t>& cubes, uint64_t version);
     // What a cube takes once resident, in CPU and GPU memory together: a bound from the node table's
     // counts, and the exact figure for decoded data. The streaming budget counts these.
-    uint64_t cube_bytes_bound(const HlodNode& node) const;
+    static uint64_t cube_bytes_bound(const HlodHeader& header, const HlodNode& node);
     static uint64_t cube_bytes(const CubeData& data);
     // Of those, what it takes on the GPU: a bound from the node table, and exactly once decoded.
-    uint64_t cube_gpu_bytes_bound(const HlodNode& node) const;
+    static uint64_t cube_gpu_bytes_bound(const HlodHeader& header, const HlodNode& node);
     static uint64_t cube_gpu_bytes(const CubeData& data);
+    // What the GPU side keeps per cube beside the cubes' blocks (hlod_model_draw.cpp), in CPU and GPU
+    // memory together and the GPU's share of that: once for all the models drawing one owner's cubes
+    // (cube_owner), and once per model.
+    struct TableBytes {
+        uint64_t bytes = 0, gpu_bytes = 0;
+    };
+    static TableBytes gpu_tables_per_owner(uint64_t cubes);
+    static TableBytes gpu_tables_per_model(uint64_t cubes);
     // What a cube's block in the GPU pool takes (hlod_model_draw.cpp lays it out).
     static uint64_t gpu_block_bytes(uint64_t vertices, uint64_t parents, uint64_t indices, bool colors);
     // The cache a streamed model loads through; null for a model loaded whole.
@@ -108,9 +145,9 @@ public:
     // its own.
     std::shared_ptr<const void> cube_owner() const;
 
-    const HlodHeader& header() const { return header_; }
-    const std::vector<HlodCube>& cubes() const { return cubes_; }
-    uint32_t root() const { return root_; }
+    const HlodHeader& header() const { return tree_->header; }
+    const std::vector<HlodCube>& cubes() const { return tree_->cubes; }
+    uint32_t root() const { return tree_->root; }
     const std::filesystem::path& path() const { return path_; }
 
     // One κ0 for every cube, or a target screen-space error in pixels, which sets κ per cube and per
@@ -125,9 +162,9 @@ public:
     Kappas kappas_for(const Camera& camera) const;
     // The same κ for every cube, as set_kappa0 gives (without its clamp).
     Kappas uniform_kappas(double kappa) const;
-    double min_kappa0() const { return 1.0 + 3.0 * header_.sigma0 + 0.25; }
+    double min_kappa0() const { return 1.0 + 3.0 * header().sigma0 + 0.25; }
     // ε_l: the largest error bound of level l's cubes over their size.
-    double level_error(uint32_t level) const { return level_error_[level]; }
+    double level_error(uint32_t level) const { return tree_->level_error[level]; }
     // Which cubes' data is at hand (DESIGN.md §7, nodes/README.md "Stand-ins"): every cube once loaded
     // whole. A cube is resident only with its parent. A resident cube that is not suitable but lacks a
     // child stands in for its whole sibling group; the selection caps the cubes around such a
@@ -135,8 +172,8 @@ public:
     // the capped cubes a band end of 0 so that the cut stays watertight. set_residency throws
     // std::invalid_argument on a resident cube whose parent is not, or a list of the wrong length.
     void set_residency(std::vector<uint8_t> resident);
-    bool resident(uint32_t cube) const { return resident_[cube] != 0; }
-    uint64_t residency_version() const { return residency_version_; }  // counts changes of residency
+    bool resident(uint32_t cube) const { return tree_->resident[cube] != 0; }
+    uint64_t residency_version() const { return tree_->residency_version; }  // counts changes of residency, for every model on the tree
     // Interactive frames: per cube, 1 once settled; 0 while capped; then 1/kFadeFrames more
     // each frame, so that children that arrive late (and cubes no longer held back) fade in
     // (nodes/README.md, "Stand-ins"). cull() advances it; full-detail frames ignore it.
@@ -144,8 +181,8 @@ public:
     static constexpr int kFadeFrames = 4;
     // The cube's neighbours of its own level, the 3 × 3 × 3 around it (itself in the middle) at
     // (di + 1) + 3(dj + 1) + 9(dk + 1), kNoCube where there is none; and its parent (kNoCube: the root).
-    const std::array<uint32_t, 27>& neighbours(uint32_t cube) const { return neighbours_[cube]; }
-    uint32_t parent(uint32_t cube) const { return parent_[cube]; }
+    const std::array<uint32_t, 27>& neighbours(uint32_t cube) const { return tree_->neighbours[cube]; }
+    uint32_t parent(uint32_t cube) const { return tree_->parent[cube]; }
 
     bool morph() const { return morph_; }
     void set_morph(bool on) { morph_ = on; }
@@ -157,7 +194,7 @@ public:
     // The node's frame is the scan's own coordinates; the lattice frame is those minus O, which keeps
     // decoded floats small (survey coordinates would lose millimetres in float).
     glm::dmat4 lattice_to_node() const;
-    glm::dvec3 origin() const { return {header_.origin[0], header_.origin[1], header_.origin[2]}; }
+    glm::dvec3 origin() const { return {header().origin[0], header().origin[1], header().origin[2]}; }
 
     // What a selection rests on beside the cubes it draws: the cubes it capped, and every cube it
     // asked about (drawn, refined, or asked whether it caps a neighbour, which may lie outside the
@@ -202,7 +239,7 @@ public:
     // The morph's longest run, kMorphCubes·s_l: a vertex of level l morphs over at most that much of
     // the eye's distance, just before its parent's cube becomes suitable.
     static constexpr double kMorphCubes = 1.0;
-    float morph_span_limit(uint32_t level) const { return float(kMorphCubes * header_.cube_size(level)); }
+    float morph_span_limit(uint32_t level) const { return float(kMorphCubes * header().cube_size(level)); }
     // ⌈σ0·2^15⌉: how far a vertex may lie outside its cell, in steps of its level's lattice.
     int32_t overhang_steps() const;
     // What the shader gets for a view, so that the CPU twin can be fed exactly the same: the eye in
@@ -270,26 +307,22 @@ private:
     void select_from(uint32_t cube, const HlodView& view, Capping& capping, uint8_t mask, std::vector<uint32_t>& out) const;
 
     std::filesystem::path path_;
-    HlodHeader header_;
-    std::vector<HlodCube> cubes_;
-    uint32_t root_ = 0;
+    std::shared_ptr<Tree> tree_;
     Box bound_;  // of every level's vertices, in the node's frame
-    std::vector<double> level_error_;  // ε_l
-    std::vector<std::array<uint32_t, 27>> neighbours_;  // per cube
-    std::vector<uint32_t> parent_;                      // per cube
-    std::vector<uint32_t> finest_first_;                // cube indices, finest level first
     // Streamed: the cache and this model's source in it, shared by every model open on the same file
-    // through the same cache; and the source's version last taken in.
+    // through the same cache (with the tree).
     struct SharedSource;
     struct Stream {
         std::shared_ptr<const SharedSource> shared;
         StreamCache& cache;
         StreamCache::SourceId source;
-        uint64_t synced = ~uint64_t(0);
+        StreamCache::Held tables;  // this model's own per-cube state, counted in the budget
     };
     std::unique_ptr<Stream> stream_;
     // The octree from the node table (links, neighbours, errors); cube data is not read.
-    void read_octree(const HlodFile& file);
+    static std::shared_ptr<Tree> read_octree(const HlodFile& file);
+    // Takes `tree` as this model's, named after the file.
+    void adopt(std::shared_ptr<Tree> tree, const std::filesystem::path& path);
     // Streamed: asks the cache for the children of every cube the selection rests on (`examined`,
     // SelectionBasis) that stands in, drawn or not: one outside the frustum caps the drawn cubes
     // beside it. The children of drawn stand-ins come first. For an interactive frame these are
@@ -301,18 +334,10 @@ private:
                                 Ask ask) const;
     // Streamed: prefetches what a coming view's selection lacks (one level a frame, as for the view).
     void prefetch_for(const Lookahead& ahead, const glm::dmat4& world_from_node) const;
-    std::vector<uint8_t> resident_, lacks_child_;      // per cube: lacks_child_, resident without a child
-    // Whether one of the cube's children is not resident under `resident` (a flag per cube).
-    bool lacks_a_child(const std::vector<uint8_t>& resident, uint32_t cube) const;
     std::vector<float> fade_;                            // per cube, see fade()
     std::vector<uint32_t> fading_;                       // the cubes whose fade is below 1
     // Ends an interactive frame's fades: the cubes capped in it to 0, the others fading a step on.
     void advance_fades(const std::vector<uint32_t>& capped);
-    uint64_t residency_version_ = 0;                     // counts changes of residency
-    // The last κ computed, with what it was computed from (a gain, or −κ0 for a uniform κ).
-    mutable std::mutex kappas_mutex_;
-    mutable double cached_key_ = 0;
-    mutable Kappas cached_kappas_;
     double kappa0_ = 2.0;
     double pixel_error_ = 0;  // > 0: κ0 follows from it per view
     bool morph_ = true;

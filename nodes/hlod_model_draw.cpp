@@ -274,7 +274,7 @@ struct CubesGpu : GpuCache::Entry {
     ScenePool& scene_pool;  // outlives its owners: the GPU cache drops shared entries last
     std::shared_ptr<gl::BufferPool> pool;
     bool colors;
-    std::pair<uint32_t, uint64_t> synced{~0u, ~uint64_t(0)};  // the model and residency version last synced to
+    uint64_t synced = ~uint64_t(0);      // the residency version last synced to (HlodModel::residency_version)
     std::vector<PlacedCube> placed;      // per cube
     std::vector<uint32_t> placed_cubes;  // the cubes with a block, in no order
     gl::Buffer cubes;
@@ -289,11 +289,17 @@ struct HlodGpu : GpuCache::Entry {
     gl::Buffer band_ends;  // per cube, of `kappas`
     gl::Buffer fades;      // per cube, of `kappas` (all 1 where it has none)
     Kappas kappas;
+    // Sized to the frames drawn so far, not to the model (a frame draws a few thousand of its cubes).
     gl::Buffer drawn;     // this frame's cubes, for the boxes view
     gl::Buffer commands;  // this frame's, in the selection's order
     std::vector<std::pair<uint32_t, uint32_t>> runs;  // this frame's draws: page, commands
     uint64_t fixed_bytes() const { return band_ends.size() + fades.size() + drawn.size() + commands.size(); }
 };
+
+// `buffer` with room for at least `bytes`: made anew, twice as large as asked, when it has less.
+void reserve(gl::Buffer& buffer, uint64_t bytes) {
+    if (buffer.size() < bytes) buffer = gl::Buffer(2 * bytes, gl::kDynamicStorage);
+}
 
 uint32_t pack_pair(uint32_t low, uint32_t high) { return (low & 0xffffu) | high << 16; }
 
@@ -335,13 +341,12 @@ void place_cube(CubesGpu& gpu, const std::shared_ptr<const CubeData>& data, uint
     placed.command = {uint32_t(c.indices.size()), 1, uint32_t(4 * (base + layout.indices)), int32_t(base), index};
 }
 
-// Brings the blocks to the model's residency: placed for cubes that arrived (or whose data changed),
-// freed for cubes that left. Only the cubes that changed are uploaded. Models sharing the cubes hold
-// the same data, so a second model finds nothing to change.
+// Brings the blocks to the residency of the models drawing the cubes (one tree, one version): placed
+// for cubes that arrived (or whose data changed), freed for cubes that left. Only the cubes that
+// changed are uploaded.
 void sync_blocks(const HlodModel& model, CubesGpu& gpu) {
-    const std::pair<uint32_t, uint64_t> version{model.id(), model.residency_version()};
-    if (gpu.synced == version) return;
-    gpu.synced = version;
+    if (gpu.synced == model.residency_version()) return;
+    gpu.synced = model.residency_version();
     const auto& cubes = model.cubes();
     gpu.placed_cubes.clear();
     for (uint32_t c = 0; c < cubes.size(); ++c) {
@@ -399,6 +404,7 @@ std::unique_ptr<CubesGpu> make_cubes_gpu(const HlodModel& model, ScenePool& pool
     gpu->links = gl::Buffer(links, gl::kFixedStorage);
     gpu->color_offsets = gl::Buffer(cubes.size() * sizeof(std::array<int32_t, 2>), gl::kDynamicStorage);
     gpu->placed.resize(cubes.size());
+    gpu->placed_cubes.reserve(cubes.size());  // each cube once at most: what gpu_tables_per_owner counts
     gl::check_gl("making an HLOD model's buffers");
     return gpu;
 }
@@ -408,8 +414,6 @@ std::unique_ptr<HlodGpu> make_gpu(const HlodModel& model) {
     const size_t cubes = model.cubes().size();
     gpu->band_ends = gl::Buffer(cubes * sizeof(std::array<float, 2>), gl::kDynamicStorage);
     gpu->fades = gl::Buffer(cubes * sizeof(float), gl::kDynamicStorage);
-    gpu->commands = gl::Buffer(cubes * sizeof(IndexedDrawCommand), gl::kDynamicStorage);
-    gpu->drawn = gl::Buffer(cubes * sizeof(uint32_t), gl::kDynamicStorage);
     gl::check_gl("making an HLOD model's buffers");
     return gpu;
 }
@@ -451,6 +455,7 @@ void set_view_uniforms(const HlodModel& model, const gl::Program& program, HlodG
 void draw_boxes(const HlodModel& model, const gl::Program& p, const CubesGpu& cubes, HlodGpu& gpu, DrawContext& context,
                 const DrawItem& item) {
     const HlodHeader& header = model.header();
+    reserve(gpu.drawn, item.count * sizeof(uint32_t));
     gpu.drawn.upload(0, &context.list.item_data[item.first], item.count * sizeof(uint32_t));
     std::array<float, kMaxLevels> size{};
     for (uint32_t l = 0; l <= header.max_level; ++l) size[l] = float(header.cube_size(l));
@@ -471,6 +476,18 @@ uint64_t bytes_to_count(const HlodGpu& gpu, CubesGpu& cubes, ScenePool& pool, co
 }
 
 }  // namespace
+
+HlodModel::TableBytes HlodModel::gpu_tables_per_owner(uint64_t cubes) {
+    // Per cube: its record, links and colour offsets on the GPU; its placement and place in
+    // placed_cubes (reserved whole) on the CPU.
+    const uint64_t gpu = cubes * (sizeof(std::array<uint32_t, 4>) + 28 * sizeof(uint32_t) + sizeof(std::array<int32_t, 2>));
+    return {gpu + cubes * (sizeof(PlacedCube) + sizeof(uint32_t)), gpu};
+}
+
+HlodModel::TableBytes HlodModel::gpu_tables_per_model(uint64_t cubes) {
+    const uint64_t gpu = cubes * (sizeof(std::array<float, 2>) + sizeof(float));  // band ends and fades
+    return {gpu, gpu};
+}
 
 uint64_t HlodModel::gpu_block_bytes(uint64_t vertices, uint64_t parents, uint64_t indices, bool colors) {
     return cube_block(vertices, parents, indices, colors).units * gl::BufferPool::kUnitBytes;
@@ -504,7 +521,10 @@ void HlodModel::draw(DrawContext& context, const DrawItem& item) {
         commands.push_back(placed.command);
         context.stats.triangles += placed.command.count / 3;
     }
-    if (!commands.empty()) gpu.commands.upload(commands);
+    if (!commands.empty()) {
+        reserve(gpu.commands, commands.size() * sizeof(IndexedDrawCommand));
+        gpu.commands.upload(commands);
+    }
     context.stats.cubes += item.count;
     context.stats.bytes_resident += bytes_to_count(gpu, cubes, pool, context.cache);
     if (capture_morph_) captured_.clear();
@@ -526,7 +546,7 @@ void HlodModel::draw(DrawContext& context, const DrawItem& item) {
             for (size_t k = first_command; k < first_command + count; ++k) {
                 const IndexedDrawCommand& command = commands[k];
                 const auto first = values.begin() + command.base_vertex;
-                captured_[command.base_instance].assign(first, first + cubes_[command.base_instance].data->vertex_count());
+                captured_[command.base_instance].assign(first, first + tree_->cubes[command.base_instance].data->vertex_count());
             }
         }
         first_command += count;

@@ -34,7 +34,7 @@ void HlodModel::drawn_positions(uint32_t c, const MorphInputs& inputs, std::vect
         morphed_positions(c, inputs.eye, *inputs.kappa, out);
         return;
     }
-    const HlodCube& cube = cubes_[c];
+    const HlodCube& cube = tree_->cubes[c];
     out.resize(cube.data->vertex_count());
     for (uint32_t v = 0; v < out.size(); ++v) out[v] = vertex_position(cube, v);
 }
@@ -49,9 +49,9 @@ std::optional<SurfaceHit> HlodModel::intersect(const Ray& ray, const PickContext
 
     std::priority_queue<Candidate, std::vector<Candidate>, std::greater<>> queue;
     auto enqueue = [&](uint32_t c) {
-        if (const std::optional<double> t = entry(lattice_ray, cull_box(cubes_[c].node))) queue.push({*t, c});
+        if (const std::optional<double> t = entry(lattice_ray, cull_box(tree_->cubes[c].node))) queue.push({*t, c});
     };
-    enqueue(root_);
+    enqueue(tree_->root);
     std::optional<SurfaceHit> nearest;
     std::vector<glm::vec3> positions;
     Capping capping(*this, view);
@@ -60,8 +60,8 @@ std::optional<SurfaceHit> HlodModel::intersect(const Ray& ray, const PickContext
         queue.pop();
         // A cube's box holds its children's boxes, so nothing still queued or below it starts nearer.
         if (next.entry > lattice_ray.t_max) break;
-        const HlodCube& cube = cubes_[next.cube];
-        if (!resident_[next.cube]) continue;  // only a streamed model's root, before it arrives
+        const HlodCube& cube = tree_->cubes[next.cube];
+        if (!tree_->resident[next.cube]) continue;  // only a streamed model's root, before it arrives
         if (!drawn_here(next.cube, view, capping)) {
             for (const uint32_t child : cube.children)
                 if (child != kNoCube) enqueue(child);

@@ -51,6 +51,13 @@ int memory(lua_State* L) {
         lua_pop(L, 1);
         if (lua::get_option(L, 1, "gpu")) gpu = lua_isboolean(L, -1) && !lua_toboolean(L, -1) ? 0 : budget_at(L, lua_gettop(L), "gpu");
         lua_pop(L, 1);
+        const StreamCache::Stats now = cache.stats();
+        if (total && total < now.held_bytes)
+            return luaL_error(L, "strata.memory: total: %s cannot hold the %s that the open models' tables take", describe_bytes(total).c_str(),
+                              describe_bytes(now.held_bytes).c_str());
+        if (gpu && gpu < now.gpu_held_bytes)
+            return luaL_error(L, "strata.memory: gpu: %s cannot hold the %s that the open models' tables take on the GPU",
+                              describe_bytes(gpu).c_str(), describe_bytes(now.gpu_held_bytes).c_str());
         if (total) cache.set_budget(total);
         cache.set_gpu_budget(gpu);
     }
@@ -58,6 +65,7 @@ int memory(lua_State* L) {
     const std::pair<const char*, double> fields[] = {
         {"total", double(s.budget)},   {"resident", double(s.resident_bytes)}, {"reserved", double(s.reserved_bytes)},
         {"gpu", double(s.gpu_budget)}, {"gpu_resident", double(s.gpu_resident_bytes)},
+        {"tables", double(s.held_bytes)}, {"gpu_tables", double(s.gpu_held_bytes)},
         {"peak", double(s.peak_bytes)}, {"cubes", double(s.resident_items)},    {"in_flight", double(s.in_flight)},
         {"waiting", double(s.waiting)}, {"loaded", double(s.loaded)},          {"evicted", double(s.evicted)},
         {"failed", double(s.failed)}};

@@ -181,6 +181,7 @@ int frame_stats(lua_State* L) {
         {"stand_ins", double(s.stand_ins)}, {"loads_pending", double(s.loads_pending)},
         {"memory_resident", double(s.memory_resident)}, {"loaded", double(s.loaded)}, {"evicted", double(s.evicted)},
         {"fading", double(s.fading)}, {"memory_resident_gpu", double(s.memory_resident_gpu)},
+        {"memory_tables", double(s.memory_tables)},
         {"frames_unconverged", double(s.frames_unconverged)}};
     lua::push_numbers(L, fields);
     lua_pushboolean(L, s.frames_unconverged == 0);

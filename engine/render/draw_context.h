@@ -26,6 +26,7 @@ struct FrameStats {
     uint64_t loads_pending = 0;    // streamed cubes the view asked for that are loading or waiting for room
     uint64_t memory_resident = 0;  // bytes streamed models hold (CPU and GPU), after this frame's update
     uint64_t memory_resident_gpu = 0;  // of those, on the GPU
+    uint64_t memory_tables = 0;  // bytes open streamed models keep per cube (CPU and GPU), in the budget beside the cubes
     uint64_t loaded = 0, evicted = 0;  // streamed cubes that arrived and that left in this frame's update
     // Frames since the view last converged: 0 when this frame drew no stand-in, had nothing fading in
     // and asked for nothing (what a full-detail frame would draw), else one more than the last frame's.

@@ -129,6 +129,7 @@ FrameStats Renderer::render(Node& scene, const Camera& camera, gl::Framebuffer& 
         stats.loads_pending = streaming.in_flight + streaming.waiting;
         stats.memory_resident = streaming.resident_bytes;
         stats.memory_resident_gpu = streaming.gpu_resident_bytes;
+        stats.memory_tables = streaming.held_bytes;
         stats.loaded = streaming.loaded - before.loaded;
         stats.evicted = streaming.evicted - before.evicted;
     }

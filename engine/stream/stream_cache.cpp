@@ -40,11 +40,14 @@ StreamCache::~StreamCache() {
     }
     work_ready_.notify_all();
     for (std::thread& t : threads_) t.join();
+    sources_.clear();  // their tables' handles give their bytes back while the counts still stand
 }
 
 StreamCache::SourceId StreamCache::add(std::shared_ptr<StreamSource> source) {
     Source entry;
-    entry.items.resize(source->item_count());
+    const uint32_t items = source->item_count();
+    entry.table = hold(table_bytes(items), 0, "the cache's table of " + std::to_string(items) + " items");
+    entry.items.resize(items);
     entry.source = std::move(source);
     sources_.push_back(std::move(entry));
     const SourceId id(sources_.size() - 1);
@@ -75,10 +78,14 @@ void StreamCache::remove(SourceId id) {
         if (it.state == State::loading) reserved_bytes_ -= it.bytes, gpu_reserved_ -= it.gpu_bytes;  // a running load is discarded when done
     }
     s.removed = true;
-    s.items.clear();
+    s.items = {};
+    s.failures = {};
+    s.table = {};
     s.changed.clear();
     std::erase_if(pinned_, [&](const auto& p) { return p.first == id; });
 }
+
+uint64_t StreamCache::table_bytes(uint32_t items) { return uint64_t(items) * sizeof(Item); }
 
 StreamCache::Item& StreamCache::item(SourceId source, uint32_t index) { return sources_.at(source).items.at(index); }
 const StreamCache::Item& StreamCache::item(SourceId source, uint32_t index) const { return sources_.at(source).items.at(index); }
@@ -155,7 +162,7 @@ void StreamCache::take_in_finished() {
                         std::to_string(it.gpu_bytes);
         if (!d.failure.empty()) {
             it.state = State::failed;
-            it.failure = std::move(d.failure);
+            s.failures[d.item] = std::move(d.failure);
             if (parent != StreamSource::kNoItem) --s.items[parent].children_held;
             ++failed_;
             continue;
@@ -188,7 +195,7 @@ void StreamCache::evict(SourceId source, uint32_t index) {
 }
 
 bool StreamCache::fits(uint64_t bytes, uint64_t gpu_bytes) const {
-    return used() + bytes <= budget_ && (gpu_budget_ == 0 || gpu_resident_ + gpu_reserved_ + gpu_bytes <= gpu_budget_);
+    return used() + bytes <= budget_ && (gpu_budget_ == 0 || gpu_resident_ + gpu_reserved_ + gpu_held_ + gpu_bytes <= gpu_budget_);
 }
 
 bool StreamCache::make_room(uint64_t bytes, uint64_t gpu_bytes) {
@@ -319,7 +326,7 @@ void StreamCache::wait_for_requests(double timeout_seconds) {
     const std::vector<Request> wanted = requests_;
     for (;;) {
         requests_ = wanted;
-        take_in_finished();
+            take_in_finished();
         make_room(0, 0);
         start_loads();
         uint64_t missing = 0;
@@ -327,7 +334,7 @@ void StreamCache::wait_for_requests(double timeout_seconds) {
             const Source& s = sources_[r.source];
             if (s.removed) continue;
             const Item& it = s.items[r.item];
-            if (it.state == State::failed) throw std::runtime_error(it.failure);
+            if (it.state == State::failed) throw std::runtime_error(s.failures.at(r.item));
             missing += it.state != State::resident;
         }
         if (missing == 0) break;
@@ -352,6 +359,50 @@ void StreamCache::wait_for_requests(double timeout_seconds) {
     ++frame_;
 }
 
+void StreamCache::set_gpu_budget(uint64_t gpu_budget_bytes) {
+    if (gpu_budget_bytes != 0 && gpu_budget_bytes < gpu_held_)
+        throw std::invalid_argument("a GPU budget of " + describe_bytes(gpu_budget_bytes) + " cannot hold the " + describe_bytes(gpu_held_) +
+                                    " that the open models' tables take on the GPU");
+    gpu_budget_ = gpu_budget_bytes;
+}
+
+StreamCache::Held StreamCache::hold(uint64_t bytes, uint64_t gpu_bytes, const std::string& what) {
+    if (!make_room(bytes, gpu_bytes)) {
+        const uint64_t others = held_bytes_, pinned = resident_bytes_ + reserved_bytes_;
+        tell_changes();
+        throw std::runtime_error(what + " take " + describe_bytes(bytes) + ", which do not fit in the streaming budget of " +
+                                 describe_bytes(budget_) + (gpu_budget_ ? " (" + describe_bytes(gpu_budget_) + " of it on the GPU)" : std::string()) +
+                                 " beside the " + describe_bytes(others) + " that open models' tables take and the " + describe_bytes(pinned) +
+                                 " of items that cannot leave: raise --memory");
+    }
+    tell_changes();  // what left to make room goes now
+    held_bytes_ += bytes;
+    gpu_held_ += gpu_bytes;
+    peak_bytes_ = std::max(peak_bytes_, used());
+    Held held;
+    held.cache_ = this;
+    held.bytes_ = bytes;
+    held.gpu_bytes_ = gpu_bytes;
+    return held;
+}
+
+StreamCache::Held& StreamCache::Held::operator=(Held&& other) noexcept {
+    if (this != &other) {
+        release();
+        cache_ = std::exchange(other.cache_, nullptr);
+        bytes_ = std::exchange(other.bytes_, 0);
+        gpu_bytes_ = std::exchange(other.gpu_bytes_, 0);
+    }
+    return *this;
+}
+
+void StreamCache::Held::release() {
+    if (!cache_) return;
+    cache_->held_bytes_ -= bytes_;
+    cache_->gpu_held_ -= gpu_bytes_;
+    cache_ = nullptr;
+}
+
 void StreamCache::wait_for_a_load() {
     std::unique_lock lock(mutex_);
     work_done_.wait(lock, [&] { return !done_.empty() || in_flight_ == 0; });
@@ -364,14 +415,14 @@ std::shared_ptr<const void> StreamCache::value(SourceId source, uint32_t index) 
 std::optional<std::string> StreamCache::failure(SourceId source, uint32_t index) const {
     const Item& it = item(source, index);
     if (it.state != State::failed) return std::nullopt;
-    return it.failure;
+    return sources_.at(source).failures.at(index);
 }
 
 void StreamCache::forget_failure(SourceId source, uint32_t index) {
     Item& it = item(source, index);
     if (it.state != State::failed) return;
     it.state = State::absent;
-    it.failure.clear();
+    sources_.at(source).failures.erase(index);
 }
 
 uint64_t StreamCache::version(SourceId source) const { return sources_.at(source).version; }
@@ -389,6 +440,8 @@ StreamCache::Stats StreamCache::stats() const {
     s.prefetch_waiting = prefetch_waiting_;
     s.gpu_budget = gpu_budget_;
     s.gpu_resident_bytes = gpu_resident_;
+    s.held_bytes = held_bytes_;
+    s.gpu_held_bytes = gpu_held_;
     return s;
 }
 
@@ -399,6 +452,9 @@ void StreamCache::set_load_rate(double bytes_per_second) {
 
 void StreamCache::set_budget(uint64_t budget_bytes) {
     if (budget_bytes == 0) throw std::invalid_argument("the streaming budget must be positive");
+    if (budget_bytes < held_bytes_)
+        throw std::invalid_argument("a streaming budget of " + describe_bytes(budget_bytes) + " cannot hold the " + describe_bytes(held_bytes_) +
+                                    " that the open models' tables take");
     budget_ = budget_bytes;
     for (SourceId id = 0; id < sources_.size(); ++id)
         if (!sources_[id].removed) pin_for_budget(id);

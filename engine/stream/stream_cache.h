@@ -5,9 +5,10 @@
 // The rules it keeps:
 // - An item is resident only with its parent (and so with all its ancestors): a load starts only once
 //   the parent is resident, and only items without resident children are evicted.
-// - The budget is a hard cap: the bytes of resident items plus those reserved for loads in flight
-//   never exceed it. A load reserves its item's bound when it starts; the item's actual bytes, which
-//   may be fewer, count once it is resident. resident_bytes() is exact.
+// - The budget is a hard cap: the bytes of resident items, those reserved for loads in flight and
+//   those held beside the items (hold(): what open models keep per cube) never exceed it. A load
+//   reserves its item's bound when it starts; the item's actual bytes, which may be fewer, count once
+//   it is resident. resident_bytes is exact.
 // - Residency changes only in update(), on the caller's (the render) thread: between two updates
 //   what a frame sees stays put. Loads run on the loader threads.
 // - Priority: each frame's requests start highest first; to make room, update() evicts the least
@@ -76,6 +77,28 @@ public:
         uint64_t prefetch_waiting = 0;  // prefetched items the last update left unloaded
         uint64_t gpu_budget = 0;          // 0: the GPU's share is capped by `budget` alone
         uint64_t gpu_resident_bytes = 0;  // exact: of resident_bytes, what is on the GPU
+        uint64_t held_bytes = 0;          // held beside the items (hold()), counted in the budget too
+        uint64_t gpu_held_bytes = 0;      // of those, what is on the GPU
+    };
+
+    // Bytes held beside the items while something stays open (a model's per-cube tables), counted in
+    // the budget with them (hold()); given back when the handle goes, which must be before the cache.
+    class Held {
+    public:
+        Held() = default;
+        Held(Held&& other) noexcept { *this = std::move(other); }
+        Held& operator=(Held&& other) noexcept;
+        Held(const Held&) = delete;
+        Held& operator=(const Held&) = delete;
+        ~Held() { release(); }
+        uint64_t bytes() const { return bytes_; }
+        uint64_t gpu_bytes() const { return gpu_bytes_; }
+
+    private:
+        friend class StreamCache;
+        void release();
+        StreamCache* cache_ = nullptr;
+        uint64_t bytes_ = 0, gpu_bytes_ = 0;
     };
 
     // `loader_threads` ≥ 1. Throws std::invalid_argument on a zero budget.
@@ -91,7 +114,11 @@ public:
     static const std::shared_ptr<StreamCache>& shared();
     static StreamCache* shared_if_made();
 
+    // Adds a source; the table it keeps for the source's items is held in the budget (hold(), which
+    // may throw) until remove().
     SourceId add(std::shared_ptr<StreamSource> source);
+    // What that table takes for `items` items.
+    static uint64_t table_bytes(uint32_t items);
     // Drops the source's items; its queued loads are cancelled, and those running are discarded when done.
     void remove(SourceId source);
 
@@ -115,6 +142,12 @@ public:
     // after `timeout_seconds` (≤ 0: no limit). Waits on the loads, not on a clock.
     void wait_for_requests(double timeout_seconds = 0);
 
+    // Counts `bytes` (of which `gpu_bytes` on the GPU) in the budget until the returned handle goes.
+    // Evicts the least recently used items to make room, as update() does (so, between frames: render
+    // thread); throws std::runtime_error naming `what` and the figures when they do not fit beside the
+    // pinned items and what is held already.
+    Held hold(uint64_t bytes, uint64_t gpu_bytes, const std::string& what);
+
     // Blocks until a load in flight has finished (at once when none is in flight); update() takes it in.
     void wait_for_a_load();
 
@@ -132,11 +165,13 @@ public:
     Stats stats() const;
     uint64_t budget() const { return budget_; }
     // A new budget; each source's pinned items are chosen again for it (StreamSource::pinned_items),
-    // and what no longer fits is evicted by the next update() as room is needed.
+    // and what no longer fits is evicted by the next update() as room is needed. Throws
+    // std::invalid_argument on a budget that cannot hold what is held (hold()), leaving it as it was.
     void set_budget(uint64_t budget_bytes);
     // A cap on the GPU's share of the budget on its own (0: none): loads and evictions keep the GPU
-    // bytes of resident items and loads in flight within it too.
-    void set_gpu_budget(uint64_t gpu_budget_bytes) { gpu_budget_ = gpu_budget_bytes; }
+    // bytes of resident items, loads in flight and what is held within it too. Throws
+    // std::invalid_argument on a cap below what is held on the GPU (hold()).
+    void set_gpu_budget(uint64_t gpu_budget_bytes);
     uint64_t gpu_budget() const { return gpu_budget_; }
     // Limits the loaders together to `bytes_per_second` of loaded values (0: no limit), as a disk of
     // that speed would: what a benchmark or a test needs to see loads arrive late.
@@ -152,11 +187,12 @@ private:
         uint64_t gpu_bytes = 0;  // of those, on the GPU
         uint64_t last_used = 0;
         std::shared_ptr<const void> value;
-        std::string failure;
     };
     struct Source {
         std::shared_ptr<StreamSource> source;
         std::vector<Item> items;
+        std::unordered_map<uint32_t, std::string> failures;  // of the items whose state is failed
+        Held table;  // what `items` holds, counted in the budget like what the source holds
         uint64_t version = 0;
         std::vector<uint32_t> changed;  // items that came in or left since residency_changed()
         bool removed = false;
@@ -198,7 +234,7 @@ private:
     void pin_for_budget(SourceId source);
     Item& item(SourceId source, uint32_t item);
     const Item& item(SourceId source, uint32_t item) const;
-    uint64_t used() const { return resident_bytes_ + reserved_bytes_; }
+    uint64_t used() const { return resident_bytes_ + reserved_bytes_ + held_bytes_; }
 
     uint64_t budget_, gpu_budget_ = 0;
     std::vector<Source> sources_;  // by SourceId; removed ones stay as empty slots
@@ -207,6 +243,7 @@ private:
     uint64_t frame_ = 1;
     uint64_t resident_bytes_ = 0, reserved_bytes_ = 0, peak_bytes_ = 0, resident_items_ = 0;
     uint64_t gpu_resident_ = 0, gpu_reserved_ = 0;
+    uint64_t held_bytes_ = 0, gpu_held_ = 0;
     uint64_t loaded_ = 0, evicted_ = 0, failed_ = 0, shortfall_ = 0, in_flight_ = 0, waiting_ = 0, prefetch_waiting_ = 0;
 
     // Shared with the loader threads.

@@ -43,6 +43,10 @@ local hit = assert(strata.pick(scene, cam, 80, 60), "the model covers the middle
 assert(hit.provisional == false, "a pick on a converged view is final")
 local held = strata.memory()
 assert(held.resident == full.memory_resident and held.resident <= held.total)
+-- The open model's per-cube tables count in the budget beside its cubes.
+assert(held.tables == full.memory_tables and held.tables > 0 and held.resident + held.reserved + held.tables <= held.total,
+       "the tables, in the budget")
+assert(held.gpu_tables > 0 and held.gpu_tables < held.tables, "of the tables, the GPU's share")
 assert(held.gpu_resident == full.memory_resident_gpu and held.gpu_resident > 0 and held.gpu_resident < held.resident
        and held.gpu_resident <= held.gpu, "the GPU's share, within its cap")
 assert(held.loaded >= held.cubes and held.cubes > 0 and held.failed == 0)

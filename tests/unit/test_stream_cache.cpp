@@ -81,6 +81,10 @@ private:
     std::vector<uint32_t> order_;
 };
 
+// A budget of `items` bytes for the items, beside the table the cache keeps of them (held in the
+// budget too).
+uint64_t beside_the_table(uint64_t items, const TreeSource& tree) { return items + StreamCache::table_bytes(tree.item_count()); }
+
 // Every resident item's ancestors are resident, and the resident bytes are exactly the loaded items'.
 void expect_consistent(const StreamCache& cache, StreamCache::SourceId id, const TreeSource& tree) {
     uint64_t bytes = 0;
@@ -93,8 +97,50 @@ void expect_consistent(const StreamCache& cache, StreamCache::SourceId id, const
     }
     const StreamCache::Stats s = cache.stats();
     EXPECT_EQ(s.resident_bytes, bytes);
-    EXPECT_LE(s.resident_bytes + s.reserved_bytes, s.budget);
+    EXPECT_EQ(s.held_bytes, StreamCache::table_bytes(tree.item_count()));
+    EXPECT_LE(s.resident_bytes + s.reserved_bytes + s.held_bytes, s.budget);
     EXPECT_LE(s.peak_bytes, s.budget);
+}
+
+// What open models hold beside the items (their per-item tables) counts in the budget: holding it
+// evicts the least recently used items to make room, a hold that cannot fit is refused naming the
+// figures, and the bytes come back when the handle goes.
+TEST(StreamCache, HeldBytesCountInTheBudgetEvictToMakeRoomAndComeBack) {
+    auto tree = std::make_shared<TreeSource>(3);
+    StreamCache cache(beside_the_table(6 * 1100, *tree), 1);
+    const auto id = cache.add(tree);
+    const uint32_t child = tree->first_of_level(2);
+    for (uint32_t k = 0; k < 4; ++k) {  // the root, its first child, and four leaves: 0 the oldest
+        cache.request(id, child + k, 1.0);
+        cache.wait_for_requests();
+    }
+    const uint64_t table = StreamCache::table_bytes(tree->item_count());
+    EXPECT_EQ(cache.stats().held_bytes, table);
+    {
+        const StreamCache::Held held = cache.hold(2000, 300, "two leaves' worth");
+        const StreamCache::Stats s = cache.stats();
+        EXPECT_EQ(s.held_bytes, table + 2000);
+        EXPECT_EQ(s.gpu_held_bytes, 300u);
+        EXPECT_FALSE(cache.resident(id, child + 0)) << "the least recently used leaves made room";
+        EXPECT_FALSE(cache.resident(id, child + 1));
+        EXPECT_TRUE(cache.resident(id, child + 2));
+        EXPECT_LE(s.resident_bytes + s.reserved_bytes + s.held_bytes, s.budget);
+        EXPECT_LE(s.peak_bytes, s.budget);
+        try {
+            (void)cache.hold(10 * 1100, 0, "a model's tables");
+            FAIL() << "a hold beyond the budget was taken";
+        } catch (const std::runtime_error& e) {
+            EXPECT_NE(std::string(e.what()).find("a model's tables take"), std::string::npos) << e.what();
+            EXPECT_NE(std::string(e.what()).find("streaming budget"), std::string::npos) << e.what();
+        }
+        EXPECT_EQ(cache.stats().held_bytes, table + 2000) << "a refused hold holds nothing";
+        EXPECT_THROW(cache.set_budget(table + 1999), std::invalid_argument) << "below what is held";
+        EXPECT_THROW(cache.set_gpu_budget(299), std::invalid_argument) << "below what is held on the GPU";
+    }
+    EXPECT_EQ(cache.stats().held_bytes, table) << "the bytes came back with the handle";
+    EXPECT_EQ(cache.stats().gpu_held_bytes, 0u);
+    cache.remove(id);
+    EXPECT_EQ(cache.stats().held_bytes, 0u) << "the source's table went with it";
 }
 
 TEST(StreamCache, AnItemLoadsAfterItsAncestorsEachGivenItsParent) {
@@ -142,7 +188,7 @@ TEST(StreamCache, TheBudgetIsAHardCapOverManyFramesOfRandomViews) {
 
 TEST(StreamCache, TheLeastRecentlyUsedLeavesGoFirstAndNothingThisFrameUses) {
     auto tree = std::make_shared<TreeSource>(3);
-    StreamCache cache(6 * 1100, 1);  // the root, one level-1 item and four of its children
+    StreamCache cache(beside_the_table(6 * 1100, *tree), 1);  // the root, one level-1 item and four of its children
     const auto id = cache.add(tree);
     const uint32_t mid = tree->first_of_level(1), child = tree->first_of_level(2);
     for (uint32_t k = 0; k < 4; ++k) {  // children 0..3, one per frame: 0 is the oldest
@@ -163,7 +209,7 @@ TEST(StreamCache, TheLeastRecentlyUsedLeavesGoFirstAndNothingThisFrameUses) {
 
 TEST(StreamCache, HigherPriorityLoadsFirstWhenOnlyOneFits) {
     auto tree = std::make_shared<TreeSource>(2);
-    StreamCache cache(2 * 1100, 1);  // the root and one child
+    StreamCache cache(beside_the_table(2 * 1100, *tree), 1);  // the root and one child
     const auto id = cache.add(tree);
     cache.request(id, 0, 1.0);
     cache.wait_for_requests();
@@ -182,7 +228,7 @@ TEST(StreamCache, HigherPriorityLoadsFirstWhenOnlyOneFits) {
 // neither counted as requests nor waited for.
 TEST(StreamCache, PrefetchesFillFreeRoomAfterTheRequestsAndNeverEvict) {
     auto tree = std::make_shared<TreeSource>(3);
-    StreamCache cache(4 * 1100, 1);  // the root, its first child and two leaves under it
+    StreamCache cache(beside_the_table(4 * 1100, *tree), 1);  // the root, its first child and two leaves under it
     const auto id = cache.add(tree);
     cache.request(id, 0, 1.0);
     cache.wait_for_requests();
@@ -256,7 +302,7 @@ TEST(StreamCache, AGpuBudgetCapsTheGpuShareOnItsOwn) {
 
 TEST(StreamCache, LoadsInFlightCountAgainstTheBudget) {
     auto tree = std::make_shared<TreeSource>(2);
-    StreamCache cache(4 * 1100, 2);
+    StreamCache cache(beside_the_table(4 * 1100, *tree), 2);
     const auto id = cache.add(tree);
     cache.request(id, 0, 1.0);
     cache.wait_for_requests();
@@ -305,7 +351,7 @@ TEST(StreamCache, AFailedLoadIsReportedNamingItAndNotRetriedUntilForgotten) {
 
 TEST(StreamCache, WaitingNamesTheShortfallWhenAViewDoesNotFit) {
     auto tree = std::make_shared<TreeSource>(2);
-    StreamCache cache(4 * 1100, 2);
+    StreamCache cache(beside_the_table(4 * 1100, *tree), 2);
     const auto id = cache.add(tree);
     for (uint32_t c = 1; c <= 8; ++c) cache.request(id, c, 1.0);
     try {
@@ -355,8 +401,8 @@ TEST(StreamCache, RemovingASourceDropsItsItemsAndDiscardsItsRunningLoads) {
 TEST(StreamCache, PinnedItemsLoadFirstAndStayUntilTheBudgetNoLongerPinsThem) {
     auto tree = std::make_shared<TreeSource>(3);
     tree->pinned = {0, 1};
-    tree->pin_budget = 4 * 1100;
-    StreamCache cache(4 * 1100, 1);
+    tree->pin_budget = beside_the_table(4 * 1100, *tree);
+    StreamCache cache(beside_the_table(4 * 1100, *tree), 1);
     const auto id = cache.add(tree);
     for (int frame = 0; frame < 8; ++frame) {  // each frame a new leaf under item 2, none touched again
         cache.request(id, tree->first_of_level(2) + 8 + uint32_t(frame), 1.0);
@@ -366,7 +412,7 @@ TEST(StreamCache, PinnedItemsLoadFirstAndStayUntilTheBudgetNoLongerPinsThem) {
     }
     EXPECT_GT(cache.stats().evicted, 4u);
     // Three items' room: the pins go, and a leaf under item 2 takes item 1's place (least recently used).
-    cache.set_budget(3 * 1100);
+    cache.set_budget(beside_the_table(3 * 1100, *tree));
     cache.request(id, tree->first_of_level(2) + 16, 1.0);
     cache.wait_for_requests();
     EXPECT_FALSE(cache.resident(id, 1)) << "item 1 was still pinned under a budget that pins nothing";

@@ -192,8 +192,9 @@ TEST_F(Streaming, FullDetailCullsEqualTheWholeModelsAfterAnyHistory) {
     };
     int differing = 0, views_with_cubes = 0;
     for (int history = 0; history < 40; ++history) {
-        auto cache = std::make_shared<StreamCache>(model_bytes, 2);
+        auto cache = std::make_shared<StreamCache>(2 * model_bytes, 2);
         auto model = HlodModel::open(test::bunny_hlod(), cache);
+        cache->set_budget(model_bytes + cache->stats().held_bytes);  // the model's cubes beside its tables
         model->set_pixel_error(1.0);
         auto root = std::make_shared<Group>();
         root->add(model);
@@ -424,9 +425,11 @@ TEST_F(StreamingRender, FullDetailFramesEqualTheWholeModelsFromAnyCacheThatHolds
     StreamCache& cache = *StreamCache::shared();
     const uint64_t budget = cache.budget();
     const std::vector<float> reference = full_detail_frame(HlodModel::load(test::bunny_hlod()));
-    uint64_t working_set = 0;
+    uint64_t working_set = 0, tables = 0;
     {
         const auto model = HlodModel::open(test::bunny_hlod());
+        tables = cache.stats().held_bytes;
+        EXPECT_GT(tables, model->cubes().size() * 300) << "the model's per-cube tables count in the budget";
         // An interactive first frame from a cold cache draws stand-ins, or nothing, while cubes load.
         FrameStats first;
         full_detail_frame(model, nullptr, true, &first);
@@ -436,20 +439,22 @@ TEST_F(StreamingRender, FullDetailFramesEqualTheWholeModelsFromAnyCacheThatHolds
         EXPECT_EQ(full.stand_ins, 0u);
         EXPECT_EQ(full.loads_pending, 0u);
         EXPECT_EQ(full.memory_resident, working_set);
+        EXPECT_EQ(full.memory_tables, tables);
         EXPECT_EQ(full_detail_frame(model), reference) << "from a warm cache";
         EXPECT_LT(working_set, budget);
     }
     EXPECT_EQ(cache.stats().resident_bytes, 0u) << "a model's cubes go with it";
-    // Just the frame's cubes (and the coarse levels it pins), and room for the largest cube's bound: a
-    // load reserves its bound until its actual size is known.
+    EXPECT_EQ(cache.stats().held_bytes, 0u) << "and its tables";
+    // Just the frame's cubes (and the coarse levels it pins) beside the model's tables, and room for
+    // the largest cube's bound: a load reserves its bound until its actual size is known.
     uint64_t largest_bound = 0;
     {
         const auto model = HlodModel::open(test::bunny_hlod());
-        for (const HlodCube& cube : model->cubes()) largest_bound = std::max(largest_bound, model->cube_bytes_bound(cube.node));
+        for (const HlodCube& cube : model->cubes()) largest_bound = std::max(largest_bound, HlodModel::cube_bytes_bound(model->header(), cube.node));
     }
-    cache.set_budget(working_set + largest_bound);
+    cache.set_budget(working_set + tables + largest_bound);
     EXPECT_EQ(full_detail_frame(HlodModel::open(test::bunny_hlod())), reference) << "within a budget that just holds it";
-    cache.set_budget(working_set / 3);
+    cache.set_budget(working_set / 3 + tables);
     try {
         full_detail_frame(HlodModel::open(test::bunny_hlod()));
         FAIL() << "a frame three times the budget was drawn";
@@ -610,14 +615,15 @@ TEST_F(StreamingRender, OneRendererThroughAFlyInThatEvictsKeepsItsPoolToTheResid
     const double size = model->header().root_size;
     const bool colors = model->header().has_colors();
     auto gpu_bytes = [&](const CubeData& d) { return HlodModel::gpu_block_bytes(d.vertex_count(), d.parents.size(), d.indices.size(), colors); };
-    // The pool's own buffers beside the blocks: per cube its record, links, band ends, fade, colour
-    // offsets, a drawn index and a draw command; and its pages' unused room, at most a page (1 MiB
-    // at this budget) and the fragments between blocks.
-    const uint64_t fixed = model->cubes().size() * (16 + 28 * 4 + 8 + 4 + 8 + 4 + 20);
+    // The pool's own buffers beside the blocks: per cube its record, links, band ends, fade and colour
+    // offsets; and the frame's drawn indices and draw commands (room for twice the most cubes a frame
+    // drew), its pages' unused room, at most a page (1 MiB at this budget), and the fragments between
+    // blocks.
+    const uint64_t fixed = model->cubes().size() * (16 + 28 * 4 + 8 + 4 + 8);
     const uint64_t slack = uint64_t(2) << 20;
     Renderer renderer;
     RenderSettings interactive;
-    uint64_t ever_placed = 0;
+    uint64_t ever_placed = 0, most_drawn = 0;
     std::set<const CubeData*> seen;
     // Fly-ins, in and out, until the pool has placed far more than a page (however the loads fall on
     // a busy machine), or a bound on the frames.
@@ -636,14 +642,15 @@ TEST_F(StreamingRender, OneRendererThroughAFlyInThatEvictsKeepsItsPoolToTheResid
         }
         cache.wait_for_a_load();
         if (stats.cubes == 0) continue;  // nothing drawn yet: no pool
+        most_drawn = std::max(most_drawn, stats.cubes);
         ASSERT_GE(stats.bytes_resident, placed + fixed) << "frame " << frame;
         ASSERT_LE(stats.bytes_resident, placed + fixed + slack) << "frame " << frame;
     }
     EXPECT_GT(cache.stats().evicted, 0u);
-    // A budget of one byte evicts all but the pinned coarse levels, which were placed first, in the
-    // first page: the pool gives the rest of its pages back. A pool that never freed would hold every
-    // block ever placed.
-    cache.set_budget(1);
+    // A budget of just the model's tables evicts all but the root, which is always pinned and was
+    // placed first, in the first page: the pool gives the rest of its pages back. A pool that never
+    // freed would hold every block ever placed.
+    cache.set_budget(cache.stats().held_bytes);
     Camera far;
     aim(far, *model, centre_of(*model) + 3 * size * glm::dvec3(0, 0.3, 1));
     gl::Framebuffer far_target({.width = far.width, .height = far.height, .samples = 1});
@@ -652,7 +659,8 @@ TEST_F(StreamingRender, OneRendererThroughAFlyInThatEvictsKeepsItsPoolToTheResid
     uint64_t placed = 0;
     for (const HlodCube& cube : model->cubes())
         if (cube.data) placed += gpu_bytes(*cube.data);
-    EXPECT_LE(shrunk.bytes_resident, fixed + (uint64_t(1) << 20)) << "one page left";
+    const uint64_t frame_buffers = 2 * most_drawn * (4 + 20);  // drawn indices and draw commands
+    EXPECT_LE(shrunk.bytes_resident, fixed + frame_buffers + (uint64_t(1) << 20)) << "one page left";
     EXPECT_GE(shrunk.bytes_resident, placed + fixed);
     EXPECT_GT(ever_placed, (uint64_t(3) << 20)) << "the fly-ins placed too little to tell a pool that frees (one page left) from one that does not";
     cache.set_budget(budget);
@@ -675,13 +683,17 @@ TEST_F(StreamingRender, AModelOutOfViewLetsGoOfTheCubesTheCacheEvicts) {
     test::TempDir dir;
     std::filesystem::copy_file(test::bunny_hlod(), dir / "a.hlod");
     std::filesystem::copy_file(test::bunny_hlod(), dir / "b.hlod");
-    // A budget that holds one close-up's working set and a half; set first, since a model opened under
-    // a larger one would have all its levels pinned.
-    cache.set_budget(decoded_bytes(*HlodModel::load(test::bunny_hlod())));
-    uint64_t working_set = 0;
-    full_detail_frame(HlodModel::open(test::bunny_hlod()), &working_set);
-    cache.set_budget(working_set * 3 / 2);
+    // A budget that holds one close-up's working set and a half beside the two models' tables.
+    cache.set_budget(2 * decoded_bytes(*HlodModel::load(test::bunny_hlod())));
+    uint64_t working_set = 0, tables = 0;
+    {
+        const auto probe = HlodModel::open(test::bunny_hlod());
+        tables = cache.stats().held_bytes;
+        full_detail_frame(probe, &working_set);
+    }
+    cache.set_budget(working_set * 3 / 2 + 2 * tables);
     const auto a = HlodModel::open(dir / "a.hlod"), b = HlodModel::open(dir / "b.hlod");
+    EXPECT_EQ(cache.stats().held_bytes, 2 * tables) << "two files: two sets of tables";
     const double size = a->header().root_size;
     auto root = std::make_shared<Group>();
     for (const auto& [model, x] : {std::pair{a, 0.0}, std::pair{b, 20 * size}}) {
