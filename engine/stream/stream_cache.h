@@ -24,6 +24,7 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <queue>
 #include <string>
 #include <thread>
 #include <unordered_map>
@@ -219,6 +220,17 @@ private:
     void take_in_finished();
     // Evicts until `bytes` (of which `gpu_bytes` on the GPU) fit beside what is held; whether they do.
     bool make_room(uint64_t bytes, uint64_t gpu_bytes);
+    // What make_room may evict, least recently used first: found on its first need in an update.
+    struct Candidate {
+        uint64_t last_used;
+        SourceId source;
+        uint32_t item;
+        bool operator>(const Candidate& o) const { return last_used > o.last_used; }
+    };
+    std::priority_queue<Candidate, std::vector<Candidate>, std::greater<>> candidates_;
+    bool candidates_found_ = false;
+    bool evictable(const Item& it) const;
+    void consider(SourceId source, uint32_t item);
     bool fits(uint64_t bytes, uint64_t gpu_bytes) const;
     // Highest priority first; asked in the same order where they tie (an item before its ancestors).
     static void sort_by_priority(std::vector<Request>& asked);
