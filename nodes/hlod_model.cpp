@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <functional>
 #include <mutex>
 #include <unordered_map>
 #include <stdexcept>
@@ -32,11 +31,11 @@ double box_distance(const glm::dvec3& p, const Box& box) {
 
 }  // namespace
 
-std::shared_ptr<HlodModel::Tree> HlodModel::read_octree(const HlodFile& file) {
+std::shared_ptr<HlodModel::Tree> HlodModel::read_octree(HlodFile& file) {
     auto tree = std::make_shared<Tree>();
     Tree& t = *tree;
     t.header = file.header();
-    const auto& nodes = file.nodes();
+    const std::vector<HlodNode> nodes = file.take_nodes();
     const std::string name = file.path().string();
     if (nodes.empty()) throw std::runtime_error(name + ": the model has no cubes");
 
@@ -123,31 +122,46 @@ std::shared_ptr<HlodModel> HlodModel::load(const std::filesystem::path& path) {
 
 namespace {
 
+// What one CubeKappas holds for `cubes` cubes: κ and band ends, and fades where it has them.
+uint64_t kappas_bytes(uint64_t cubes, bool fades) {
+    return cubes * (sizeof(double) + sizeof(std::array<float, 2>) + (fades ? sizeof(float) : 0));
+}
+
+}  // namespace
+
 // A streamed model's cubes as the cache loads them: read by offset (HlodFile reads are thread-safe),
 // checksum checked, decoded, and given their parents' vertices from the parent the cache hands over.
-class CubeSource : public StreamSource {
+// The nodes and links come from the file's tree (the loader threads read its nodes, which never
+// change, while the render thread sets its cubes' data); what the cache loads or evicts, the tree
+// takes in at once.
+class HlodModel::CubeSource : public StreamSource {
 public:
-    CubeSource(std::shared_ptr<const HlodFile> file, std::vector<uint32_t> parents) : file_(std::move(file)), parents_(std::move(parents)) {}
-    uint32_t item_count() const override { return uint32_t(parents_.size()); }
-    uint32_t parent(uint32_t cube) const override { return parents_[cube]; }
-    uint64_t item_bytes(uint32_t cube) const override { return HlodModel::cube_bytes_bound(file_->header(), file_->nodes()[cube]); }
-    uint64_t item_gpu_bytes(uint32_t cube) const override { return HlodModel::cube_gpu_bytes_bound(file_->header(), file_->nodes()[cube]); }
+    CubeSource(std::shared_ptr<const HlodFile> file, std::shared_ptr<Tree> tree) : file_(std::move(file)), tree_(std::move(tree)) {}
+    // The cache it was added to, as `source`: what residency_changed reads.
+    void added_to(const StreamCache& cache, StreamCache::SourceId source) {
+        cache_ = &cache;
+        source_ = source;
+    }
+    uint32_t item_count() const override { return uint32_t(tree_->cubes.size()); }
+    uint32_t parent(uint32_t cube) const override { return tree_->parent[cube]; }
+    uint64_t item_bytes(uint32_t cube) const override { return cube_bytes_bound(tree_->header, tree_->cubes[cube].node); }
+    uint64_t item_gpu_bytes(uint32_t cube) const override { return cube_gpu_bytes_bound(tree_->header, tree_->cubes[cube].node); }
     // The coarse levels whose cubes fit in 5 % of the budget together; the root always, since nothing
     // is drawn without it.
     std::vector<uint32_t> pinned_items(uint64_t budget) const override {
-        const auto& nodes = file_->nodes();
-        std::vector<uint64_t> level_bytes(file_->header().max_level + 1, 0);
-        for (uint32_t c = 0; c < nodes.size(); ++c) level_bytes[nodes[c].level] += item_bytes(c);
+        const auto& cubes = tree_->cubes;
+        std::vector<uint64_t> level_bytes(tree_->header.max_level + 1, 0);
+        for (uint32_t c = 0; c < cubes.size(); ++c) level_bytes[cubes[c].node.level] += item_bytes(c);
         uint64_t pinned = 0;
         uint32_t levels = 0;
         while (levels < level_bytes.size() && pinned + level_bytes[levels] <= budget / 20) pinned += level_bytes[levels++];
-        std::vector<uint32_t> cubes;
-        for (uint32_t c = 0; c < nodes.size(); ++c)
-            if (nodes[c].level < std::max(levels, 1u)) cubes.push_back(c);
-        return cubes;
+        std::vector<uint32_t> chosen;
+        for (uint32_t c = 0; c < cubes.size(); ++c)
+            if (cubes[c].node.level < std::max(levels, 1u)) chosen.push_back(c);
+        return chosen;
     }
     Loaded load(uint32_t cube, const std::shared_ptr<const void>& parent) override {
-        const HlodNode& node = file_->nodes()[cube];
+        const HlodNode& node = tree_->cubes[cube].node;
         auto data = std::make_shared<CubeData>(file_->read_cube(node));
         const auto* parent_data = static_cast<const CubeData*>(parent.get());
         resolve_parents(*data, parent_data ? parent_data->vertices : data->vertices,
@@ -157,30 +171,21 @@ public:
             arrays->colors.shrink_to_fit(), arrays->uvs.shrink_to_fit();
         }
         data->parent_of.shrink_to_fit(), data->parent_vertex.shrink_to_fit(), data->indices.shrink_to_fit();
-        const uint64_t bytes = HlodModel::cube_bytes(*data), gpu_bytes = HlodModel::cube_gpu_bytes(*data);
+        const uint64_t bytes = cube_bytes(*data), gpu_bytes = cube_gpu_bytes(*data);
         return {std::shared_ptr<const CubeData>(std::move(data)), bytes, gpu_bytes};
     }
+    // Whether a model on the tree is drawn or not: one outside the view would otherwise hold on to
+    // the cubes the cache evicted (and their GPU blocks) until a frame next culls it, beyond the budget.
     void residency_changed(const std::vector<uint32_t>& cubes, uint64_t version) override {
-        if (on_residency_changed) on_residency_changed(cubes, version);
-    }
-    // Set by the shared source: the file's tree takes in what changed.
-    std::function<void(const std::vector<uint32_t>&, uint64_t)> on_residency_changed;
-    // What it and its file's node table hold per cube.
-    uint64_t table_bytes() const {
-        return uint64_t(parents_.capacity()) * sizeof(uint32_t) + uint64_t(file_->nodes().capacity()) * sizeof(HlodNode);
+        tree_->take_changes(*cache_, source_, cubes, version);
     }
 
 private:
     std::shared_ptr<const HlodFile> file_;
-    std::vector<uint32_t> parents_;
+    std::shared_ptr<Tree> tree_;
+    const StreamCache* cache_ = nullptr;
+    StreamCache::SourceId source_ = 0;
 };
-
-// What one CubeKappas holds for `cubes` cubes: κ and band ends, and fades where it has them.
-uint64_t kappas_bytes(uint64_t cubes, bool fades) {
-    return cubes * (sizeof(double) + sizeof(std::array<float, 2>) + (fades ? sizeof(float) : 0));
-}
-
-}  // namespace
 
 // A streamed file's source in a cache and the tree its models share, removed with the last model
 // that reads it. Models opening a file already open through the same cache (found by the file's
@@ -201,20 +206,15 @@ struct HlodModel::SharedSource {
             if (auto shared = weak.lock(); shared && shared->cache.get() == &cache && shared->file == file) return shared;
         return nullptr;
     }
-    // The tree takes in what the cache loaded or evicted as soon as it changes, whether a model on it
-    // is drawn or not: one outside the view would otherwise hold on to the cubes the cache evicted
-    // (and their GPU blocks) until a frame next culls it, beyond the budget.
     static std::shared_ptr<const SharedSource> add(const std::shared_ptr<StreamCache>& cache, const std::shared_ptr<const HlodFile>& file,
                                                    std::shared_ptr<Tree> tree) {
-        auto cube_source = std::make_shared<CubeSource>(file, tree->parent);
         const uint64_t cubes = tree->cubes.size();
         const TableBytes gpu = gpu_tables_per_owner(cubes);
-        StreamCache::Held tables = cache->hold(tree->table_bytes() + cube_source->table_bytes() + kappas_bytes(cubes, false) + gpu.bytes,
-                                               gpu.gpu_bytes, file->path().string() + ": the tables of its " + std::to_string(cubes) + " cubes");
+        StreamCache::Held tables = cache->hold(tree->table_bytes() + kappas_bytes(cubes, false) + gpu.bytes, gpu.gpu_bytes,
+                                               file->path().string() + ": the tables of its " + std::to_string(cubes) + " cubes");
+        auto cube_source = std::make_shared<CubeSource>(file, tree);
         const StreamCache::SourceId source = cache->add(cube_source);
-        cube_source->on_residency_changed = [cache = cache.get(), tree = tree.get(), source](const std::vector<uint32_t>& changed, uint64_t version) {
-            tree->take_changes(*cache, source, changed, version);
-        };
+        cube_source->added_to(*cache, source);
         std::shared_ptr<const SharedSource> shared(new SharedSource{cache, std::move(tree), std::move(tables), source, file->identity()});
         std::lock_guard lock(registry_mutex);
         registry.push_back(shared);
@@ -249,7 +249,7 @@ uint64_t HlodModel::cube_bytes_bound(const HlodHeader& header, const HlodNode& n
 }
 
 std::shared_ptr<HlodModel> HlodModel::open(const std::filesystem::path& path, std::shared_ptr<StreamCache> cache) {
-    auto file = std::make_shared<const HlodFile>(path);
+    auto file = std::make_shared<HlodFile>(path);
     std::shared_ptr<const SharedSource> shared = SharedSource::find(*cache, file->identity());
     if (!shared) shared = SharedSource::add(cache, file, read_octree(*file));  // nothing resident yet
     std::shared_ptr<HlodModel> model(new HlodModel());

@@ -311,6 +311,7 @@ private:
     Box bound_;  // of every level's vertices, in the node's frame
     // Streamed: the cache and this model's source in it, shared by every model open on the same file
     // through the same cache (with the tree).
+    class CubeSource;
     struct SharedSource;
     struct Stream {
         std::shared_ptr<const SharedSource> shared;
@@ -319,8 +320,9 @@ private:
         StreamCache::Held tables;  // this model's own per-cube state, counted in the budget
     };
     std::unique_ptr<Stream> stream_;
-    // The octree from the node table (links, neighbours, errors); cube data is not read.
-    static std::shared_ptr<Tree> read_octree(const HlodFile& file);
+    // The octree from the node table (links, neighbours, errors), which it takes from the file; cube
+    // data is not read.
+    static std::shared_ptr<Tree> read_octree(HlodFile& file);
     // Takes `tree` as this model's, named after the file.
     void adopt(std::shared_ptr<Tree> tree, const std::filesystem::path& path);
     // Streamed: asks the cache for the children of every cube the selection rests on (`examined`,

@@ -202,6 +202,9 @@ public:
 
     const HlodHeader& header() const { return header_; }
     const std::vector<HlodNode>& nodes() const { return nodes_; }
+    // Hands the node table over to an owner that keeps it with its own per-cube state (a streamed
+    // model's tree), so that it is held once; nodes() is empty after. read_cube takes the node itself.
+    std::vector<HlodNode> take_nodes() { return std::move(nodes_); }
     const std::vector<HlodSection>& sections() const { return sections_; }
     uint64_t file_size() const { return file_size_; }
     const std::filesystem::path& path() const { return path_; }
