@@ -122,10 +122,8 @@ std::shared_ptr<HlodModel> HlodModel::load(const std::filesystem::path& path) {
 
 namespace {
 
-// What one CubeKappas holds for `cubes` cubes: κ and band ends, and fades where it has them.
-uint64_t kappas_bytes(uint64_t cubes, bool fades) {
-    return cubes * (sizeof(double) + sizeof(std::array<float, 2>) + (fades ? sizeof(float) : 0));
-}
+// What one CubeKappas of a tree's (HlodModel::kappas_for) holds for `cubes` cubes: κ and band ends.
+uint64_t kappas_bytes(uint64_t cubes) { return cubes * (sizeof(double) + sizeof(std::array<float, 2>)); }
 
 }  // namespace
 
@@ -210,7 +208,7 @@ struct HlodModel::SharedSource {
                                                    std::shared_ptr<Tree> tree) {
         const uint64_t cubes = tree->cubes.size();
         const TableBytes gpu = gpu_tables_per_owner(cubes);
-        StreamCache::Held tables = cache->hold(tree->table_bytes() + kappas_bytes(cubes, false) + gpu.bytes, gpu.gpu_bytes,
+        StreamCache::Held tables = cache->hold(tree->table_bytes() + kappas_bytes(cubes) + gpu.bytes, gpu.gpu_bytes,
                                                file->path().string() + ": the tables of its " + std::to_string(cubes) + " cubes");
         auto cube_source = std::make_shared<CubeSource>(file, tree);
         const StreamCache::SourceId source = cache->add(cube_source);
@@ -271,11 +269,11 @@ std::shared_ptr<HlodModel> HlodModel::open(const std::filesystem::path& path, st
                 model->bound_.expand(cell.hi + grow + model->origin());
             }
     }
-    // Its own per-cube state: its fades, the κ it morphs with (the last drawn and the next), and
-    // their GPU copies.
+    // Its own per-cube state: its fades, and the band ends and fades it morphs with on the GPU (on
+    // the CPU, what a frame changes of them follows its stand-ins and fades: CubeKappas::base).
     const uint64_t cubes = model->cubes().size();
     const TableBytes gpu = gpu_tables_per_model(cubes);
-    StreamCache::Held tables = cache->hold(uint64_t(model->fade_.capacity()) * sizeof(float) + 2 * kappas_bytes(cubes, true) + gpu.bytes,
+    StreamCache::Held tables = cache->hold(uint64_t(model->fade_.capacity()) * sizeof(float) + gpu.bytes,
                                            gpu.gpu_bytes, file->path().string() + ": a model's tables for its " + std::to_string(cubes) + " cubes");
     model->stream_ = std::make_unique<Stream>(Stream{shared, *cache, shared->source, std::move(tables)});
     return model;
@@ -428,10 +426,28 @@ HlodModel::SelectionBasis HlodModel::Capping::basis() const {
 Kappas HlodModel::Capping::morph_kappas(const std::vector<uint32_t>& capped) const {
     const bool fading = view_.fade && !model_.fading_.empty();
     if (capped.empty() && !fading) return view_.kappa;
-    auto out = std::make_shared<CubeKappas>(*view_.kappa);
-    for (const uint32_t c : capped) out->band_ends[c][1] = 0.0f;  // what it holds stays on its parents
-    if (fading) out->fade = *view_.fade;
+    auto out = std::make_shared<CubeKappas>();
+    out->base = view_.kappa;
+    out->capped = capped;  // what it holds stays on its parents
+    std::sort(out->capped.begin(), out->capped.end());
+    if (fading) {
+        for (const uint32_t c : model_.fading_) out->fading.push_back({c, (*view_.fade)[c]});
+        std::sort(out->fading.begin(), out->fading.end());
+    }
     return out;
+}
+
+std::array<float, 2> CubeKappas::band_end(uint32_t cube) const {
+    if (!base) return band_ends[cube];
+    std::array<float, 2> ends = base->band_end(cube);
+    if (std::binary_search(capped.begin(), capped.end(), cube)) ends[1] = 0.0f;
+    return ends;
+}
+
+float CubeKappas::fade_of(uint32_t cube) const {
+    if (!base) return fade.empty() ? 1.0f : fade[cube];
+    const auto it = std::lower_bound(fading.begin(), fading.end(), cube, [](const auto& entry, uint32_t c) { return entry.first < c; });
+    return it != fading.end() && it->first == cube ? it->second : base->fade_of(cube);
 }
 
 bool HlodModel::drawn_here(uint32_t c, const HlodView& view, Capping& capping) const {
@@ -618,18 +634,17 @@ void for_each_cell_holding(const glm::ivec3& q, int32_t reach, int shift, const 
 HlodModel::MorphBand HlodModel::morph_band(uint32_t c, const glm::ivec3& q, const CubeKappas& kappa) const {
     const HlodNode& n = tree_->cubes[c].node;
     const uint32_t parent = tree_->parent[c];
-    if (parent == kNoCube) return {kappa.band_ends[c][0], INFINITY};  // the root: nothing to morph toward
+    if (parent == kNoCube) return {kappa.band_end(c)[0], INFINITY};  // the root: nothing to morph toward
     // The vertex's own cube and its parent always hold it; their neighbours may too.
-    auto fade = [&](uint32_t m) { return kappa.fade.empty() ? 1.0f : kappa.fade[m]; };
-    MorphBand band{kappa.band_ends[c][0], kappa.band_ends[parent][1], fade(parent)};
+    MorphBand band{kappa.band_end(c)[0], kappa.band_end(parent)[1], kappa.fade_of(parent)};
     const glm::ivec3 cell(n.i, n.j, n.k);
     for_each_cell_holding(q, overhang_steps(), kLatticeBits, cell, [&](int slot) {
-        if (const uint32_t m = tree_->neighbours[c][size_t(slot)]; m != kNoCube) band.start = std::max(band.start, kappa.band_ends[m][0]);
+        if (const uint32_t m = tree_->neighbours[c][size_t(slot)]; m != kNoCube) band.start = std::max(band.start, kappa.band_end(m)[0]);
     });
     for_each_cell_holding(q, overhang_steps(), kLatticeBits + 1, cell >> 1, [&](int slot) {
         if (const uint32_t m = tree_->neighbours[parent][size_t(slot)]; m != kNoCube) {
-            band.end = std::min(band.end, kappa.band_ends[m][1]);
-            band.fade = std::min(band.fade, fade(m));
+            band.end = std::min(band.end, kappa.band_end(m)[1]);
+            band.fade = std::min(band.fade, kappa.fade_of(m));
         }
     });
     return band;

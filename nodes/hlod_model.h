@@ -53,7 +53,26 @@ struct CubeKappas {
     // Per cube, how far its children's vertices near it have faded in (nodes/README.md, "Stand-ins"):
     // a vertex's λ is scaled by the least fade of the cubes that set its band's end. Empty: all 1.
     std::vector<float> fade;
-    double operator[](uint32_t cube) const { return kappa[cube]; }
+    // Or the κ a view morphs with (HlodModel::select), over a base: the base's but for the `capped`
+    // cubes, whose band's far end is 0, and the fades of `fading` (the cubes whose children are still
+    // fading in); the arrays above stay empty. Both sorted by cube. So what a frame makes and uploads
+    // follows its stand-ins and fades, not the model's cubes.
+    std::shared_ptr<const CubeKappas> base;
+    std::vector<uint32_t> capped;
+    std::vector<std::pair<uint32_t, float>> fading;
+
+    double operator[](uint32_t cube) const { return base ? (*base)[cube] : kappa[cube]; }
+    std::array<float, 2> band_end(uint32_t cube) const;
+    float fade_of(uint32_t cube) const;
+    // The one at the bottom of the bases, which holds the arrays.
+    const CubeKappas& root() const { return base ? base->root() : *this; }
+    // The cubes whose band ends or fades may differ from root()'s (maybe twice).
+    template <class Visit>
+    void for_each_override(Visit&& visit) const {
+        for (const uint32_t c : capped) visit(c);
+        for (const auto& entry : fading) visit(entry.first);
+        if (base) base->for_each_override(visit);
+    }
 };
 using Kappas = std::shared_ptr<const CubeKappas>;
 
@@ -268,6 +287,8 @@ public:
     void set_capture_morph(bool on) { capture_morph_ = on; }
     bool capture_morph() const { return capture_morph_; }
     const std::vector<glm::vec4>* captured_morph(uint32_t cube) const;
+    // The κ the captured draw morphed with (its draw item's state).
+    const Kappas& captured_kappas() const { return captured_kappas_; }
 
     void cull(CullVisitor& cull) override;
     void draw(DrawContext& context, const DrawItem& item) override;
@@ -348,6 +369,7 @@ private:
     std::vector<uint32_t> selection_;  // scratch for cull(); a draw item's state is the κ it morphs with
     bool capture_morph_ = false;
     std::unordered_map<uint32_t, std::vector<glm::vec4>> captured_;  // filled by draw() while capturing
+    Kappas captured_kappas_;
 };
 
 }  // namespace strata

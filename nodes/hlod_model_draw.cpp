@@ -418,6 +418,27 @@ std::unique_ptr<HlodGpu> make_gpu(const HlodModel& model) {
     return gpu;
 }
 
+// Brings the GPU's band ends and fades to `kappas`: whole when its root (CubeKappas::root) is not
+// the last one's, else only the cubes the last one or it overrides, so that a frame uploads what its
+// stand-ins and fades change rather than a table of all the model's cubes.
+void upload_kappas(HlodGpu& gpu, Kappas kappas) {
+    auto put = [&](uint32_t c) {  // the cube's values under `kappas`
+        const std::array<float, 2> ends = kappas->band_end(c);
+        const float fade = kappas->fade_of(c);
+        gpu.band_ends.upload(c * sizeof(ends), &ends, sizeof(ends));
+        gpu.fades.upload(c * sizeof(fade), &fade, sizeof(fade));
+    };
+    const CubeKappas& root = kappas->root();
+    if (!gpu.kappas || &gpu.kappas->root() != &root) {
+        gpu.band_ends.upload(root.band_ends);
+        gpu.fades.upload(root.fade.empty() ? std::vector<float>(root.band_ends.size(), 1.0f) : root.fade);
+    } else {
+        gpu.kappas->for_each_override(put);  // what the last one changed: back to the root's, or on to the new
+    }
+    kappas->for_each_override(put);
+    gpu.kappas = std::move(kappas);
+}
+
 void set_view_uniforms(const HlodModel& model, const gl::Program& program, HlodGpu& gpu, const DrawContext& context,
                        const DrawItem& item) {
     const glm::dmat4 world_from_lattice = item.model * model.lattice_to_node();
@@ -428,9 +449,7 @@ void set_view_uniforms(const HlodModel& model, const gl::Program& program, HlodG
     // The κ the selection morphs with (capped band ends while cubes are missing); a new one for a new
     // image size, field of view, target or capping.
     if (Kappas kappas = std::static_pointer_cast<const CubeKappas>(item.state); kappas != gpu.kappas) {
-        gpu.band_ends.upload(kappas->band_ends);
-        gpu.fades.upload(kappas->fade.empty() ? std::vector<float>(kappas->band_ends.size(), 1.0f) : kappas->fade);
-        gpu.kappas = std::move(kappas);
+        upload_kappas(gpu, std::move(kappas));
     }
     const HlodHeader& h = model.header();
     std::array<float, kMaxLevels> step{}, parent_step{}, span{};
@@ -527,7 +546,10 @@ void HlodModel::draw(DrawContext& context, const DrawItem& item) {
     }
     context.stats.cubes += item.count;
     context.stats.bytes_resident += bytes_to_count(gpu, cubes, pool, context.cache);
-    if (capture_morph_) captured_.clear();
+    if (capture_morph_) {
+        captured_.clear();
+        captured_kappas_ = std::static_pointer_cast<const CubeKappas>(item.state);
+    }
     DrawCall call{.program = programs.surface, .wireframe = debug_view_ == HlodDebugView::wireframe};
     call.storage[1] = &cubes.cubes, call.storage[8] = &cubes.links, call.storage[10] = &cubes.color_offsets;
     call.storage[9] = &gpu.band_ends, call.storage[11] = &gpu.fades;

@@ -178,9 +178,11 @@ void part_open(const Options& o) {
     glFinish();
     const double converge_ms = ms_since(start);
     std::printf("open (streamed, budget %s%s): open %.1f ms, first frame at %.1f ms, converged after %d frames at %.1f ms "
-                "(%" PRIu64 " triangles, %" PRIu64 " cubes); resident %s; peak RSS %s (%s before opening; goal: budget + 200 MiB)\n",
+                "(%" PRIu64 " triangles, %" PRIu64 " cubes); resident %s, tables %s (%.0f bytes per cube of the model's %zu); peak RSS %s "
+                "(%s before opening; goal: budget + 200 MiB)\n",
                 mib(o.memory).c_str(), o.load_rate > 0 ? (", loads at " + mib(uint64_t(o.load_rate)) + "/s").c_str() : "", open_ms, first_ms,
-                frames, converge_ms, last.triangles, last.cubes, mib(last.memory_resident).c_str(), mib(peak_rss()).c_str(),
+                frames, converge_ms, last.triangles, last.cubes, mib(last.memory_resident).c_str(), mib(last.memory_tables).c_str(),
+                double(last.memory_tables) / double(model->cubes().size()), model->cubes().size(), mib(peak_rss()).c_str(),
                 mib(rss_before).c_str());
 }
 
@@ -302,9 +304,11 @@ void part_museum(const Options& o) {
             const struct mallinfo2 heap = mallinfo2();
             char line[512];
             std::snprintf(line, sizeof line,
-                          "frame %d: RSS %s; the cache holds %s (%s of it GPU blocks); the renderer's GPU buffers (pool pages and "
-                          "tables) %s; malloc holds %s from the system, %s of it in use, %s free in its heaps",
+                          "frame %d: RSS %s; the cache holds %s (%s of it GPU blocks) beside %s of the models' tables; the "
+                          "renderer's GPU buffers (pool pages and tables) %s; malloc holds %s from the system, %s of it in use, %s free "
+                          "in its heaps",
                           f, mib(peak_seen).c_str(), mib(stats.memory_resident).c_str(), mib(stats.memory_resident_gpu).c_str(),
+                          mib(stats.memory_tables).c_str(),
                           mib(stats.bytes_resident).c_str(), mib(heap.arena + heap.hblkhd).c_str(), mib(heap.uordblks + heap.hblkhd).c_str(),
                           mib(heap.fordblks).c_str());
             at_peak = line;
@@ -407,7 +411,7 @@ void part_soak(const Options& o) {
         (void)target.read_color();  // dropped, as a capture loop drops a frame once written
         if (f % std::max(o.soak / 10, 1) == 0 || f == o.soak - 1) {
             samples.push_back(rss());
-            held.push_back(stats.memory_resident);
+            held.push_back(stats.memory_resident + stats.memory_tables);
         }
     }
     // From 10 % on: the first frames load the coarse levels and warm the driver.
@@ -436,8 +440,9 @@ uint64_t digest(const std::vector<float>& pixels) {
 }
 
 // The capture's frames' digests under a budget, from a cold cache and then (warm) again; the
-// largest memory resident after a frame.
-void capture_run(const Options& o, uint64_t budget, std::vector<uint64_t>& cold, std::vector<uint64_t>& warm, uint64_t& working_set) {
+// largest memory resident after a frame, and the model's tables beside it.
+void capture_run(const Options& o, uint64_t budget, std::vector<uint64_t>& cold, std::vector<uint64_t>& warm, uint64_t& working_set,
+                 uint64_t& tables) {
     strata::StreamCache::shared()->set_budget(budget);
     auto model = strata::HlodModel::open(o.model);
     model->set_pixel_error(1.0);
@@ -456,6 +461,7 @@ void capture_run(const Options& o, uint64_t budget, std::vector<uint64_t>& cold,
             aim(camera, o, model->bound(), 2 * glm::pi<double>() * t, 1.0 + 0.7 * std::cos(2 * glm::pi<double>() * t));
             const FrameStats stats = renderer.render(scene, camera, target, full);
             working_set = std::max(working_set, stats.memory_resident);
+            tables = stats.memory_tables;
             run->push_back(digest(target.read_color()));
         }
     }
@@ -464,8 +470,8 @@ void capture_run(const Options& o, uint64_t budget, std::vector<uint64_t>& cold,
 void part_capture(const Options& o) {
     auto context = strata::gl::create_headless_context();
     std::vector<uint64_t> reference, warm, cold_b, warm_b;
-    uint64_t working_set = 0, ignored = 0;
-    capture_run(o, o.memory, reference, warm, working_set);
+    uint64_t working_set = 0, tables = 0, ignored = 0;
+    capture_run(o, o.memory, reference, warm, working_set, tables);
     // How many frames differ from the reference, and the first few of them.
     auto differing = [&](const std::vector<uint64_t>& run) {
         std::string frames;
@@ -476,12 +482,13 @@ void part_capture(const Options& o) {
     };
     std::printf("capture: %d full-detail frames at %dx%d; frames differing from the cold run under %s: warm %s", o.capture, o.width,
                 o.height, mib(o.memory).c_str(), differing(warm).c_str());
-    // The working set bounds a frame's cubes; a load also reserves its cube's bound while in flight.
-    for (const uint64_t budget : {working_set + working_set / 8, 2 * working_set}) {
-        capture_run(o, budget, cold_b, warm_b, ignored);
+    // The working set bounds a frame's cubes; a load also reserves its cube's bound while in flight;
+    // the model's tables count beside them.
+    for (const uint64_t budget : {working_set + working_set / 8 + tables, 2 * working_set + tables}) {
+        capture_run(o, budget, cold_b, warm_b, ignored, ignored);
         std::printf(", budget %s: cold %s, warm %s", mib(budget).c_str(), differing(cold_b).c_str(), differing(warm_b).c_str());
     }
-    std::printf(" (largest resident after a frame %s)\n", mib(working_set).c_str());
+    std::printf(" (largest resident after a frame %s, beside %s of tables)\n", mib(working_set).c_str(), mib(tables).c_str());
 }
 
 bool parse(int argc, char** argv, Options& o) {

@@ -673,6 +673,53 @@ TEST_F(StreamingRender, OneRendererThroughAFlyInThatEvictsKeepsItsPoolToTheResid
     EXPECT_EQ(target.read_color(), reference);
 }
 
+// Interactive frames morph with a κ that changes from frame to frame (stand-ins capped, children
+// fading in), of which the GPU takes in only what changed (upload_kappas in hlod_model_draw.cpp):
+// through a fly-in that loads as it goes, every drawn vertex's morphed position on the GPU equals the
+// CPU twin's for that frame's κ, bit for bit.
+TEST_F(StreamingRender, EveryFrameOfAFlyInThatLoadsMorphsOnTheGpuBitForBitLikeTheCpuTwin) {
+    StreamCache& cache = *StreamCache::shared();
+    const auto model = HlodModel::open(test::bunny_hlod());
+    model->set_pixel_error(1.0);
+    model->set_capture_morph(true);
+    auto root = std::make_shared<Group>();
+    root->add(model);
+    const double size = model->header().root_size;
+    Renderer renderer;
+    Kappas previous;
+    int overlaid = 0, changed_over_the_same_base = 0;
+    uint64_t vertices = 0, mismatches = 0;
+    for (int frame = 0; frame < 60; ++frame) {
+        const double t = frame / 60.0, angle = 3.0 * t, distance = size * (2.5 * (1 - t) + 0.5 * t);
+        Camera camera;
+        aim(camera, *model, centre_of(*model) + distance * glm::dvec3(std::sin(angle), 0.3, std::cos(angle)));
+        gl::Framebuffer target({.width = camera.width, .height = camera.height, .samples = 1});
+        renderer.render(*root, camera, target, RenderSettings{});
+        const Kappas kappa = model->captured_kappas();
+        cache.wait_for_a_load();  // each frame sees some loads arrive, not all
+        if (!kappa) continue;
+        overlaid += kappa->base != nullptr;
+        changed_over_the_same_base += previous && kappa != previous && &kappa->root() == &previous->root();
+        previous = kappa;
+        const glm::vec3 eye = model->shader_eye(glm::dmat4(1.0), camera.position);
+        std::vector<glm::vec3> cpu;
+        for (uint32_t c = 0; c < model->cubes().size(); ++c) {
+            const std::vector<glm::vec4>* gpu = model->captured_morph(c);
+            if (!gpu) continue;
+            model->morphed_positions(c, eye, *kappa, cpu);
+            const auto& indices = model->cubes()[c].data->indices;
+            for (const uint32_t v : std::set<uint32_t>(indices.begin(), indices.end())) {
+                const glm::vec3 drawn((*gpu)[v]);
+                mismatches += std::memcmp(&drawn, &cpu[v], sizeof drawn) != 0;
+                ++vertices;
+            }
+        }
+    }
+    EXPECT_EQ(mismatches, 0u) << "of " << vertices << " vertices";
+    EXPECT_GT(overlaid, 5) << "frames with stand-ins or fades";
+    EXPECT_GT(changed_over_the_same_base, 5) << "frames whose κ the GPU took in as changes to the last one's";
+}
+
 // A model the view has left is not culled, so it does not take in what the cache evicts when a frame
 // culls it: it must let go of the evicted cubes at once all the same (StreamSource::residency_changed),
 // or the scene holds more than the budget counts. Two copies of the scan far apart: close-ups of one,
