@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <mutex>
 #include <unordered_map>
 #include <stdexcept>
@@ -122,7 +123,7 @@ std::shared_ptr<HlodModel> HlodModel::load(const std::filesystem::path& path) {
 
 namespace {
 
-// What one CubeKappas of a tree's (HlodModel::kappas_for) holds for `cubes` cubes: κ and band ends.
+// What one CubeKappas of a tree's (Tree::cached_kappas) holds for `cubes` cubes: κ and band ends.
 uint64_t kappas_bytes(uint64_t cubes) { return cubes * (sizeof(double) + sizeof(std::array<float, 2>)); }
 
 }  // namespace
@@ -175,7 +176,11 @@ public:
     // Whether a model on the tree is drawn or not: one outside the view would otherwise hold on to
     // the cubes the cache evicted (and their GPU blocks) until a frame next culls it, beyond the budget.
     void residency_changed(const std::vector<uint32_t>& cubes, uint64_t version) override {
-        tree_->take_changes(*cache_, source_, cubes, version);
+        try {
+            tree_->take_changes(*cache_, source_, cubes, version);
+        } catch (...) {  // out of memory: the cache may not be thrown at; the next cull takes it all in
+            tree_->synced = ~uint64_t(0);
+        }
     }
 
 private:
@@ -208,7 +213,7 @@ struct HlodModel::SharedSource {
                                                    std::shared_ptr<Tree> tree) {
         const uint64_t cubes = tree->cubes.size();
         const TableBytes gpu = gpu_tables_per_owner(cubes);
-        StreamCache::Held tables = cache->hold(tree->table_bytes() + kappas_bytes(cubes) + gpu.bytes, gpu.gpu_bytes,
+        StreamCache::Held tables = cache->hold(tree->table_bytes() + Tree::kCachedKappas * kappas_bytes(cubes) + gpu.bytes, gpu.gpu_bytes,
                                                file->path().string() + ": the tables of its " + std::to_string(cubes) + " cubes");
         auto cube_source = std::make_shared<CubeSource>(file, tree);
         const StreamCache::SourceId source = cache->add(cube_source);
@@ -445,7 +450,7 @@ std::array<float, 2> CubeKappas::band_end(uint32_t cube) const {
 }
 
 float CubeKappas::fade_of(uint32_t cube) const {
-    if (!base) return fade.empty() ? 1.0f : fade[cube];
+    if (!base) return 1.0f;
     const auto it = std::lower_bound(fading.begin(), fading.end(), cube, [](const auto& entry, uint32_t c) { return entry.first < c; });
     return it != fading.end() && it->first == cube ? it->second : base->fade_of(cube);
 }
@@ -476,17 +481,23 @@ Kappas HlodModel::kappas_for(const Camera& camera) const {
     const double tx = camera.tan_half_fov_x(), ty = std::tan(glm::radians(camera.fov_y_degrees) / 2);
     const double focal = camera.width / (2 * tx);
     const double gain = 1 + focal * (1 + tx * tx + ty * ty) / pixel_error_;  // the 1: the error's own extent
-    const std::lock_guard lock(tree_->kappas_mutex);
-    if (tree_->kappas && tree_->kappas_key == gain) return tree_->kappas;
-    tree_->kappas_key = gain;
-    return tree_->kappas = make_kappas(kappas_for_gain(gain));
+    return tree_->cached_kappas(gain, [&] { return make_kappas(kappas_for_gain(gain)); });
 }
 
 Kappas HlodModel::uniform_kappas(double kappa) const {
-    const std::lock_guard lock(tree_->kappas_mutex);
-    if (tree_->kappas && tree_->kappas_key == -kappa) return tree_->kappas;
-    tree_->kappas_key = -kappa;
-    return tree_->kappas = make_kappas(std::vector<double>(tree_->cubes.size(), kappa));
+    return tree_->cached_kappas(-kappa, [&] { return make_kappas(std::vector<double>(tree_->cubes.size(), kappa)); });
+}
+
+Kappas HlodModel::Tree::cached_kappas(double key, const std::function<Kappas()>& make) {
+    const std::lock_guard lock(kappas_mutex);
+    for (size_t k = 0; k < kappas.size(); ++k)
+        if (kappas[k].second && kappas[k].first == key) {
+            std::rotate(kappas.begin(), kappas.begin() + ptrdiff_t(k), kappas.begin() + ptrdiff_t(k) + 1);  // most recent first
+            return kappas.front().second;
+        }
+    std::rotate(kappas.begin(), kappas.end() - 1, kappas.end());  // the least recent makes way
+    kappas.front() = {key, make()};
+    return kappas.front().second;
 }
 
 std::vector<double> HlodModel::kappas_for_gain(double gain) const {

@@ -6,6 +6,7 @@
 
 #include <array>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -50,13 +51,12 @@ inline constexpr uint32_t kMaxHlodLevels = 16;  // the format allows levels 0 �
 struct CubeKappas {
     std::vector<double> kappa;
     std::vector<std::array<float, 2>> band_ends;
-    // Per cube, how far its children's vertices near it have faded in (nodes/README.md, "Stand-ins"):
-    // a vertex's λ is scaled by the least fade of the cubes that set its band's end. Empty: all 1.
-    std::vector<float> fade;
     // Or the κ a view morphs with (HlodModel::select), over a base: the base's but for the `capped`
-    // cubes, whose band's far end is 0, and the fades of `fading` (the cubes whose children are still
-    // fading in); the arrays above stay empty. Both sorted by cube. So what a frame makes and uploads
-    // follows its stand-ins and fades, not the model's cubes.
+    // cubes, whose band's far end is 0, and with the fades of `fading`, the cubes whose children are
+    // still fading in (nodes/README.md, "Stand-ins": a vertex's λ is scaled by the least fade of the
+    // cubes that set its band's end; every other fade is 1). The arrays above stay empty; both lists
+    // are sorted by cube. So what a frame makes and uploads follows its stand-ins and fades, not the
+    // model's cubes.
     std::shared_ptr<const CubeKappas> base;
     std::vector<uint32_t> capped;
     std::vector<std::pair<uint32_t, float>> fading;
@@ -85,7 +85,7 @@ struct HlodView {
     // ≥ 0: every cube of this level (or the finest there is) instead of the distance rule: what an
     // orthographic view needs, whose pixels have one size at any distance.
     int fixed_level = -1;
-    // An interactive view: the model's fades (HlodModel::fade), below 1 for cubes
+    // An interactive view: the model's own fades (HlodModel::fade(), no other vector), below 1 for cubes
     // whose children are still fading in; such cubes hold their neighbours' children back as stand-ins
     // do. nullptr: none (full detail, a model loaded whole).
     const std::vector<float>* fade = nullptr;
@@ -107,10 +107,14 @@ class HlodModel : public Drawable {
         std::vector<uint8_t> resident, lacks_child;        // per cube: lacks_child, resident without a child
         uint64_t residency_version = 0;                    // counts changes of residency
         uint64_t synced = ~uint64_t(0);                    // streamed: the source's version last taken in
-        // The last κ computed, with what it was computed from (a gain, or −κ0 for a uniform κ).
+        // The κ last computed, most recent first, with what each was computed from (a gain, or −κ0 for
+        // a uniform κ): two, so that models of the file viewed two ways (an editor's view and a
+        // capture's, two pixel errors) do not compute theirs anew each frame.
+        static constexpr size_t kCachedKappas = 2;
         std::mutex kappas_mutex;
-        double kappas_key = 0;
-        Kappas kappas;
+        std::array<std::pair<double, Kappas>, kCachedKappas> kappas;
+        // The κ for `key`, made by `make` unless cached.
+        Kappas cached_kappas(double key, const std::function<Kappas()>& make);
 
         // Whether one of the cube's children is not resident under `resident` (a flag per cube).
         bool lacks_a_child(const std::vector<uint8_t>& resident, uint32_t cube) const;

@@ -48,7 +48,7 @@ layout(std430, binding = 8) readonly buffer Links { uint links[]; };
 // Per cube: where its level's vertices may start to morph, and where its children's must have ended
 // (CubeKappas::band_ends).
 layout(std430, binding = 9) readonly buffer BandEnds { vec2 band_ends[]; };
-// Per cube: how far its children's vertices near it have faded in (CubeKappas::fade).
+// Per cube: how far its children's vertices near it have faded in (CubeKappas::fade_of).
 layout(std430, binding = 11) readonly buffer Fades { float fades[]; };
 
 uniform mat4 clip_from_lattice;
@@ -287,7 +287,7 @@ struct CubesGpu : GpuCache::Entry {
 // What one model draws its view with: the κ and fades of its selection, and this frame's draws.
 struct HlodGpu : GpuCache::Entry {
     gl::Buffer band_ends;  // per cube, of `kappas`
-    gl::Buffer fades;      // per cube, of `kappas` (all 1 where it has none)
+    gl::Buffer fades;      // per cube, of `kappas`
     Kappas kappas;
     // Sized to the frames drawn so far, not to the model (a frame draws a few thousand of its cubes).
     gl::Buffer drawn;     // this frame's cubes, for the boxes view
@@ -431,7 +431,7 @@ void upload_kappas(HlodGpu& gpu, Kappas kappas) {
     const CubeKappas& root = kappas->root();
     if (!gpu.kappas || &gpu.kappas->root() != &root) {
         gpu.band_ends.upload(root.band_ends);
-        gpu.fades.upload(root.fade.empty() ? std::vector<float>(root.band_ends.size(), 1.0f) : root.fade);
+        gpu.fades.upload(std::vector<float>(root.band_ends.size(), 1.0f));
     } else {
         gpu.kappas->for_each_override(put);  // what the last one changed: back to the root's, or on to the new
     }

@@ -2,8 +2,8 @@
 // hard cap on the bytes every streamed model's geometry takes in CPU and GPU memory together (a size
 // in the build's grammar, or a number of bytes; at least 16M), gpu = "1G" a cap on the GPU's share
 // alone (false: none), and strata.memory() returns the limits and what is held: { total, gpu,
-// resident, gpu_resident, reserved, peak, cubes, in_flight, waiting, loaded, evicted, failed }, sizes
-// in bytes (gpu 0: no cap of its own).
+// resident, gpu_resident, reserved, tables, gpu_tables, peak, cubes, in_flight, waiting, loaded,
+// evicted, failed }, sizes in bytes (gpu 0: no cap of its own; tables: what open models keep per cube).
 #include <string>
 
 #include <lua.hpp>

@@ -78,6 +78,7 @@ void StreamCache::remove(SourceId id) {
         if (it.state == State::loading) reserved_bytes_ -= it.bytes, gpu_reserved_ -= it.gpu_bytes;  // a running load is discarded when done
     }
     s.removed = true;
+    s.source.reset();  // what it holds goes with it (loads still running keep it until they end)
     s.items = {};
     s.failures = {};
     s.table = {};
@@ -90,8 +91,14 @@ uint64_t StreamCache::table_bytes(uint32_t items) { return uint64_t(items) * siz
 StreamCache::Item& StreamCache::item(SourceId source, uint32_t index) { return sources_.at(source).items.at(index); }
 const StreamCache::Item& StreamCache::item(SourceId source, uint32_t index) const { return sources_.at(source).items.at(index); }
 
+const StreamSource& StreamCache::live_source(SourceId source) const {
+    const Source& s = sources_.at(source);
+    if (s.removed) throw std::out_of_range("streaming: source " + std::to_string(source) + " was removed");
+    return *s.source;
+}
+
 void StreamCache::request(SourceId source, uint32_t index, double priority) {
-    const StreamSource& s = *sources_.at(source).source;
+    const StreamSource& s = live_source(source);
     for (uint32_t i = index; i != StreamSource::kNoItem; i = s.parent(i)) {
         Item& it = item(source, i);
         it.last_used = frame_;  // what the frame asks for, and the ancestors it needs, stay
@@ -100,7 +107,7 @@ void StreamCache::request(SourceId source, uint32_t index, double priority) {
 }
 
 void StreamCache::prefetch(SourceId source, uint32_t index, double priority) {
-    const StreamSource& s = *sources_.at(source).source;
+    const StreamSource& s = live_source(source);
     for (uint32_t i = index; i != StreamSource::kNoItem; i = s.parent(i))
         if (item(source, i).state != State::resident) prefetches_.push_back({source, i, priority});
 }
@@ -125,6 +132,7 @@ void StreamCache::loader_loop() {
             done.failure = e.what();
             if (done.failure.empty()) done.failure = "a load failed";
         }
+        job = {};  // lets go of the source and the parent before the load is seen to end
         {
             std::unique_lock lock(mutex_);
             if (load_rate_ > 0) {  // the loads take turns on one "disk", each for its bytes' time

@@ -69,7 +69,7 @@ public:
         uint64_t budget = 0;
         uint64_t resident_bytes = 0;  // exact: the loaded values' own counts
         uint64_t reserved_bytes = 0;  // bounds of loads in flight
-        uint64_t peak_bytes = 0;      // of resident + reserved, since the cache was made
+        uint64_t peak_bytes = 0;      // of resident + reserved + held, since the cache was made
         uint64_t resident_items = 0;
         uint64_t waiting = 0;         // items the last update left unloaded: parent missing, or no room
         uint64_t in_flight = 0;
@@ -120,7 +120,8 @@ public:
     SourceId add(std::shared_ptr<StreamSource> source);
     // What that table takes for `items` items.
     static uint64_t table_bytes(uint32_t items);
-    // Drops the source's items; its queued loads are cancelled, and those running are discarded when done.
+    // Drops the source and its items; its queued loads are cancelled, and those running are discarded
+    // when done.
     void remove(SourceId source);
 
     // Asks for an item for this frame, with a priority (higher first). Its missing ancestors are
@@ -146,7 +147,8 @@ public:
     // Counts `bytes` (of which `gpu_bytes` on the GPU) in the budget until the returned handle goes.
     // Evicts the least recently used items to make room, as update() does (so, between frames: render
     // thread); throws std::runtime_error naming `what` and the figures when they do not fit beside the
-    // pinned items and what is held already.
+    // pinned items and what is held already (what it evicted trying stays evicted: it loads again
+    // when asked for).
     Held hold(uint64_t bytes, uint64_t gpu_bytes, const std::string& what);
 
     // Blocks until a load in flight has finished (at once when none is in flight); update() takes it in.
@@ -244,6 +246,8 @@ private:
     void evict(SourceId source, uint32_t item);
     // Pins what the source asks to keep under the budget now, and unpins the rest of its items.
     void pin_for_budget(SourceId source);
+    // The source, or std::out_of_range when it was removed (or never added).
+    const StreamSource& live_source(SourceId source) const;
     Item& item(SourceId source, uint32_t item);
     const Item& item(SourceId source, uint32_t item) const;
     uint64_t used() const { return resident_bytes_ + reserved_bytes_ + held_bytes_; }

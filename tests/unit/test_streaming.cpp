@@ -426,8 +426,10 @@ TEST_F(StreamingRender, FullDetailFramesEqualTheWholeModelsFromAnyCacheThatHolds
     const uint64_t budget = cache.budget();
     const std::vector<float> reference = full_detail_frame(HlodModel::load(test::bunny_hlod()));
     uint64_t working_set = 0, tables = 0;
+    std::weak_ptr<const void> cubes_of_the_model;
     {
         const auto model = HlodModel::open(test::bunny_hlod());
+        cubes_of_the_model = model->cube_owner();
         tables = cache.stats().held_bytes;
         EXPECT_GT(tables, model->cubes().size() * 300) << "the model's per-cube tables count in the budget";
         // An interactive first frame from a cold cache draws stand-ins, or nothing, while cubes load.
@@ -445,6 +447,11 @@ TEST_F(StreamingRender, FullDetailFramesEqualTheWholeModelsFromAnyCacheThatHolds
     }
     EXPECT_EQ(cache.stats().resident_bytes, 0u) << "a model's cubes go with it";
     EXPECT_EQ(cache.stats().held_bytes, 0u) << "and its tables";
+    while (cache.stats().in_flight > 0) {  // loads still running hold the file's tree until they end
+        cache.wait_for_a_load();
+        cache.update();
+    }
+    EXPECT_TRUE(cubes_of_the_model.expired()) << "the counts went down, but the file's tree and cubes are still held";
     // Just the frame's cubes (and the coarse levels it pins) beside the model's tables, and room for
     // the largest cube's bound: a load reserves its bound until its actual size is known.
     uint64_t largest_bound = 0;
