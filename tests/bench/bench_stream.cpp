@@ -404,6 +404,7 @@ void part_soak(const Options& o) {
     RenderSettings full;
     full.full_detail = true;
     std::vector<uint64_t> samples, held;  // RSS after every tenth of the run, and what the cache held then
+    std::vector<uint64_t> in_use, gpu_buffers;  // then: what malloc has in use, and the renderer's GPU buffers
     for (int f = 0; f < o.soak; ++f) {
         Camera camera;
         aim(camera, o, model->bound(), 2 * glm::pi<double>() * f / std::max(o.soak, 1) * 3, 1.1 + 0.6 * std::sin(0.01 * f));
@@ -412,6 +413,9 @@ void part_soak(const Options& o) {
         if (f % std::max(o.soak / 10, 1) == 0 || f == o.soak - 1) {
             samples.push_back(rss());
             held.push_back(stats.memory_resident + stats.memory_tables);
+            const struct mallinfo2 heap = mallinfo2();
+            in_use.push_back(heap.uordblks + heap.hblkhd);
+            gpu_buffers.push_back(stats.bytes_resident);
         }
     }
     // From 10 % on: the first frames load the coarse levels and warm the driver.
@@ -429,6 +433,13 @@ void part_soak(const Options& o) {
                 mib(samples[last]).c_str(), slope(samples, first, last), slope(samples, half, last), mib(held[first]).c_str(),
                 mib(held[half]).c_str(), mib(held[last]).c_str(), mib(beside[first]).c_str(), mib(beside[half]).c_str(),
                 mib(beside[last]).c_str(), slope(beside, first, last), slope(beside, half, last), mib(peak_rss()).c_str());
+    // Where growth beside the cache would come from: malloc's heaps (the driver's buffers on llvmpipe
+    // among them) and the renderer's GPU buffers (pool pages and tables).
+    std::printf("soak: malloc in use %s, %s, %s (slope %+.2f; %+.2f over the second half); the renderer's GPU buffers %s, %s, %s "
+                "(slope %+.2f)\n",
+                mib(in_use[first]).c_str(), mib(in_use[half]).c_str(), mib(in_use[last]).c_str(), slope(in_use, first, last),
+                slope(in_use, half, last), mib(gpu_buffers[first]).c_str(), mib(gpu_buffers[half]).c_str(), mib(gpu_buffers[last]).c_str(),
+                slope(gpu_buffers, first, last));
 }
 
 // FNV-1a over a frame's bytes.
