@@ -197,7 +197,7 @@ private:
 struct HlodModel::SharedSource {
     std::shared_ptr<StreamCache> cache;
     std::shared_ptr<Tree> tree;
-    StreamCache::Held tables;  // the tree, the node table, the source and the GPU tables of the cubes
+    StreamCache::Held tables;  // the tree (its node table included), two κ and the GPU tables of the cubes
     StreamCache::SourceId source = 0;
     HlodFile::Identity file;
     ~SharedSource() { cache->remove(source); }
