@@ -108,6 +108,8 @@ FrameStats Renderer::render(Node& scene, const Camera& camera, gl::Framebuffer& 
     const glm::dmat4 view = camera.view_matrix(), projection = camera.projection_matrix(near_, far_);
     StreamCache* stream = StreamCache::shared_if_made();
     const std::vector<Lookahead> lookahead = lookahead_for(camera, s, projection, stream != nullptr);
+    // Before the cull: a full-detail frame loads and evicts while it waits for its cubes.
+    const StreamCache::Stats before = stream ? stream->stats() : StreamCache::Stats{};
     for (;;) {
         list_.clear();
         CullVisitor cull(camera, view, projection, list_);
@@ -123,7 +125,6 @@ FrameStats Renderer::render(Node& scene, const Camera& camera, gl::Framebuffer& 
     }
     const bool converged = stats.stand_ins == 0 && stats.fading == 0 && !(stream && stream->has_requests());
     if (stream) {
-        const StreamCache::Stats before = stream->stats();
         stream->update();  // takes in finished loads, starts what this frame asked for
         const StreamCache::Stats streaming = stream->stats();
         stats.loads_pending = streaming.in_flight + streaming.waiting;

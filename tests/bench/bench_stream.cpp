@@ -3,7 +3,7 @@
 // own, so that its peak RSS is its own.
 //
 //   bench_stream --model M.hlod [--memory 1G] [--size 1280x720] [--frames 2000] [--instances 10]
-//                [--soak 1000] [--capture 60] [--load-rate BYTES_PER_S] [--no-whole] [--shared]
+//                [--soak 1000] [--soak-laps 10] [--soak-memory SIZE] [--capture 60] [--load-rate BYTES_PER_S] [--no-whole] [--shared]
 //                [--only open|museum|soak|capture]
 //
 // --only runs that one part in this process (no child: for a profiler such as heaptrack); the museum
@@ -20,9 +20,11 @@
 //   GPU buffers beside the cubes' blocks, what malloc holds); and hole pixels: every 50th frame is drawn again, in another process, with one copy of
 //   the model loaded whole under each instance's transform, both on magenta; a pixel the reference
 //   covers that the streamed frame left magenta is a hole.
-// - soak: --soak full-detail frames of a slow orbit, dropped after reading back: RSS at 10 %, half way
-//   and the end, and its slope, over the run and its second half; the same for what the process holds
-//   beside the cache's cubes, which a leak grows and a cache filling toward its budget does not.
+// - soak: --soak full-detail frames, dropped after reading back, in --soak-laps laps of one closed path
+//   under --soak-memory (default --memory; below what a lap visits, the cache evicts all along): at
+//   every lap's end, back at the same pose, RSS, the cache's bytes, what the process holds beside them
+//   (which a leak or fragmentation grows and a cache filling toward its budget does not), malloc's
+//   bytes in use and the GPU buffers, with their slopes after the first lap; each lap's loads and evictions.
 // - capture: --capture full-detail frames of a path, with a cold cache, a warm one and three budgets
 //   (the largest working set, twice it, --memory): frames with bytes that differ from the first run,
 //   and the first few of them.
@@ -89,7 +91,8 @@ std::string mib(uint64_t bytes) {
 struct Options {
     std::string model;
     uint64_t memory = uint64_t(1) << 30;
-    int width = 1280, height = 720, frames = 2000, instances = 10, soak = 1000, capture = 60;
+    int width = 1280, height = 720, frames = 2000, instances = 10, soak = 1000, soak_laps = 10, capture = 60;
+    uint64_t soak_memory = 0;  // the soak's budget; 0: --memory
     double load_rate = 0;
     bool whole = true;
     bool shared = false;
@@ -392,9 +395,16 @@ void part_holes(const Options& o) {
                 holes, covered, frames, enclosed);
 }
 
+// The soak's camera at `phase` ∈ [0, 1) of a lap: once around the model, closing in and backing off
+// three times, so that a lap ends where it began and every lap asks for the same cubes.
+void soak_pose(Camera& camera, const Options& o, const strata::Box& bounds, double phase) {
+    const double turn = 2 * glm::pi<double>() * phase;
+    aim(camera, o, bounds, turn, 1.1 + 0.6 * std::sin(3 * turn), 0.35 + 0.15 * std::cos(2 * turn));
+}
+
 void part_soak(const Options& o) {
     auto context = strata::gl::create_headless_context();
-    strata::StreamCache::shared()->set_budget(o.memory);
+    strata::StreamCache::shared()->set_budget(o.soak_memory ? o.soak_memory : o.memory);
     auto model = strata::HlodModel::open(o.model);
     model->set_pixel_error(1.0);
     strata::Group scene;
@@ -403,43 +413,46 @@ void part_soak(const Options& o) {
     strata::Renderer renderer;
     RenderSettings full;
     full.full_detail = true;
-    std::vector<uint64_t> samples, held;  // RSS after every tenth of the run, and what the cache held then
-    std::vector<uint64_t> in_use, gpu_buffers;  // then: what malloc has in use, and the renderer's GPU buffers
+    // At the end of every lap, the camera back where it began: RSS, what the cache held (cubes and
+    // tables), what malloc has in use, the renderer's GPU buffers; and the lap's loads and evictions.
+    struct Sample {
+        uint64_t rss, held, in_use, gpu_buffers, loaded, evicted;
+    };
+    std::vector<Sample> laps;
+    const int lap = std::max(1, o.soak / std::max(o.soak_laps, 1));
+    uint64_t loaded = 0, evicted = 0;
     for (int f = 0; f < o.soak; ++f) {
         Camera camera;
-        aim(camera, o, model->bound(), 2 * glm::pi<double>() * f / std::max(o.soak, 1) * 3, 1.1 + 0.6 * std::sin(0.01 * f));
+        soak_pose(camera, o, model->bound(), double(f % lap) / double(lap));
         const FrameStats stats = renderer.render(scene, camera, target, full);
         (void)target.read_color();  // dropped, as a capture loop drops a frame once written
-        if (f % std::max(o.soak / 10, 1) == 0 || f == o.soak - 1) {
-            samples.push_back(rss());
-            held.push_back(stats.memory_resident + stats.memory_tables);
-            const struct mallinfo2 heap = mallinfo2();
-            in_use.push_back(heap.uordblks + heap.hblkhd);
-            gpu_buffers.push_back(stats.bytes_resident);
-        }
+        loaded += stats.loaded, evicted += stats.evicted;
+        if (f % lap != lap - 1) continue;
+        const struct mallinfo2 heap = mallinfo2();
+        laps.push_back({rss(), stats.memory_resident + stats.memory_tables, heap.uordblks + heap.hblkhd, stats.bytes_resident, loaded,
+                        evicted});
+        loaded = evicted = 0;
     }
-    // From 10 % on: the first frames load the coarse levels and warm the driver.
-    const size_t first = samples.size() > 1 ? 1 : 0, half = samples.size() / 2, last = samples.size() - 1;
-    auto slope = [&](const std::vector<uint64_t>& v, size_t from, size_t to) {  // MiB per 1000 frames
-        const double frames = double(o.soak) * double(to - from) / double(samples.size() - 1);
-        return (double(v[to]) - double(v[from])) / std::max(1.0, frames) * 1000.0 / double(1 << 20);
+    if (laps.empty()) return;
+    // Slopes from the end of the first lap on: the first lap fills the cache and warms the driver; after
+    // it, every lap asks for the same cubes, so flat memory means the same bytes at every lap's end.
+    auto series = [&](const char* what, auto field) {
+        std::string text;
+        for (const Sample& s : laps) text += (text.empty() ? "" : " ") + std::to_string(int(std::lround(double(field(s)) / double(1 << 20))));
+        const double frames = double(laps.size() - 1) * lap;
+        const double slope = laps.size() > 1 ? (double(field(laps.back())) - double(field(laps.front()))) / frames * 1000.0 / double(1 << 20) : 0;
+        std::printf("soak: %-24s %s MiB (slope after the first lap %+.2f MiB per 1000 frames)\n", what, text.c_str(), slope);
     };
-    std::vector<uint64_t> beside(samples.size());  // what the process holds beyond the cache: a leak grows it
-    for (size_t k = 0; k < samples.size(); ++k) beside[k] = samples[k] - std::min(samples[k], held[k]);
-    std::printf("soak: %d full-detail frames at %dx%d under %s: RSS %s at 10 %%, %s at half, %s at the end (slope %+.2f MiB per "
-                "1000 frames; %+.2f over the second half), the cache holding %s, %s, %s; RSS beside the cache %s, %s, %s (slope "
-                "%+.2f; %+.2f over the second half); peak RSS %s\n",
-                o.soak, o.width, o.height, mib(o.memory).c_str(), mib(samples[first]).c_str(), mib(samples[half]).c_str(),
-                mib(samples[last]).c_str(), slope(samples, first, last), slope(samples, half, last), mib(held[first]).c_str(),
-                mib(held[half]).c_str(), mib(held[last]).c_str(), mib(beside[first]).c_str(), mib(beside[half]).c_str(),
-                mib(beside[last]).c_str(), slope(beside, first, last), slope(beside, half, last), mib(peak_rss()).c_str());
-    // Where growth beside the cache would come from: malloc's heaps (the driver's buffers on llvmpipe
-    // among them) and the renderer's GPU buffers (pool pages and tables).
-    std::printf("soak: malloc in use %s, %s, %s (slope %+.2f; %+.2f over the second half); the renderer's GPU buffers %s, %s, %s "
-                "(slope %+.2f)\n",
-                mib(in_use[first]).c_str(), mib(in_use[half]).c_str(), mib(in_use[last]).c_str(), slope(in_use, first, last),
-                slope(in_use, half, last), mib(gpu_buffers[first]).c_str(), mib(gpu_buffers[half]).c_str(), mib(gpu_buffers[last]).c_str(),
-                slope(gpu_buffers, first, last));
+    std::printf("soak: %d full-detail frames at %dx%d under %s, %zu laps of %d frames along the same path; at the end of each lap:\n",
+                o.soak, o.width, o.height, mib(o.soak_memory ? o.soak_memory : o.memory).c_str(), laps.size(), lap);
+    series("RSS", [](const Sample& s) { return s.rss; });
+    series("the cache (cubes, tables)", [](const Sample& s) { return s.held; });
+    series("RSS beside the cache", [](const Sample& s) { return s.rss - std::min(s.rss, s.held); });
+    series("malloc in use", [](const Sample& s) { return s.in_use; });
+    series("renderer's GPU buffers", [](const Sample& s) { return s.gpu_buffers; });
+    std::string churn;
+    for (const Sample& s : laps) churn += (churn.empty() ? "" : " ") + std::to_string(s.loaded) + "/" + std::to_string(s.evicted);
+    std::printf("soak: cubes loaded/evicted per lap %s; peak RSS %s\n", churn.c_str(), mib(peak_rss()).c_str());
 }
 
 // FNV-1a over a frame's bytes.
@@ -513,6 +526,8 @@ bool parse(int argc, char** argv, Options& o) {
         } else if (a == "--frames") o.frames = std::stoi(value());
         else if (a == "--instances") o.instances = std::max(1, std::stoi(value()));
         else if (a == "--soak") o.soak = std::stoi(value());
+        else if (a == "--soak-laps") o.soak_laps = std::stoi(value());
+        else if (a == "--soak-memory") o.soak_memory = strata::parse_byte_size(value());
         else if (a == "--capture") o.capture = std::stoi(value());
         else if (a == "--load-rate") o.load_rate = std::stod(value());
         else if (a == "--no-whole") o.whole = false;
@@ -531,7 +546,7 @@ int main(int argc, char** argv) {
     try {
         if (!parse(argc, argv, o)) {
             std::fprintf(stderr, "usage: bench_stream --model M.hlod [--memory 1G] [--size 1280x720] [--frames 2000] [--instances 10] "
-                                 "[--soak 1000] [--capture 60] [--load-rate BYTES_PER_S] [--no-whole] [--shared] "
+                                 "[--soak 1000] [--soak-laps 10] [--soak-memory SIZE] [--capture 60] [--load-rate BYTES_PER_S] [--no-whole] [--shared] "
                                  "[--only open|museum|soak|capture]\n");
             return 2;
         }

@@ -437,7 +437,10 @@ TEST_F(StreamingRender, FullDetailFramesEqualTheWholeModelsFromAnyCacheThatHolds
         full_detail_frame(model, nullptr, true, &first);
         EXPECT_GT(first.loads_pending, 0u);
         FrameStats full;
+        const uint64_t loaded_before = cache.stats().loaded;
         EXPECT_EQ(full_detail_frame(model, &working_set, false, &full), reference) << "from a cold cache";
+        EXPECT_GT(full.loaded, 0u);
+        EXPECT_EQ(full.loaded, cache.stats().loaded - loaded_before) << "the cubes it loaded waiting count in its statistics";
         EXPECT_EQ(full.stand_ins, 0u);
         EXPECT_EQ(full.loads_pending, 0u);
         EXPECT_EQ(full.memory_resident, working_set);
