@@ -402,6 +402,22 @@ void soak_pose(Camera& camera, const Options& o, const strata::Box& bounds, doub
     aim(camera, o, bounds, turn, 1.1 + 0.6 * std::sin(3 * turn), 0.35 + 0.15 * std::cos(2 * turn));
 }
 
+// Resets VmHWM to the RSS now, so that peak_rss() tells the peak from here on; false where the kernel
+// does not let it.
+bool reset_peak_rss() {
+    std::ofstream clear("/proc/self/clear_refs");
+    return bool(clear << "5" << std::flush);
+}
+
+// The least-squares slope of `v` (one value per lap of `lap` frames), in MiB per 1000 frames.
+double slope_per_1000_frames(const std::vector<double>& v, int lap) {
+    const double n = double(v.size()), mean_x = (n - 1) / 2;
+    double mean_y = 0, xy = 0, xx = 0;
+    for (double y : v) mean_y += y / n;
+    for (size_t k = 0; k < v.size(); ++k) xy += (double(k) - mean_x) * (v[k] - mean_y), xx += (double(k) - mean_x) * (double(k) - mean_x);
+    return xx > 0 ? xy / xx / lap * 1000.0 / double(1 << 20) : 0;
+}
+
 void part_soak(const Options& o) {
     auto context = strata::gl::create_headless_context();
     strata::StreamCache::shared()->set_budget(o.soak_memory ? o.soak_memory : o.memory);
@@ -413,14 +429,16 @@ void part_soak(const Options& o) {
     strata::Renderer renderer;
     RenderSettings full;
     full.full_detail = true;
-    // At the end of every lap, the camera back where it began: RSS, what the cache held (cubes and
-    // tables), what malloc has in use, the renderer's GPU buffers; and the lap's loads and evictions.
+    // Per lap: the peak RSS within it, and at its end, the camera back where it began: RSS, what the
+    // cache held (cubes and tables), what malloc has in use, the renderer's GPU buffers; its loads and
+    // evictions.
     struct Sample {
-        uint64_t rss, held, in_use, gpu_buffers, loaded, evicted;
+        uint64_t peak, rss, held, in_use, gpu_buffers, loaded, evicted;
     };
     std::vector<Sample> laps;
     const int lap = std::max(1, o.soak / std::max(o.soak_laps, 1));
-    uint64_t loaded = 0, evicted = 0;
+    uint64_t loaded = 0, evicted = 0, peak = 0;
+    const bool peaks = reset_peak_rss();
     for (int f = 0; f < o.soak; ++f) {
         Camera camera;
         soak_pose(camera, o, model->bound(), double(f % lap) / double(lap));
@@ -429,30 +447,37 @@ void part_soak(const Options& o) {
         loaded += stats.loaded, evicted += stats.evicted;
         if (f % lap != lap - 1) continue;
         const struct mallinfo2 heap = mallinfo2();
-        laps.push_back({rss(), stats.memory_resident + stats.memory_tables, heap.uordblks + heap.hblkhd, stats.bytes_resident, loaded,
-                        evicted});
+        laps.push_back({peak_rss(), rss(), stats.memory_resident + stats.memory_tables, heap.uordblks + heap.hblkhd, stats.bytes_resident,
+                        loaded, evicted});
+        peak = std::max(peak, laps.back().peak);
         loaded = evicted = 0;
+        if (peaks) reset_peak_rss();
     }
     if (laps.empty()) return;
-    // Slopes from the end of the first lap on: the first lap fills the cache and warms the driver; after
-    // it, every lap asks for the same cubes, so flat memory means the same bytes at every lap's end.
+    // Slopes from the second lap on: the first fills the cache and warms the driver; after it, every
+    // lap asks for the same cubes, so flat memory means the same bytes lap after lap. The peak within
+    // a lap is steadier than RSS at one frame, which moves with what the driver holds for that frame.
     auto series = [&](const char* what, auto field) {
         std::string text;
-        for (const Sample& s : laps) text += (text.empty() ? "" : " ") + std::to_string(int(std::lround(double(field(s)) / double(1 << 20))));
-        const double frames = double(laps.size() - 1) * lap;
-        const double slope = laps.size() > 1 ? (double(field(laps.back())) - double(field(laps.front()))) / frames * 1000.0 / double(1 << 20) : 0;
-        std::printf("soak: %-24s %s MiB (slope after the first lap %+.2f MiB per 1000 frames)\n", what, text.c_str(), slope);
+        std::vector<double> after_first;
+        for (size_t k = 0; k < laps.size(); ++k) {
+            text += (text.empty() ? "" : " ") + std::to_string(int(std::lround(double(field(laps[k])) / double(1 << 20))));
+            if (k > 0) after_first.push_back(double(field(laps[k])));
+        }
+        std::printf("soak: %-27s %s MiB (slope from the second lap %+.2f MiB per 1000 frames)\n", what, text.c_str(),
+                    slope_per_1000_frames(after_first, lap));
     };
-    std::printf("soak: %d full-detail frames at %dx%d under %s, %zu laps of %d frames along the same path; at the end of each lap:\n",
-                o.soak, o.width, o.height, mib(o.soak_memory ? o.soak_memory : o.memory).c_str(), laps.size(), lap);
-    series("RSS", [](const Sample& s) { return s.rss; });
+    std::printf("soak: %d full-detail frames at %dx%d under %s, %zu laps of %d frames along the same path; per lap:\n", o.soak, o.width,
+                o.height, mib(o.soak_memory ? o.soak_memory : o.memory).c_str(), laps.size(), lap);
+    if (peaks) series("peak RSS within the lap", [](const Sample& s) { return s.peak; });
+    series("RSS at its end", [](const Sample& s) { return s.rss; });
     series("the cache (cubes, tables)", [](const Sample& s) { return s.held; });
-    series("RSS beside the cache", [](const Sample& s) { return s.rss - std::min(s.rss, s.held); });
-    series("malloc in use", [](const Sample& s) { return s.in_use; });
+    if (peaks) series("peak RSS beside the cache", [](const Sample& s) { return s.peak - std::min(s.peak, s.held); });
+    series("malloc in use at its end", [](const Sample& s) { return s.in_use; });
     series("renderer's GPU buffers", [](const Sample& s) { return s.gpu_buffers; });
     std::string churn;
     for (const Sample& s : laps) churn += (churn.empty() ? "" : " ") + std::to_string(s.loaded) + "/" + std::to_string(s.evicted);
-    std::printf("soak: cubes loaded/evicted per lap %s; peak RSS %s\n", churn.c_str(), mib(peak_rss()).c_str());
+    std::printf("soak: cubes loaded/evicted per lap %s; peak RSS %s\n", churn.c_str(), mib(peaks ? peak : peak_rss()).c_str());
 }
 
 // FNV-1a over a frame's bytes.
