@@ -7,6 +7,7 @@ cd "$(dirname "$0")/.."
 packages=(
   cmake ninja-build g++ pkg-config
   libmeshoptimizer-dev libzstd-dev libcli11-dev nlohmann-json3-dev
+  libgdal-dev gdal-bin  # elevation rasters for terrain; the tests compare with gdalinfo and gdallocationinfo
   libgtest-dev libgmock-dev
   libepoxy-dev libegl-dev libegl-mesa0 libgl1-mesa-dri libglfw3-dev libglm-dev
   libopenexr-dev openexr libstb-dev xvfb
@@ -39,7 +40,7 @@ trap 'rm -rf "$scratch"' EXIT
 deb_member() {  # PACKAGE MEMBER
   local dir="$scratch/$1"
   mkdir -p "$dir"
-  (cd "$dir" && apt-get download "$1" >/dev/null 2>&1) || {
+  compgen -G "$dir/$1_*.deb" >/dev/null || (cd "$dir" && apt-get download "$1" >/dev/null 2>&1) || {
     as_root apt-get update -qq && (cd "$dir" && apt-get download "$1" >/dev/null); }
   dpkg-deb --fsys-tarfile "$dir/$1"_*.deb | tar -x -C "$dir" "./$2"
   echo "$dir/$2"
@@ -72,4 +73,16 @@ dem=data/trinidad.nc
 if [ ! -s "$dem" ]; then
   echo "setup: fetching the sample terrain (trinidad.nc, from Debian's libncarg-data)"
   install_data "$(deb_member libncarg-data usr/share/ncarg/data/cdf/trinidad.nc)" "$dem"
+fi
+
+# A real DEM with real imagery of the same ground, for terrain tests: Olinda and Recife (Brazil), as
+# shipped in Debian's r-cran-stars: a 111 x 111 Float32 DEM at 90 m (UTM 25S, SRTM-like) and a
+# Landsat-7 ETM+ scene of the same 10 km square at 28.5 m (six bands; true colour is 3, 2, 1). Only the
+# .deb is downloaded and the two files taken out, so R is not installed. Not committed: the package's
+# copyright file (usr/share/doc/r-cran-stars/copyright) puts them under the Apache License 2.0.
+olinda_dem=data/olinda_dem.tif olinda_image=data/olinda_l7.tif
+if [ ! -s "$olinda_dem" ] || [ ! -s "$olinda_image" ]; then
+  echo "setup: fetching a DEM and imagery of Olinda (from Debian's r-cran-stars)"
+  install_data "$(deb_member r-cran-stars usr/lib/R/site-library/stars/tif/olinda_dem_utm25s.tif)" "$olinda_dem"
+  install_data "$(deb_member r-cran-stars usr/lib/R/site-library/stars/tif/L7_ETMs.tif)" "$olinda_image"
 fi

@@ -135,14 +135,6 @@ std::set<std::string> entries(const fs::path& dir) {
     return names;
 }
 
-std::string run_and_capture(const std::string& command) {
-    std::unique_ptr<FILE, int (*)(FILE*)> pipe(::popen(command.c_str(), "r"), ::pclose);
-    std::string output;
-    char buffer[4096];
-    while (pipe && std::fgets(buffer, sizeof buffer, pipe.get())) output += buffer;
-    return output;
-}
-
 // The bytes of an 8-bit RGBA PNG as stb_image decodes them.
 struct Png {
     int width = 0, height = 0, components = 0;
@@ -358,7 +350,7 @@ TEST(ExrOutput, ExrheaderListsTheChannels) {
     test::TempDir dir;
     const fs::path path = dir / "listed.exr";
     write_exr(sample_image(), path, ImageChannels::all(), {.compression = ExrCompression::piz});
-    const std::string output = run_and_capture("exrheader '" + path.string() + "' 2>&1");
+    const std::string output = test::run_and_capture("exrheader '" + path.string() + "' 2>&1");
     for (const char* name : {"R", "G", "B", "A", "N.X", "N.Y", "N.Z"})
         EXPECT_THAT(output, HasSubstr(std::string(name) + ", 16-bit floating-point")) << output;
     EXPECT_THAT(output, HasSubstr("Z, 32-bit floating-point")) << output;
