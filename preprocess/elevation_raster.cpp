@@ -144,9 +144,12 @@ std::string mosaic_name(const std::vector<std::filesystem::path>& files) {
 
 struct ElevationRaster::Dataset {
     std::vector<Tile> tiles;  // kept open: the VRT reads through them
-    DatasetPtr mosaic;        // the one dataset reads go to: a tile's, or the VRT over them
-    GDALRasterBand* band = nullptr;
+    DatasetPtr mosaic;        // the VRT over several tiles; none for one file
     mutable std::mutex mutex;  // a GDAL dataset is not to be read by two threads at once
+
+    // What reads go to: the one file, or the mosaic of them.
+    GDALDataset& whole() const { return mosaic ? *mosaic : *tiles.front().dataset; }
+    GDALRasterBand& band() const { return *whole().GetRasterBand(1); }
 };
 
 std::array<double, 2> RasterInfo::sample_position(double column, double row) const {
@@ -168,21 +171,18 @@ ElevationRaster ElevationRaster::open(const std::vector<std::filesystem::path>& 
     const Tile& first = dataset->tiles.front();
     RasterInfo info;
     info.name = mosaic_name(files);
-    if (files.size() == 1) {
-        dataset->band = first.dataset->GetRasterBand(1);
-    } else {
+    if (files.size() > 1) {
         QuietGdal quiet;
         std::vector<GDALDatasetH> handles;
         for (const Tile& tile : dataset->tiles) handles.push_back(GDALDataset::ToHandle(tile.dataset.get()));
         int usage_error = 0;
         dataset->mosaic.reset(GDALDataset::FromHandle(GDALBuildVRT("", int(handles.size()), handles.data(), nullptr, nullptr, &usage_error)));
         if (!dataset->mosaic) throw InputError(info.name + ": the tiles do not make one mosaic" + QuietGdal::last());
-        dataset->band = dataset->mosaic->GetRasterBand(1);
     }
-    GDALDataset& whole = dataset->mosaic ? *dataset->mosaic : *first.dataset;
+    GDALDataset& whole = dataset->whole();
     info.width = uint64_t(whole.GetRasterXSize()), info.height = uint64_t(whole.GetRasterYSize());
     if (whole.GetGeoTransform(info.geotransform.data()) != CE_None) info.geotransform = first.geotransform;
-    GDALRasterBand& band = *dataset->band;
+    GDALRasterBand& band = dataset->band();
     info.sample_type = GDALGetDataTypeName(band.GetRasterDataType());
     int has = 0;
     if (const double nodata = band.GetNoDataValue(&has); has) info.nodata = nodata;
@@ -227,17 +227,14 @@ void ElevationRaster::read(uint64_t column, uint64_t row, uint64_t columns, uint
     {
         std::lock_guard lock(dataset_->mutex);
         QuietGdal quiet;
-        if (dataset_->band->RasterIO(GF_Read, int(column), int(row), int(columns), int(rows), raw.data(), int(columns), int(rows),
+        if (dataset_->band().RasterIO(GF_Read, int(column), int(row), int(columns), int(rows), raw.data(), int(columns), int(rows),
                                      GDT_Float64, 0, 0, nullptr) != CE_None)
             throw InputError(info_.name + ": cannot read rows " + std::to_string(row) + " to " + std::to_string(row + rows - 1) +
                              ", columns " + std::to_string(column) + " to " + std::to_string(column + columns - 1) + QuietGdal::last());
     }
-    const bool has_nodata = info_.nodata.has_value();
-    const double nodata = has_nodata ? *info_.nodata : 0;
-    const bool nodata_is_nan = has_nodata && std::isnan(nodata);
     for (size_t i = 0; i < raw.size(); ++i) {
         const double v = raw[i];
-        const bool missing = std::isnan(v) || (has_nodata && !nodata_is_nan && v == nodata);
+        const bool missing = std::isnan(v) || v == info_.nodata;  // a NaN nodata equals nothing: isnan covers it
         const double elevation = v * info_.scale + info_.offset;
         if (!missing && !(std::abs(elevation) <= std::numeric_limits<float>::max()))
             throw InputError(info_.name + ": the sample at column " + std::to_string(column + i % columns) + ", row " +
