@@ -6,10 +6,13 @@
 #include <gtest/gtest.h>
 #include <ogr_spatialref.h>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <random>
 #include <sstream>
 #include <string>
@@ -127,6 +130,12 @@ TEST(ElevationRaster, NamesAnEpsgCrsByCodeAndName) {
     const RasterInfo geographic = ElevationRaster::open({dir / "geographic.tif"}).info();
     EXPECT_EQ(geographic.describe_crs(), "EPSG:4326 WGS 84");
     EXPECT_TRUE(geographic.geographic);
+    EXPECT_TRUE(info.vertical_datum.empty());
+    // Heights on a declared vertical datum (UTM 32N with EGM96 heights): the datum is named.
+    write_tiff(dir / "compound.tif", {.crs = "EPSG:32632+5773"});
+    const RasterInfo compound = ElevationRaster::open({dir / "compound.tif"}).info();
+    EXPECT_EQ(compound.vertical_datum, "EGM96 height");
+    EXPECT_EQ(compound.crs_name, "WGS 84 / UTM zone 32N + EGM96 height");
 }
 
 TEST(ElevationRaster, RandomSamplesEqualWhatGdalReadsThere) {
