@@ -21,10 +21,11 @@
 //   the model loaded whole under each instance's transform, both on magenta; a pixel the reference
 //   covers that the streamed frame left magenta is a hole.
 // - soak: --soak full-detail frames, dropped after reading back, in --soak-laps laps of one closed path
-//   under --soak-memory (default --memory; below what a lap visits, the cache evicts all along): at
-//   every lap's end, back at the same pose, RSS, the cache's bytes, what the process holds beside them
-//   (which a leak or fragmentation grows and a cache filling toward its budget does not), malloc's
-//   bytes in use and the GPU buffers, with their slopes after the first lap; each lap's loads and evictions.
+//   under --soak-memory (default --memory; below what a lap visits, the cache evicts all along): per
+//   lap, the peak RSS within it and what it holds beside the cache's bytes (which a leak or
+//   fragmentation grows and a cache filling toward its budget does not), and at its end, back at the
+//   same pose, RSS, the cache's bytes, malloc's bytes in use and the GPU buffers; least-squares slopes
+//   from the second lap on; each lap's loads and evictions.
 // - capture: --capture full-detail frames of a path, with a cold cache, a warm one and three budgets
 //   (the largest working set, twice it, --memory): frames with bytes that differ from the first run,
 //   and the first few of them.
@@ -420,7 +421,8 @@ double slope_per_1000_frames(const std::vector<double>& v, int lap) {
 
 void part_soak(const Options& o) {
     auto context = strata::gl::create_headless_context();
-    strata::StreamCache::shared()->set_budget(o.soak_memory ? o.soak_memory : o.memory);
+    const uint64_t budget = o.soak_memory ? o.soak_memory : o.memory;
+    strata::StreamCache::shared()->set_budget(budget);
     auto model = strata::HlodModel::open(o.model);
     model->set_pixel_error(1.0);
     strata::Group scene;
@@ -468,7 +470,7 @@ void part_soak(const Options& o) {
                     slope_per_1000_frames(after_first, lap));
     };
     std::printf("soak: %d full-detail frames at %dx%d under %s, %zu laps of %d frames along the same path; per lap:\n", o.soak, o.width,
-                o.height, mib(o.soak_memory ? o.soak_memory : o.memory).c_str(), laps.size(), lap);
+                o.height, mib(budget).c_str(), laps.size(), lap);
     if (peaks) series("peak RSS within the lap", [](const Sample& s) { return s.peak; });
     series("RSS at its end", [](const Sample& s) { return s.rss; });
     series("the cache (cubes, tables)", [](const Sample& s) { return s.held; });
