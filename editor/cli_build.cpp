@@ -7,8 +7,11 @@
 #include "preprocess/hlod_builder.h"
 #include "preprocess/mesh_io.h"
 #include "preprocess/parallel.h"
+#include "preprocess/terrain_build.h"
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <memory>
 
@@ -20,6 +23,8 @@ struct BuildOptions {
     std::string output, levels = "auto", memory, clean, plan, assemble;
     std::vector<std::string> run_blocks;  // DIR FIRST-LAST
     BuildSettings settings;
+    TerrainSettings terrain;
+    std::string fill_nodata;  // an elevation, or empty: nodata stays a hole
     bool quiet = false;
     bool verbose = false;
 };
@@ -101,6 +106,45 @@ int run_clean(const BuildOptions& o) {
     return kOk;
 }
 
+// strata build DEM... -o OUT.hlod: a terrain straight from elevation rasters.
+int run_terrain(const BuildOptions& o, const std::vector<std::filesystem::path>& files) {
+    if (!o.plan.empty() || o.settings.resume) {
+        std::fprintf(stderr, "strata build: --plan and --resume build meshes; a terrain builds in one run\n");
+        return kUsage;
+    }
+    TerrainSettings settings = o.terrain;
+    if (!o.fill_nodata.empty()) {
+        char* end = nullptr;
+        const float value = std::strtof(o.fill_nodata.c_str(), &end);
+        if (*end || !std::isfinite(value)) {
+            std::fprintf(stderr, "strata build: --fill-nodata takes an elevation in metres, not '%s'\n", o.fill_nodata.c_str());
+            return kUsage;
+        }
+        settings.fill = value;
+    }
+    const std::atomic<bool>* cancel = install_interrupt_flag();
+    ProgressBar bar(!o.quiet);
+    const auto start = std::chrono::steady_clock::now();
+    try {
+        const BuildReport report = build_terrain(files, o.output, settings, source_name(o.inputs, files.size()), bar.progress(cancel));
+        bar.finish();
+        const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        if (!o.quiet)
+            std::printf("%s: terrain, %llu triangles, %u levels, σ0 %.3g, ε_q %.3g, %.1f MB, %.2f s\n", o.output.c_str(),
+                        (unsigned long long)report.input_triangles, report.max_level + 1, report.sigma0, report.error_q,
+                        report.output_bytes / 1e6, seconds);
+        if (o.verbose) {
+            print_levels(report);
+            std::printf("  memory: %s at most\n", describe_bytes(peak_resident_bytes()).c_str());
+        }
+        return kOk;
+    } catch (const Cancelled&) {
+        bar.finish();
+        std::fprintf(stderr, "strata build: interrupted; %s was not written\n", o.output.c_str());
+        return kInterrupted;
+    }
+}
+
 int run_build(const BuildOptions& o) {
     const int modes = !o.clean.empty() + !o.plan.empty() + !o.run_blocks.empty() + !o.assemble.empty();
     if (modes > 1) {
@@ -154,6 +198,7 @@ int run_build(const BuildOptions& o) {
         return kUsage;
     }
     const std::vector<std::filesystem::path> files = expand_inputs(o.inputs);
+    if (std::all_of(files.begin(), files.end(), is_elevation_raster)) return run_terrain(o, files);
     const MemoryEstimate estimate = estimate_build(files, memory_limit);
     const std::filesystem::path temp = o.plan.empty() ? temp_folder(o.output, o.settings.temp_dir) : std::filesystem::path(o.plan);
     if (o.verbose) {
@@ -225,7 +270,7 @@ int run_build(const BuildOptions& o) {
 
 Command add_build(CLI::App& app) {
     auto o = std::make_shared<BuildOptions>();
-    CLI::App* sub = app.add_subcommand("build", "Build a multiresolution model (.hlod) from a scan (PLY, OBJ, OFF, STL).");
+    CLI::App* sub = app.add_subcommand("build", "Build a multiresolution model (.hlod) from a scan (PLY, OBJ, OFF, STL), or a terrain from elevation rasters (GeoTIFF or any DEM GDAL reads).");
     sub->add_option("input", o->inputs,
                     "The scan: one file, or the tiles of one model (welded along shared borders); @LIST reads "
                     "the inputs from a text file, one per line (# comments; relative to the list's folder)");
@@ -266,6 +311,9 @@ Command add_build(CLI::App& app) {
                     "each level's cubes and shared border points; about 40 bytes per input triangle at the peak); "
                     "default beside the output. Removed when the build succeeds, is interrupted or meets bad "
                     "input; kept after a kill or another failure, for --resume");
+    sub->add_option("--crs", o->terrain.crs, "Terrains: the CRS of elevation rasters that declare none (EPSG:N, WKT or PROJ)");
+    sub->add_option("--fill-nodata", o->fill_nodata,
+                    "Terrains: give nodata samples this elevation (metres) instead of leaving holes");
     sub->add_flag("-q,--quiet", o->quiet, "No progress bar and no summary");
     sub->add_flag("-v,--verbose", o->verbose, "Also print the memory, temporary-disk and time estimates, each level's counts, each stage's time, and the peak temporary disk and memory");
     return {sub, [o] { return run_build(*o); }};

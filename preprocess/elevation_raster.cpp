@@ -198,6 +198,7 @@ ElevationRaster ElevationRaster::open(const std::vector<std::filesystem::path>& 
     CPLFree(wkt);
     info.crs_name = reference.GetName() ? reference.GetName() : "unnamed CRS";
     info.geographic = reference.IsGeographic();
+    if (reference.IsProjected()) info.linear_unit = reference.GetLinearUnits();
     OGRSpatialReference identified(reference);
     {
         QuietGdal quiet;

@@ -20,6 +20,7 @@
 
 #include "preprocess/elevation_raster.h"
 #include "preprocess/mesh.h"
+#include "tests/support/geotiff.h"
 #include "tests/support/test_meshes.h"
 
 // g++ 12 warns of the members a designated initializer leaves to their defaults (its bug 96868):
@@ -29,65 +30,14 @@
 namespace strata {
 namespace {
 
+using test::gdal_values;
+using test::gdalinfo;
+using test::TiffSpec;
+using test::write_tiff;
+
 namespace fs = std::filesystem;
 
 fs::path data_file(const char* name) { return fs::path(STRATA_SOURCE_DIR) / "data" / name; }
-
-// gdalinfo's report, without the side file (.aux.xml) it would otherwise leave beside the raster.
-nlohmann::json gdalinfo(const fs::path& file) {
-    return nlohmann::json::parse(test::run_and_capture("GDAL_PAM_ENABLED=NO gdalinfo -json '" + file.string() + "'"));
-}
-
-// The raw values gdallocationinfo reads at (column, row) pixels.
-std::vector<double> gdal_values(const fs::path& file, const std::vector<std::pair<uint64_t, uint64_t>>& pixels, const std::string& open_as = {}) {
-    test::TempDir dir;
-    {
-        std::ofstream list(dir / "pixels.txt");
-        for (const auto& [column, row] : pixels) list << column << ' ' << row << '\n';
-    }
-    std::istringstream printed(test::run_and_capture("GDAL_PAM_ENABLED=NO gdallocationinfo -valonly '" + (open_as.empty() ? file.string() : open_as) +
-                                                     "' < '" + (dir / "pixels.txt").string() + "'"));
-    std::vector<double> values;
-    for (std::string line; std::getline(printed, line);) values.push_back(std::stod(line));
-    return values;
-}
-
-// A GeoTIFF written with GDAL: `values` row by row (raw), type, geotransform, CRS, nodata, scale and offset.
-struct TiffSpec {
-    int width = 4, height = 3, bands = 1;
-    GDALDataType type = GDT_Int16;
-    std::vector<double> values;  // width × height, the first band; the rest stay 0
-    std::array<double, 6> geotransform{500000, 30, 0, 5600000, 0, -30};
-    bool georeferenced = true;
-    std::string crs = "EPSG:32632";
-    std::optional<double> nodata;
-    double scale = 1, offset = 0;
-};
-
-void write_tiff(const fs::path& file, const TiffSpec& spec) {
-    GDALAllRegister();
-    GDALDriver* driver = GetGDALDriverManager()->GetDriverByName("GTiff");
-    ASSERT_NE(driver, nullptr);
-    GDALDataset* d = driver->Create(file.c_str(), spec.width, spec.height, spec.bands, spec.type, nullptr);
-    ASSERT_NE(d, nullptr);
-    if (spec.georeferenced) {
-        std::array<double, 6> g = spec.geotransform;
-        d->SetGeoTransform(g.data());
-    }
-    if (!spec.crs.empty()) {
-        OGRSpatialReference crs;
-        crs.SetFromUserInput(spec.crs.c_str());
-        d->SetSpatialRef(&crs);
-    }
-    GDALRasterBand* band = d->GetRasterBand(1);
-    if (spec.nodata) band->SetNoDataValue(*spec.nodata);
-    if (spec.scale != 1) band->SetScale(spec.scale);
-    if (spec.offset != 0) band->SetOffset(spec.offset);
-    std::vector<double> values = spec.values;
-    values.resize(size_t(spec.width) * spec.height, 0);
-    EXPECT_EQ(band->RasterIO(GF_Write, 0, 0, spec.width, spec.height, values.data(), spec.width, spec.height, GDT_Float64, 0, 0), CE_None);
-    GDALClose(d);
-}
 
 std::string open_error(const std::vector<fs::path>& files, const std::string& crs = {}) {
     try {

@@ -13,8 +13,12 @@
 #include "nodes/hlod_model.h"
 #include "preprocess/mesh_io.h"
 #include "preprocess/surface_distance.h"
+#include "preprocess/terrain_build.h"
 #include "tests/support/bunny_model.h"
 #include "tests/support/dem_grid.h"
+#include "tests/support/geotiff.h"
+
+#pragma GCC diagnostic ignored "-Wmissing-field-initializers"
 
 namespace strata {
 namespace {
@@ -153,6 +157,62 @@ TEST(ErrorBound, NoCubeOfTheRealTerrainIsFartherFromItThanItsBoundEitherWay) {
     settings.levels = 4;
     build_hlod(Mesh(terrain), dir / "terrain.hlod", settings, "trinidad.nc");
     expect_bounded(*HlodModel::load(dir / "terrain.hlod"), terrain);
+}
+
+// The full-resolution surface of a DEM as a terrain build defines it (preprocess/terrain_pyramid.h),
+// read with GDAL alone: a vertex per valid sample at (column·Δx, (rows − 1 − row)·Δy, height) from the
+// south-west sample, two triangles per cell split from its north-west to its south-east corner, each
+// where its three corners are valid.
+Mesh raster_surface(const std::filesystem::path& dem) {
+    GDALAllRegister();
+    std::unique_ptr<GDALDataset> d(GDALDataset::Open(dem.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY));
+    const int w = d->GetRasterXSize(), h = d->GetRasterYSize();
+    double g[6];
+    d->GetGeoTransform(g);
+    GDALRasterBand* band = d->GetRasterBand(1);
+    std::vector<double> z(size_t(w) * size_t(h));
+    EXPECT_EQ(band->RasterIO(GF_Read, 0, 0, w, h, z.data(), w, h, GDT_Float64, 0, 0), CE_None);
+    int has_nodata = 0;
+    const double nodata = band->GetNoDataValue(&has_nodata);
+    auto valid = [&](int c, int r) { return !(has_nodata && z[size_t(r) * size_t(w) + size_t(c)] == nodata); };
+    Mesh mesh;
+    for (int r = 0; r < h; ++r)
+        for (int c = 0; c < w; ++c)
+            mesh.positions.insert(mesh.positions.end(), {float(c * g[1]), float((h - 1 - r) * -g[5]), float(z[size_t(r) * size_t(w) + size_t(c)])});
+    auto at = [&](int c, int r) { return uint32_t(r * w + c); };
+    for (int r = 0; r + 1 < h; ++r)
+        for (int c = 0; c + 1 < w; ++c) {
+            if (!valid(c, r) || !valid(c + 1, r + 1)) continue;
+            if (valid(c, r + 1)) mesh.indices.insert(mesh.indices.end(), {at(c, r), at(c, r + 1), at(c + 1, r + 1)});
+            if (valid(c + 1, r)) mesh.indices.insert(mesh.indices.end(), {at(c, r), at(c + 1, r + 1), at(c + 1, r)});
+        }
+    return mesh;
+}
+
+TEST(ErrorBound, NoCubeOfATerrainBuiltFromARealDemIsFartherFromItThanItsBoundEitherWay) {
+    const auto dem = std::filesystem::path(STRATA_SOURCE_DIR) / "data" / "olinda_dem.tif";
+    if (!std::filesystem::exists(dem)) GTEST_SKIP() << "data/olinda_dem.tif missing: run scripts/setup.sh";
+    test::TempDir dir;
+    build_terrain({dem}, dir / "olinda.hlod", {.cube_cells = 8}, "olinda_dem.tif");  // 5 levels of 111 × 111 samples
+    expect_bounded(*HlodModel::load(dir / "olinda.hlod"), raster_surface(dem));
+}
+
+TEST(ErrorBound, NoCubeOfATerrainWithHolesIsFartherFromItThanItsBoundEitherWay) {
+    // Rough ground, 61 × 47 samples, with a nodata block, scattered nodata pixels and a small island
+    // the coarse levels drop.
+    test::TempDir dir;
+    test::TiffSpec spec{.width = 61, .height = 47, .type = GDT_Float32, .nodata = -9999};
+    std::mt19937 rng(9);
+    std::uniform_real_distribution<double> noise(-4, 4);
+    for (int r = 0; r < spec.height; ++r)
+        for (int c = 0; c < spec.width; ++c) {
+            const bool hole = (c >= 20 && c < 33 && r >= 8 && r < 19) || (c * 7 + r * 13) % 29 == 0 ||
+                              (c >= 4 && c < 13 && r >= 28 && r < 37 && !(c >= 7 && c < 10 && r >= 31 && r < 34));
+            spec.values.push_back(hole ? -9999 : 50 + 30 * std::sin(c * 0.3) * std::cos(r * 0.2) + noise(rng));
+        }
+    test::write_tiff(dir / "holes.tif", spec);
+    build_terrain({dir / "holes.tif"}, dir / "holes.hlod", {.cube_cells = 8}, "holes.tif");
+    expect_bounded(*HlodModel::load(dir / "holes.hlod"), raster_surface(dir / "holes.tif"));
 }
 
 }  // namespace

@@ -1,0 +1,38 @@
+// `strata build DEM.tif -o terrain.hlod` (issue 17): a terrain straight from an elevation raster, no
+// intermediate mesh and no QEM. The levels are the grid pyramid of preprocess/terrain_pyramid.h, cut
+// into the octree's cubes as DESIGN.md §2 asks of every model (so `strata verify` and the renderer treat
+// it as any other), each cube with its error bound against the full raster (preprocess/terrain_bounds.h).
+//
+// The model's frame is the raster's projected CRS moved to its south-west sample: x east, y north,
+// z up, in metres (GEOR: geo_origin + x is the CRS position). Cubes are aligned with the samples when
+// the pixels are square: a level-L cube holds kCubeCells × kCubeCells cells, as does a cube of every
+// coarser level, whose samples are twice as far apart.
+#pragma once
+
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "preprocess/hlod_builder.h"
+#include "preprocess/progress.h"
+
+namespace strata {
+
+struct TerrainSettings {
+    uint32_t cube_cells = 64;     // cells per cube side (even, 8‥256)
+    std::optional<float> fill;    // nodata becomes this elevation (metres) instead of a hole
+    std::string crs;              // the CRS of rasters that declare none (EPSG:N, WKT, PROJ string)
+};
+
+// Builds `output` from the DEM `files` (one raster, or tiles of one grid). Throws InputError naming
+// the raster and the problem (not a DEM, no CRS, a geographic CRS, a unit it cannot convert, nodata
+// everywhere, ground too steep for its cubes), Cancelled when progress.cancel is raised,
+// std::runtime_error when the output cannot be written; in every case no output file is left behind.
+BuildReport build_terrain(const std::vector<std::filesystem::path>& files, const std::filesystem::path& output,
+                          const TerrainSettings& settings, const std::string& source_name, const Progress& progress = {});
+
+// Whether `file` is read as an elevation raster rather than a mesh (by its extension: not PLY, OBJ, OFF, STL).
+bool is_elevation_raster(const std::filesystem::path& file);
+
+}  // namespace strata

@@ -1,0 +1,121 @@
+#include "preprocess/terrain_pyramid.h"
+
+#include <cmath>
+#include <stdexcept>
+
+namespace strata::terrain {
+
+std::vector<uint64_t> coarser_axis(const std::vector<uint64_t>& finer) {
+    if (finer.empty()) throw std::logic_error("coarser_axis: an empty axis");
+    const size_t count = parent_position(finer.size() - 1, finer.size()) + 1;
+    std::vector<uint64_t> coarser(count);
+    for (size_t p = 0; p < count; ++p) coarser[p] = finer[finer_position(p, count, finer.size())];
+    return coarser;
+}
+
+std::array<uint64_t, 3> TerrainLevel::corners(size_t column, size_t row, int t) const {
+    const uint64_t min = vertex(column, row), max = vertex(column + 1, row + 1);
+    const uint64_t side = t == 0 ? vertex(column, row + 1) : vertex(column + 1, row);
+    // With rows running south, (min, min-column-max-row, max) turns counter-clockwise seen from above.
+    const bool turn = (t == 0) != rows_run_north;
+    return turn ? std::array{min, side, max} : std::array{min, max, side};
+}
+
+uint64_t TerrainLevel::triangle_count() const {
+    uint64_t count = 0;
+    for (build::CubeKey key : cube) count += key != kNoTriangle;
+    return count;
+}
+
+namespace {
+
+// Vertices: each coarse vertex is the finer vertex at the same sample; a needed coarse vertex whose
+// sample is nodata takes the first needed finer vertex (row order) that maps onto it.
+void coarse_vertices(const TerrainLevel& finer, TerrainLevel& coarse) {
+    const size_t w = coarse.width(), h = coarse.height();
+    coarse.position.assign(3 * w * h, 0.0);
+    coarse.flags.assign(w * h, 0);
+    for (size_t r = 0; r < h; ++r)
+        for (size_t c = 0; c < w; ++c) {
+            const uint64_t f = finer.vertex(finer_position(c, w, finer.width()), finer_position(r, h, finer.height()));
+            const uint64_t v = coarse.vertex(c, r);
+            if (!(finer.flags[f] & kSampleValid)) continue;
+            coarse.flags[v] = kSampleValid;
+            for (int a = 0; a < 3; ++a) coarse.position[3 * v + a] = finer.position[3 * f + a];
+        }
+    for (size_t r = 0; r < finer.height(); ++r)
+        for (size_t c = 0; c < finer.width(); ++c) {
+            const uint64_t f = finer.vertex(c, r);
+            if (!(finer.flags[f] & kNeeded)) continue;
+            const uint64_t v = coarse.vertex(parent_position(c, finer.width()), parent_position(r, finer.height()));
+            if (!(coarse.flags[v] & (kSampleValid | kNeeded)))
+                for (int a = 0; a < 3; ++a) coarse.position[3 * v + a] = finer.position[3 * f + a];
+            coarse.flags[v] |= kNeeded;
+        }
+}
+
+// Triangles: a coarse cell's triangle t exists when triangle t of the finer cell at its maximum
+// corner does, in that triangle's cube's parent.
+void coarse_triangles(const TerrainLevel& finer, TerrainLevel& coarse) {
+    const size_t w = coarse.width(), h = coarse.height();
+    coarse.cube.assign(2 * (w - 1) * (h - 1), kNoTriangle);
+    for (size_t r = 0; r + 1 < h; ++r)
+        for (size_t c = 0; c + 1 < w; ++c) {
+            const size_t fc = finer_position(c + 1, w, finer.width()) - 1, fr = finer_position(r + 1, h, finer.height()) - 1;
+            for (int t = 0; t < 2; ++t) {
+                const build::CubeKey key = finer.cube[2 * finer.cell(fc, fr) + t];
+                if (key == kNoTriangle) continue;
+                coarse.cube[2 * coarse.cell(c, r) + t] = build::parent_key(key);
+                for (uint64_t v : coarse.corners(c, r, t)) {
+                    if (!(coarse.flags[v] & kNeeded)) throw std::logic_error("terrain pyramid: a triangle uses an unneeded vertex");
+                    coarse.flags[v] |= kUsed;
+                }
+            }
+        }
+}
+
+}  // namespace
+
+TerrainLevel coarser_level(const TerrainLevel& finer) {
+    if (finer.level == 0) throw std::logic_error("coarser_level: level 0 is the coarsest");
+    TerrainLevel coarse;
+    coarse.level = finer.level - 1;
+    coarse.rows_run_north = finer.rows_run_north;
+    coarse.columns = coarser_axis(finer.columns);
+    coarse.rows = coarser_axis(finer.rows);
+    coarse_vertices(finer, coarse);
+    coarse_triangles(finer, coarse);
+    return coarse;
+}
+
+void mark_used(TerrainLevel& level) {
+    for (size_t r = 0; r + 1 < level.height(); ++r)
+        for (size_t c = 0; c + 1 < level.width(); ++c)
+            for (int t = 0; t < 2; ++t)
+                if (level.cube[2 * level.cell(c, r) + t] != kNoTriangle)
+                    for (uint64_t v : level.corners(c, r, t)) level.flags[v] |= kUsed | kNeeded;
+}
+
+std::vector<float> vertex_normals(const TerrainLevel& level) {
+    std::vector<double> sums(level.position.size(), 0.0);
+    for (size_t r = 0; r + 1 < level.height(); ++r)
+        for (size_t c = 0; c + 1 < level.width(); ++c)
+            for (int t = 0; t < 2; ++t) {
+                if (level.cube[2 * level.cell(c, r) + t] == kNoTriangle) continue;
+                const std::array<uint64_t, 3> v = level.corners(c, r, t);
+                const double *a = level.at(v[0]), *b = level.at(v[1]), *d = level.at(v[2]);
+                const double e[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, g[3] = {d[0] - a[0], d[1] - a[1], d[2] - a[2]};
+                const double n[3] = {e[1] * g[2] - e[2] * g[1], e[2] * g[0] - e[0] * g[2], e[0] * g[1] - e[1] * g[0]};
+                for (uint64_t corner : v)
+                    for (int x = 0; x < 3; ++x) sums[3 * corner + x] += n[x];
+            }
+    std::vector<float> normals(sums.size());
+    for (size_t v = 0; v < sums.size() / 3; ++v) {
+        const double* s = &sums[3 * v];
+        const double length = std::sqrt(s[0] * s[0] + s[1] * s[1] + s[2] * s[2]);
+        for (int x = 0; x < 3; ++x) normals[3 * v + x] = length > 0 ? float(s[x] / length) : (x == 2 ? 1.0f : 0.0f);
+    }
+    return normals;
+}
+
+}  // namespace strata::terrain

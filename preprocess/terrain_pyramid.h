@@ -1,0 +1,81 @@
+// The levels of a terrain built straight from a DEM (issue 17): a regular grid pyramid, no QEM.
+//
+// Level L holds every sample. Along each axis, a coarser level keeps every other sample of the
+// level below it and that level's last one, so every level is a regular grid (its last row and
+// column may be narrower), nested in the one below. A cell's two triangles share the diagonal
+// from its minimum corner (smallest column and row) to its maximum corner, on every level.
+//
+// The parent of a vertex is, per axis, the largest kept index of the coarser level not above its
+// own (the last index is its own parent). Under that map every coarse cell has exactly one finer
+// cell mapping onto it whole, the one at its maximum corner: its two triangles become the coarse
+// cell's two, with the same diagonal, and every other finer triangle collapses to an edge or a
+// point. So a coarse triangle exists exactly when that finer triangle does (holes at nodata grow
+// by at most a cell per level and never cover valid ground), it goes to the parent of that
+// triangle's cube (P(T(C)) is the parent's part from C, as `strata verify` checks), and a vertex
+// lies at most one finer step from its parent on each axis.
+//
+// A vertex of a coarser level whose sample is nodata, but which some finer vertex needs as its
+// parent, takes the position of the first such finer vertex in row order: it stays within one
+// finer step of all of them.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "preprocess/build_cubes.h"
+
+namespace strata::terrain {
+
+inline constexpr build::CubeKey kNoTriangle = ~build::CubeKey(0);
+
+enum VertexFlags : uint8_t {
+    kSampleValid = 1,  // the DEM has a value here (its position is the sample's)
+    kUsed = 2,         // a triangle of this level uses it
+    kNeeded = 4,       // used, or the parent of a vertex the finer level needs: it has a position
+};
+
+// One axis of the coarser level, from the finer level's (sample indices, increasing).
+std::vector<uint64_t> coarser_axis(const std::vector<uint64_t>& finer);
+// Where the parent of the finer axis's `position`-th index lies in the coarser axis.
+inline size_t parent_position(size_t position, size_t finer_count) {
+    return position + 1 == finer_count ? (position + 1) / 2 : position / 2;
+}
+// Where the coarser axis's `position`-th index lies in the finer axis.
+inline size_t finer_position(size_t position, size_t coarser_count, size_t finer_count) {
+    return position + 1 == coarser_count ? finer_count - 1 : 2 * position;
+}
+
+struct TerrainLevel {
+    uint32_t level = 0;
+    std::vector<uint64_t> columns, rows;  // the DEM sample indices this level keeps
+    // Rows run south in model space (y north) unless the raster stores them south-up; triangles
+    // are counter-clockwise seen from above either way.
+    bool rows_run_north = false;
+    std::vector<double> position;   // 3 per vertex, row-major; model coordinates where kNeeded or kSampleValid
+    std::vector<uint8_t> flags;     // VertexFlags per vertex
+    // 2 per cell, row-major over (width − 1) × (height − 1): the cube of triangle t of the cell, or
+    // kNoTriangle. Triangle 0 has corners min, (min column, max row), max; triangle 1 has min, max,
+    // (max column, min row).
+    std::vector<build::CubeKey> cube;
+
+    size_t width() const { return columns.size(); }
+    size_t height() const { return rows.size(); }
+    uint64_t vertex(size_t column, size_t row) const { return uint64_t(row) * width() + column; }
+    uint64_t cell(size_t column, size_t row) const { return uint64_t(row) * (width() - 1) + column; }
+    const double* at(uint64_t vertex) const { return &position[3 * vertex]; }
+    // The three vertices of triangle t of the cell, counter-clockwise seen from above.
+    std::array<uint64_t, 3> corners(size_t column, size_t row, int t) const;
+    uint64_t triangle_count() const;
+};
+
+// The next coarser level of `finer` (see the top of this file).
+TerrainLevel coarser_level(const TerrainLevel& finer);
+
+// Marks every vertex a triangle uses kUsed | kNeeded (the finest level, once `cube` is filled).
+void mark_used(TerrainLevel& level);
+
+// Unit area-weighted vertex normals over the level's triangles, 3 per vertex (up where no triangle
+// uses the vertex): the same for every cube that shares a vertex.
+std::vector<float> vertex_normals(const TerrainLevel& level);
+
+}  // namespace strata::terrain

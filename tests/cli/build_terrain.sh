@@ -1,0 +1,21 @@
+#!/usr/bin/env bash
+# A terrain straight from a real DEM (issue 17): `strata build DEM.tif` makes a model that verifies and
+# describes its georeference; bad rasters and bad terrain options fail by name, leaving nothing.
+source "$(dirname "$0")/common.sh"
+dem=$2/data/olinda_dem.tif
+[ -s "$dem" ] || { echo "data/olinda_dem.tif missing: run scripts/setup.sh"; exit 1; }
+expect_success "build terrain" "$STRATA" build "$dem" -o "$WORK/olinda.hlod"
+checks=$((checks + 1)); grep -q "terrain, 24200 triangles" "$WORK/out.txt" || fail "build: not 110 × 110 cells of two triangles: $(cat "$WORK/out.txt")"
+expect_success "verify terrain" "$STRATA" verify "$WORK/olinda.hlod"
+expect_success "info terrain" "$STRATA" info "$WORK/olinda.hlod"
+checks=$((checks + 1)); grep -q "^georef .*UTM Zone 25, Southern Hemisphere" "$WORK/out.txt" || fail "info: no CRS: $(grep georef "$WORK/out.txt")"
+
+# No georeference: a raster GDAL reads whose samples lie nowhere.
+gdal_translate -q -of AAIGrid "$dem" "$WORK/grid.asc" && rm -f "$WORK/grid.prj"
+sed -i '/^xllcorner/s/.*/xllcorner 0/' "$WORK/grid.asc"
+expect_failure "no CRS" "grid.asc: no CRS" "$STRATA" build "$WORK/grid.asc" -o "$WORK/grid.hlod"
+expect_success "the CRS given" "$STRATA" build "$WORK/grid.asc" --crs EPSG:31985 -o "$WORK/grid.hlod" -q
+expect_failure "a geographic CRS" "geographic CRS" "$STRATA" build "$WORK/grid.asc" --crs EPSG:4326 -o "$WORK/degrees.hlod"
+expect_status "fill not a number" 2 "--fill-nodata takes an elevation" "$STRATA" build "$dem" --fill-nodata low -o "$WORK/x.hlod"
+checks=$((checks + 1)); ls "$WORK" | grep -q -e "degrees.hlod" -e "x.hlod" && fail "a failed build left output: $(ls "$WORK")"
+finish

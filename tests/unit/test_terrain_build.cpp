@@ -1,0 +1,267 @@
+// Terrains built straight from elevation rasters (issue 17 §1, preprocess/terrain_build.h): the finest
+// level is every valid sample where GDAL's own tools put it, nodata leaves holes with open boundaries
+// (or is filled), every level is a grid whose cubes stitch (each interior edge used by exactly two
+// triangles, once each way), `strata verify`'s invariants hold, and bad rasters fail naming the file
+// and leave nothing behind.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <random>
+#include <set>
+
+#include "nodes/hlod_model.h"
+#include "preprocess/hlod_verify.h"
+#include "preprocess/mesh.h"
+#include "preprocess/terrain_build.h"
+#include "tests/support/geotiff.h"
+
+#pragma GCC diagnostic ignored "-Wmissing-field-initializers"
+
+namespace strata {
+namespace {
+
+namespace fs = std::filesystem;
+
+fs::path data_file(const char* name) { return fs::path(STRATA_SOURCE_DIR) / "data" / name; }
+
+// A rough surface with every sample distinct: hills, a slope and noise.
+std::vector<double> rough_heights(int width, int height, uint32_t seed) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> noise(-3, 3);
+    std::vector<double> values;
+    for (int r = 0; r < height; ++r)
+        for (int c = 0; c < width; ++c)
+            values.push_back(std::round(100 + 40 * std::sin(c * 0.21) * std::cos(r * 0.17) + 0.8 * c + noise(rng)));
+    return values;
+}
+
+// Where a level's vertex lies on the level's lattice (global steps from O): one key per position.
+using LatticePoint = std::array<int64_t, 3>;
+LatticePoint lattice_point(const HlodModel& model, const HlodCube& cube, uint32_t v) {
+    const glm::ivec3 q = model.lattice_steps(cube, v);
+    return {q.x, q.y, q.z};
+}
+
+struct LevelEdges {
+    std::map<std::pair<LatticePoint, LatticePoint>, int> directed;  // every directed edge and how often it appears
+    uint64_t triangles = 0;
+};
+
+std::vector<LevelEdges> edges_by_level(const HlodModel& model) {
+    std::vector<LevelEdges> levels(model.header().max_level + 1);
+    for (const HlodCube& cube : model.cubes()) {
+        LevelEdges& level = levels[cube.node.level];
+        const std::vector<uint32_t>& idx = cube.data->indices;
+        for (size_t t = 0; t < idx.size(); t += 3) {
+            level.triangles++;
+            for (int e = 0; e < 3; ++e)
+                level.directed[{lattice_point(model, cube, idx[t + size_t(e)]), lattice_point(model, cube, idx[t + size_t((e + 1) % 3)])}]++;
+        }
+    }
+    return levels;
+}
+
+// Every edge appears at most once each way (no fold, no doubled face); returns the edges without a
+// twin (the surface's boundary), as the pairs of positions they join.
+std::vector<std::pair<LatticePoint, LatticePoint>> boundary(const LevelEdges& level, uint32_t l) {
+    std::vector<std::pair<LatticePoint, LatticePoint>> open;
+    for (const auto& [edge, count] : level.directed) {
+        EXPECT_EQ(count, 1) << "level " << l << ": a directed edge used " << count << " times";
+        if (!level.directed.count({edge.second, edge.first})) open.push_back(edge);
+    }
+    return open;
+}
+
+BuildReport build(const fs::path& dem, const fs::path& out, TerrainSettings settings = {}) {
+    BuildReport report = build_terrain({dem}, out, settings, dem.filename().string());
+    EXPECT_NO_THROW(verify_hlod(HlodFile(out)));
+    return report;
+}
+
+TEST(TerrainBuild, TheFinestLevelIsEverySampleWhereGdalPutsIt) {
+    const fs::path dem = data_file("olinda_dem.tif");
+    if (!fs::exists(dem)) GTEST_SKIP() << "data/olinda_dem.tif missing: run scripts/setup.sh";
+    test::TempDir dir;
+    build(dem, dir / "olinda.hlod");
+    const auto model = HlodModel::load(dir / "olinda.hlod");
+    const HlodHeader& h = model->header();
+    EXPECT_FALSE(h.crs.empty());
+
+    // Level L's vertices in CRS coordinates, by the sample column and row they stand at.
+    const nlohmann::json info = test::gdalinfo(dem);
+    std::array<double, 6> g;
+    for (size_t i = 0; i < 6; ++i) g[i] = info["geoTransform"][i];
+    const int width = info["size"][0], height = info["size"][1];
+    std::map<std::pair<int64_t, int64_t>, std::array<double, 3>> finest;
+    for (const HlodCube& cube : model->cubes()) {
+        if (cube.node.level != h.max_level) continue;
+        for (uint32_t v = 0; v < cube.data->vertex_count(); ++v) {
+            const glm::vec3 p = model->vertex_position(cube, v);
+            const std::array<double, 3> geo{h.geo_origin[0] + h.origin[0] + p.x, h.geo_origin[1] + h.origin[1] + p.y,
+                                            h.geo_origin[2] + h.origin[2] + p.z};
+            const int64_t column = std::llround((geo[0] - g[0]) / g[1] - 0.5), row = std::llround((geo[1] - g[3]) / g[5] - 0.5);
+            finest[{column, row}] = geo;
+        }
+    }
+    EXPECT_EQ(finest.size(), size_t(width) * size_t(height)) << "every sample of the DEM (it has no nodata) is a vertex";
+
+    std::mt19937 rng(17);
+    std::vector<std::pair<uint64_t, uint64_t>> pixels;
+    for (int s = 0; s < 300; ++s) pixels.push_back({rng() % uint64_t(width), rng() % uint64_t(height)});
+    const std::vector<double> values = test::gdal_values(dem, pixels);
+    ASSERT_EQ(values.size(), pixels.size());
+    const double step = h.lattice_step(h.max_level);
+    for (size_t s = 0; s < pixels.size(); ++s) {
+        const auto [column, row] = pixels[s];
+        auto it = finest.find({int64_t(column), int64_t(row)});
+        ASSERT_NE(it, finest.end()) << "no vertex at column " << column << ", row " << row;
+        EXPECT_NEAR(it->second[0], g[0] + (column + 0.5) * g[1], step) << column << ", " << row;
+        EXPECT_NEAR(it->second[1], g[3] + (row + 0.5) * g[5], step) << column << ", " << row;
+        EXPECT_NEAR(it->second[2], values[s], step) << column << ", " << row;
+    }
+}
+
+// 75 × 53 samples (so both the last column and the last row of some levels are narrower), cubes of 16
+// cells, a block of nodata, scattered nodata pixels and a small island inside a nodata moat.
+test::TiffSpec holes_spec(std::vector<bool>& valid) {
+    test::TiffSpec spec{.width = 75, .height = 53, .type = GDT_Float32, .nodata = -9999};
+    spec.values = rough_heights(spec.width, spec.height, 5);
+    valid.assign(spec.values.size(), true);
+    auto hole = [&](int c, int r) {
+        spec.values[size_t(r * spec.width + c)] = -9999;
+        valid[size_t(r * spec.width + c)] = false;
+    };
+    for (int r = 10; r < 22; ++r)
+        for (int c = 30; c < 47; ++c) hole(c, r);
+    for (int s = 0; s < 40; ++s) hole((s * 37) % 75, (s * 11 + 3) % 53);
+    for (int r = 35; r < 46; ++r)
+        for (int c = 5; c < 16; ++c)
+            if (r < 39 || r > 41 || c < 9 || c > 11) hole(c, r);  // a moat around a 3 × 3 island
+    return spec;
+}
+
+TEST(TerrainBuild, NodataLeavesHolesWithOpenBoundariesAndEveryLevelStitches) {
+    test::TempDir dir;
+    std::vector<bool> valid;
+    const test::TiffSpec spec = holes_spec(valid);
+    test::write_tiff(dir / "holes.tif", spec);
+    const BuildReport report = build(dir / "holes.tif", dir / "holes.hlod", {.cube_cells = 16});
+    const auto model = HlodModel::load(dir / "holes.hlod");
+    const HlodHeader& h = model->header();
+    ASSERT_GE(h.max_level, 2u);
+
+    // Level L: a triangle wherever the cell's diagonal corners and a third are all valid.
+    auto ok = [&](int c, int r) { return valid[size_t(r * spec.width + c)]; };
+    uint64_t expected = 0;
+    for (int r = 0; r + 1 < spec.height; ++r)
+        for (int c = 0; c + 1 < spec.width; ++c)
+            if (ok(c, r) && ok(c + 1, r + 1)) expected += ok(c, r + 1) + ok(c + 1, r);
+    EXPECT_EQ(report.input_triangles, expected);
+
+    const std::vector<LevelEdges> levels = edges_by_level(*model);
+    EXPECT_EQ(levels[h.max_level].triangles, expected);
+    // Level L's boundary runs along the raster's border and nodata only: an open edge joins two
+    // samples at least one of whose cells (the two beside the edge) lacks a valid corner.
+    const double spacing = spec.geotransform[1], lattice = h.lattice_step(h.max_level);
+    auto sample = [&](const LatticePoint& q) {
+        const int c = int(std::lround((h.origin[0] + double(q[0]) * lattice) / spacing));
+        const int r = spec.height - 1 - int(std::lround((h.origin[1] + double(q[1]) * lattice) / spacing));
+        return std::pair{c, r};
+    };
+    for (const auto& [a, b] : boundary(levels[h.max_level], h.max_level)) {
+        const auto [ca, ra] = sample(a);
+        const auto [cb, rb] = sample(b);
+        bool beside_a_hole = false;
+        for (int dr = -1; dr <= 1; ++dr)
+            for (int dc = -1; dc <= 1; ++dc)
+                for (const auto& [c, r] : {std::pair{ca + dc, ra + dr}, std::pair{cb + dc, rb + dr}})
+                    beside_a_hole = beside_a_hole || c < 0 || r < 0 || c >= spec.width || r >= spec.height || !ok(c, r);
+        EXPECT_TRUE(beside_a_hole) << "an open edge from sample " << ca << "," << ra << " to " << cb << "," << rb
+                                   << " inside valid ground: a crack";
+    }
+    for (uint32_t l = 0; l < h.max_level; ++l) {
+        boundary(levels[l], l);
+        EXPECT_GT(levels[l].triangles, 0u) << "level " << l;
+    }
+}
+
+// The sample count along an axis at each level, coarse to fine: every other sample and the last,
+// ⌊n/2⌋ + 1 of n whether n is odd or even.
+std::vector<uint64_t> axis_counts(uint64_t samples, uint32_t levels) {
+    std::vector<uint64_t> counts{samples};
+    while (counts.size() < levels) counts.insert(counts.begin(), counts.front() / 2 + 1);
+    return counts;
+}
+
+TEST(TerrainBuild, FilledNodataMakesEveryLevelOneWholeGrid) {
+    test::TempDir dir;
+    std::vector<bool> valid;
+    test::write_tiff(dir / "holes.tif", holes_spec(valid));
+    build(dir / "holes.tif", dir / "filled.hlod", {.cube_cells = 16, .fill = 130.0f});
+    const auto model = HlodModel::load(dir / "filled.hlod");
+    const HlodHeader& h = model->header();
+    // A sample of the nodata block (column 35, row 15) is ground at the fill's height.
+    bool filled = false;
+    for (const HlodCube& cube : model->cubes())
+        for (uint32_t v = 0; cube.node.level == h.max_level && v < cube.data->vertex_count(); ++v) {
+            const glm::vec3 p = model->vertex_position(cube, v);
+            if (std::abs(h.origin[0] + p.x - 35 * 30.0) < 1 && std::abs(h.origin[1] + p.y - (52 - 15) * 30.0) < 1)
+                filled = std::abs(h.origin[2] + p.z - 130) <= h.lattice_step(h.max_level);
+        }
+    EXPECT_TRUE(filled);
+    const std::vector<LevelEdges> levels = edges_by_level(*model);
+    const std::vector<uint64_t> columns = axis_counts(75, h.max_level + 1), rows = axis_counts(53, h.max_level + 1);
+    for (uint32_t l = 0; l <= h.max_level; ++l) {
+        const uint64_t w = columns[l], r = rows[l];
+        EXPECT_EQ(levels[l].triangles, 2 * (w - 1) * (r - 1)) << "level " << l;
+        EXPECT_EQ(boundary(levels[l], l).size(), 2 * (w - 1) + 2 * (r - 1)) << "level " << l << ": open inside";
+    }
+}
+
+std::string build_error(const fs::path& dem, const fs::path& out) {
+    try {
+        build_terrain({dem}, out, {}, dem.filename().string());
+    } catch (const InputError& e) {
+        return e.what();
+    }
+    return "(built)";
+}
+
+TEST(TerrainBuild, BadRastersFailNamingTheFileAndLeaveNothing) {
+    test::TempDir dir;
+    const std::vector<double> heights = rough_heights(20, 16, 3);
+    struct Case {
+        const char* name;
+        test::TiffSpec spec;
+        const char* says;
+    };
+    const Case cases[] = {
+        {"degrees.tif", {.width = 20, .height = 16, .values = heights, .geotransform = {10, 0.001, 0, 45, 0, -0.001}, .crs = "EPSG:4326"},
+         "geographic CRS"},
+        {"feet.tif", {.width = 20, .height = 16, .values = heights, .crs = "EPSG:2227"}, "units of 0.3048"},
+        {"bands.tif", {.width = 20, .height = 16, .bands = 3, .values = heights}, "band"},
+        {"nowhere.tif", {.width = 20, .height = 16, .values = heights, .georeferenced = false, .crs = ""}, "geotransform"},
+        {"empty.tif", {.width = 20, .height = 16, .values = std::vector<double>(320, -1), .nodata = -1}, "nodata everywhere"},
+    };
+    for (const Case& c : cases) {
+        test::write_tiff(dir / c.name, c.spec);
+        const std::string error = build_error(dir / c.name, dir / "out.hlod");
+        EXPECT_NE(error.find(c.name), std::string::npos) << c.name << ": " << error;
+        EXPECT_NE(error.find(c.says), std::string::npos) << c.name << ": " << error;
+    }
+    // A GeoTIFF cut short: its samples cannot be read.
+    test::write_tiff(dir / "whole.tif", {.width = 300, .height = 200, .values = rough_heights(300, 200, 4)});
+    const std::vector<uint8_t> bytes = test::file_bytes(dir / "whole.tif");
+    std::ofstream(dir / "truncated.tif", std::ios::binary).write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size() / 2));
+    EXPECT_NE(build_error(dir / "truncated.tif", dir / "out.hlod").find("truncated.tif"), std::string::npos);
+
+    std::set<std::string> left;
+    for (const auto& entry : fs::directory_iterator(dir.path())) left.insert(entry.path().filename().string());
+    EXPECT_EQ(left.count("out.hlod"), 0u);
+    for (const std::string& name : left) EXPECT_EQ(name.find("out.hlod"), std::string::npos) << name << " left behind";
+}
+
+}  // namespace
+}  // namespace strata
