@@ -135,6 +135,8 @@ int run_terrain(const BuildOptions& o, const std::vector<std::filesystem::path>&
                         report.output_bytes / 1e6, seconds);
         if (o.verbose) {
             print_levels(report);
+            std::printf("  seconds: read %.2f, levels %.2f, bounds %.2f, cubes and write %.2f\n", report.read_seconds,
+                        report.partition_seconds, report.simplify_seconds, report.write_seconds);
             std::printf("  memory: %s at most\n", describe_bytes(peak_resident_bytes()).c_str());
         }
         return kOk;

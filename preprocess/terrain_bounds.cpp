@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <span>
 
 namespace strata::terrain {
 namespace {
@@ -74,20 +75,45 @@ double gap(const Triangle& finer, const Triangle& coarse) {
     return worst;
 }
 
-void raise(CubeDistances& distances, build::CubeKey cube, double value) {
-    double& d = distances[cube];
-    d = std::max(d, value);
-}
+// A cube's distance raised to at least a value; the last cube's entry kept at hand, since neighbouring
+// cells nearly always belong to one cube.
+class Raise {
+public:
+    explicit Raise(CubeDistances& distances) : distances_(distances) {}
+    void operator()(build::CubeKey cube, double value) {
+        if (cube != cube_) entry_ = &distances_[cube], cube_ = cube;  // entries keep their place when the map grows
+        *entry_ = std::max(*entry_, value);
+    }
 
-double forward_of(const CubeDistances& forward, build::CubeKey cube) {
-    auto it = forward.find(cube);
-    return it == forward.end() ? 0.0 : it->second;
-}
+private:
+    CubeDistances& distances_;
+    build::CubeKey cube_ = kNoTriangle;
+    double* entry_ = nullptr;
+};
+
+// A finer cube's F (0 when it has none), the last one kept at hand.
+class Forward {
+public:
+    explicit Forward(const CubeDistances& forward) : forward_(forward) {}
+    double operator()(build::CubeKey cube) {
+        if (cube != cube_) {
+            auto it = forward_.find(cube);
+            value_ = it == forward_.end() ? 0.0 : it->second, cube_ = cube;
+        }
+        return value_;
+    }
+
+private:
+    const CubeDistances& forward_;
+    build::CubeKey cube_ = kNoTriangle;
+    double value_ = 0;
+};
 
 class StepBounder {
 public:
     StepBounder(const TerrainLevel& finer, const TerrainLevel& coarse, const CubeDistances& finer_forward, double far)
-        : finer_(finer), coarse_(coarse), finer_forward_(finer_forward), far_(far) {}
+        : finer_(finer), coarse_(coarse), far_(far), finer_forward_(finer_forward), raise_forward_(out_.forward),
+          raise_coverage_(out_.finer_coverage) {}
 
     StepBound run() {
         for (size_t r = 0; r + 1 < coarse_.height(); ++r)
@@ -99,13 +125,15 @@ private:
     void cell(size_t c, size_t r) {
         const size_t c0 = finer_position(c, coarse_.width(), finer_.width()), c1 = finer_position(c + 1, coarse_.width(), finer_.width());
         const size_t r0 = finer_position(r, coarse_.height(), finer_.height()), r1 = finer_position(r + 1, coarse_.height(), finer_.height());
-        std::vector<Triangle> fine;
+        Triangle fine[8];
+        size_t count = 0;
         for (size_t fr = r0; fr < r1; ++fr)
             for (size_t fc = c0; fc < c1; ++fc)
                 for (int t = 0; t < 2; ++t)
-                    if (finer_.cube[2 * finer_.cell(fc, fr) + t] != kNoTriangle) fine.push_back(triangle(finer_, fc, fr, t));
-        if (fine.empty()) return;
-        const bool all_fine = fine.size() == 2 * (c1 - c0) * (r1 - r0);
+                    if (finer_.cube[2 * finer_.cell(fc, fr) + t] != kNoTriangle) fine[count++] = triangle(finer_, fc, fr, t);
+        if (count == 0) return;
+        const bool all_fine = count == 2 * (c1 - c0) * (r1 - r0);
+        if (all_fine && nested(c, r, c0, r0, c1, r1)) return whole_cell(c, r, c0, r0, {fine, count});
         bool all_coarse = true;
         for (int t = 0; t < 2; ++t) {
             if (coarse_.cube[2 * coarse_.cell(c, r) + t] == kNoTriangle) {
@@ -113,19 +141,50 @@ private:
                 continue;
             }
             const Triangle big = triangle(coarse_, c, r, t);
-            for (const Triangle& small : fine)
+            for (const Triangle& small : std::span(fine, count))
                 if (const double d = gap(small, big); d >= 0) {
-                    raise(out_.forward, big.cube, d + forward_of(finer_forward_, small.cube));
-                    raise(out_.finer_coverage, small.cube, d);
+                    raise_forward_(big.cube, d + finer_forward_(small.cube));
+                    raise_coverage_(small.cube, d);
                 }
             // Part of it over a hole: within the corners' travel of the finer triangle that maps onto it.
             if (!all_fine) {
                 const Triangle preimage = triangle(finer_, c1 - 1, r1 - 1, t);
-                raise(out_.forward, big.cube, travel(preimage, big) + forward_of(finer_forward_, preimage.cube));
+                raise_forward_(big.cube, travel(preimage, big) + finer_forward_(preimage.cube));
             }
         }
         if (!all_coarse)
-            for (const Triangle& small : fine) raise(out_.finer_coverage, small.cube, collapse_bound(small));
+            for (const Triangle& small : std::span(fine, count)) raise_coverage_(small.cube, collapse_bound(small));
+    }
+
+    // Whether the cell is two by two finer cells of equal size, both coarse triangles present: then
+    // every finer triangle lies in one coarse triangle, and the gap peaks at the nine finer vertices.
+    bool nested(size_t c, size_t r, size_t c0, size_t r0, size_t c1, size_t r1) const {
+        if (c1 - c0 != 2 || r1 - r0 != 2) return false;
+        if (coarse_.cube[2 * coarse_.cell(c, r)] == kNoTriangle || coarse_.cube[2 * coarse_.cell(c, r) + 1] == kNoTriangle) return false;
+        return finer_.columns[c0 + 1] - finer_.columns[c0] == finer_.columns[c1] - finer_.columns[c0 + 1] &&
+               finer_.rows[r0 + 1] - finer_.rows[r0] == finer_.rows[r1] - finer_.rows[r0 + 1];
+    }
+
+    // The common case: a finer vertex at a coarse corner against that corner, one halfway along a
+    // coarse edge (the cell's sides and its diagonal) against the edge's midpoint.
+    void whole_cell(size_t c, size_t r, size_t c0, size_t r0, std::span<const Triangle> fine) {
+        const double* corner[2][2] = {{coarse_.at(coarse_.vertex(c, r)), coarse_.at(coarse_.vertex(c, r + 1))},
+                                      {coarse_.at(coarse_.vertex(c + 1, r)), coarse_.at(coarse_.vertex(c + 1, r + 1))}};
+        double worst = 0;
+        for (int j = 0; j <= 2; ++j)
+            for (int i = 0; i <= 2; ++i) {
+                // The coarse point halfway between the corners nearest (i, j): on a side, or the diagonal at the centre.
+                const int ia = i / 2, ja = j / 2, ib = (i + 1) / 2, jb = (j + 1) / 2;
+                const double *a = corner[ia][ja], *b = corner[ib][jb];
+                const double expected[3] = {(a[0] + b[0]) / 2, (a[1] + b[1]) / 2, (a[2] + b[2]) / 2};
+                worst = std::max(worst, distance(finer_.at(finer_.vertex(c0 + size_t(i), r0 + size_t(j))), expected));
+            }
+        double finer_worst = 0;
+        for (const Triangle& small : fine) {
+            raise_coverage_(small.cube, worst);
+            finer_worst = std::max(finer_worst, finer_forward_(small.cube));
+        }
+        for (int t = 0; t < 2; ++t) raise_forward_(coarse_.cube[2 * coarse_.cell(c, r) + t], worst + finer_worst);
     }
 
     // max |V_i − u_i| over corresponding corners.
@@ -192,9 +251,10 @@ private:
     }
 
     const TerrainLevel &finer_, &coarse_;
-    const CubeDistances& finer_forward_;
     const double far_;
     StepBound out_;
+    Forward finer_forward_;
+    Raise raise_forward_, raise_coverage_;
 };
 
 }  // namespace

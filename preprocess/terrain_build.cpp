@@ -1,6 +1,7 @@
 #include "preprocess/terrain_build.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <numeric>
 #include <unordered_map>
@@ -131,132 +132,121 @@ struct Cube {
     std::vector<uint64_t> vertices;
     std::vector<uint32_t> triangles;
     std::array<uint32_t, 8> child_counts{};
-    std::unordered_map<uint64_t, uint32_t> index;  // vertex id → place in `vertices`
 };
+
+constexpr uint32_t kUnnumbered = ~0u;
 
 uint64_t parent_vertex(const TerrainLevel& finer, const TerrainLevel& coarse, uint64_t v) {
     return coarse.vertex(terrain::parent_position(v % finer.width(), finer.width()),
                          terrain::parent_position(v / finer.width(), finer.height()));
 }
 
-// The level's cubes in key order: each triangle in its cube, grouped by the child it came from.
-std::vector<Cube> level_cubes(const TerrainLevel& level, const TerrainLevel* finer) {
-    struct Entry {
-        CubeKey key;
-        uint32_t octant;
-        uint64_t triangle;  // 2·cell + t
-    };
-    std::vector<Entry> entries;
-    for (size_t r = 0; r + 1 < level.height(); ++r)
-        for (size_t c = 0; c + 1 < level.width(); ++c)
-            for (int t = 0; t < 2; ++t) {
-                const uint64_t triangle = 2 * level.cell(c, r) + uint64_t(t);
-                if (level.cube[triangle] == kNoTriangle) continue;
-                uint32_t octant = 0;
-                if (finer) {
-                    const size_t fc = terrain::finer_position(c + 1, level.width(), finer->width()) - 1;
-                    const size_t fr = terrain::finer_position(r + 1, level.height(), finer->height()) - 1;
-                    octant = build::octant(finer->cube[2 * finer->cell(fc, fr) + uint64_t(t)]);
-                }
-                entries.push_back({level.cube[triangle], octant, triangle});
-            }
-    std::sort(entries.begin(), entries.end(), [](const Entry& a, const Entry& b) {
-        return a.key != b.key ? a.key < b.key : a.octant != b.octant ? a.octant < b.octant : a.triangle < b.triangle;
-    });
-    std::vector<Cube> cubes;
-    for (size_t first = 0; first < entries.size();) {
-        size_t end = first;
-        while (end < entries.size() && entries[end].key == entries[first].key) ++end;
-        Cube cube;
-        cube.key = entries[first].key;
-        std::unordered_map<uint64_t, uint32_t> local;
-        for (size_t e = first; e < end; ++e) {
-            const uint64_t cell = entries[e].triangle / 2;
-            const size_t width = level.width() - 1;
-            for (uint64_t v : level.corners(size_t(cell % width), size_t(cell / width), int(entries[e].triangle % 2))) {
-                auto [it, added] = local.emplace(v, uint32_t(cube.vertices.size()));
-                if (added) cube.vertices.push_back(v);
-                cube.triangles.push_back(it->second);
-            }
-            cube.child_counts[entries[e].octant]++;
-        }
-        std::vector<uint32_t> order(cube.vertices.size());
-        std::iota(order.begin(), order.end(), 0u);
-        build::order_for_payload(cube.triangles, cube.child_counts, order);
-        std::vector<uint64_t> ordered(order.size());
-        for (size_t v = 0; v < order.size(); ++v) ordered[v] = cube.vertices[order[v]];
-        cube.vertices.swap(ordered);
-        cubes.push_back(std::move(cube));
-        first = end;
+// The level's triangles by cube, each cube's in row order (consecutive cells nearly always share a cube).
+std::unordered_map<CubeKey, std::vector<uint64_t>> triangles_by_cube(const TerrainLevel& level) {
+    std::unordered_map<CubeKey, std::vector<uint64_t>> by_cube;
+    CubeKey last_key = kNoTriangle;
+    std::vector<uint64_t>* last = nullptr;
+    for (uint64_t triangle = 0; triangle < level.cube.size(); ++triangle) {
+        const CubeKey key = level.cube[triangle];
+        if (key == kNoTriangle) continue;
+        if (key != last_key) last = &by_cube[key], last_key = key;  // elements keep their place when the map grows
+        last->push_back(triangle);
     }
+    return by_cube;
+}
+
+// One cube from its triangles (2·cell + t, row order): grouped by the child they came from, in
+// vertex-cache order, the vertices in first-use order. `number`: kUnnumbered per level vertex, and
+// left so.
+Cube make_cube(CubeKey key, const std::vector<uint64_t>& triangles, const TerrainLevel& level, const TerrainLevel* finer,
+               std::vector<uint32_t>& number) {
+    Cube cube;
+    cube.key = key;
+    const size_t cells_per_row = level.width() - 1;
+    std::vector<uint8_t> octant(triangles.size(), 0);
+    if (finer)
+        for (size_t t = 0; t < triangles.size(); ++t) {
+            const uint64_t cell = triangles[t] / 2;
+            const size_t fc = terrain::finer_position(cell % cells_per_row + 1, level.width(), finer->width()) - 1;
+            const size_t fr = terrain::finer_position(cell / cells_per_row + 1, level.height(), finer->height()) - 1;
+            octant[t] = uint8_t(build::octant(finer->cube[2 * finer->cell(fc, fr) + triangles[t] % 2]));
+        }
+    for (uint8_t o : octant) cube.child_counts[o]++;
+    std::array<uint32_t, 8> next{};
+    for (uint32_t o = 1; o < 8; ++o) next[o] = next[o - 1] + cube.child_counts[o - 1];
+    cube.triangles.resize(3 * triangles.size());
+    for (size_t t = 0; t < triangles.size(); ++t) {
+        const uint64_t cell = triangles[t] / 2;
+        const uint32_t place = next[octant[t]]++;
+        const std::array<uint64_t, 3> corners = level.corners(size_t(cell % cells_per_row), size_t(cell / cells_per_row), int(triangles[t] % 2));
+        for (int c = 0; c < 3; ++c) {
+            uint32_t& n = number[corners[size_t(c)]];
+            if (n == kUnnumbered) n = uint32_t(cube.vertices.size()), cube.vertices.push_back(corners[size_t(c)]);
+            cube.triangles[3 * size_t(place) + size_t(c)] = n;
+        }
+    }
+    for (uint64_t v : cube.vertices) number[v] = kUnnumbered;
+    std::vector<uint32_t> order(cube.vertices.size());
+    std::iota(order.begin(), order.end(), 0u);
+    build::order_for_payload(cube.triangles, cube.child_counts, order);
+    std::vector<uint64_t> ordered(order.size());
+    for (size_t v = 0; v < order.size(); ++v) ordered[v] = cube.vertices[order[v]];
+    cube.vertices.swap(ordered);
+    return cube;
+}
+
+// The level's cubes in key order, with a cube (empty) for every parent of `children` that has no
+// triangle of its own.
+std::vector<Cube> level_cubes(const TerrainLevel& level, const TerrainLevel* finer, const std::vector<Cube>& children,
+                              std::vector<uint32_t>& number) {
+    std::unordered_map<CubeKey, std::vector<uint64_t>> by_cube = triangles_by_cube(level);
+    for (const Cube& child : children) by_cube[build::parent_key(child.key)];
+    std::vector<CubeKey> keys;
+    for (const auto& entry : by_cube) keys.push_back(entry.first);
+    std::sort(keys.begin(), keys.end());
+    std::vector<Cube> cubes;
+    for (CubeKey key : keys) cubes.push_back(make_cube(key, by_cube[key], level, finer, number));
     return cubes;
 }
 
-// Adds to each cube the parents its children's vertices need and it lacks (creating cubes that only
-// hold such parents), and indexes every cube's vertices for its children's encoding.
-void add_parents(std::vector<Cube>& cubes, const std::vector<Cube>& children, const TerrainLevel& finer, const TerrainLevel& coarse) {
-    for (Cube& cube : cubes)
-        for (uint32_t v = 0; v < cube.vertices.size(); ++v) cube.index.emplace(cube.vertices[v], v);
-    std::unordered_map<CubeKey, size_t> place;
-    for (size_t c = 0; c < cubes.size(); ++c) place.emplace(cubes[c].key, c);
-    for (const Cube& child : children) {
-        auto [it, added] = place.emplace(build::parent_key(child.key), cubes.size());
-        if (added) {
-            cubes.emplace_back();
-            cubes.back().key = it->first;
-        }
-        Cube& parent = cubes[it->second];
-        for (uint64_t v : child.vertices) {
-            const uint64_t p = parent_vertex(finer, coarse, v);
-            if (parent.index.emplace(p, uint32_t(parent.vertices.size())).second) parent.vertices.push_back(p);
-        }
-    }
-    std::sort(cubes.begin(), cubes.end(), [](const Cube& a, const Cube& b) { return a.key < b.key; });
-}
-
-// Encodes a level's cubes, each vertex naming its parent in the parent level's cubes (itself at level 0).
+// Encodes cubes, each vertex naming its parent in the parent cube (itself at level 0).
 class CubeEncoder {
 public:
     CubeEncoder(const build::Frame& f, std::string name, HlodWriter& writer, std::vector<build::CubeErrors>& errors, BuildReport& report)
         : f_(f), name_(std::move(name)), writer_(writer), errors_(errors), report_(report) {}
 
-    void encode_level(const std::vector<Cube>& cubes, const TerrainLevel& level, const TerrainLevel* coarse,
-                      const std::vector<Cube>* parents, const terrain::StepBound* below, const terrain::CubeDistances* forward) {
-        const std::vector<float> normals = terrain::vertex_normals(level);
-        LevelStats stats{level.level};
-        for (const Cube& cube : cubes) {
-            const Cube* parent = parents ? &find(*parents, build::parent_key(cube.key)) : &cube;
-            CubeData data = cube_data(cube, level, normals, coarse, *parent);
-            HlodNode node;
-            node.level = level.level;
-            node.i = build::key_i(cube.key), node.j = build::key_j(cube.key), node.k = build::key_k(cube.key);
-            node.vertex_count = data.vertex_count(), node.triangle_count = data.triangle_count();
-            const std::vector<uint8_t> payload = encode_cube(data, kErrorsAreBounds);
-            writer_.add_cube(node, payload);
-            errors_.push_back({node.level, node.i, node.j, node.k, float(lookup(forward, cube.key)),
-                               float(below ? lookup(&below->finer_coverage, cube.key) : 0.0)});
-            stats.cubes++, stats.vertices += node.vertex_count, stats.triangles += node.triangle_count, stats.bytes += payload.size();
-        }
-        report_.levels.push_back(stats);
+    // Sets the level whose cubes come next: its normals, and its cubes' F and D.
+    void start_level(const TerrainLevel& level, const terrain::CubeDistances* forward, const terrain::CubeDistances* coverage) {
+        normals_ = terrain::vertex_normals(level);
+        forward_ = forward, coverage_ = coverage;
+        report_.levels.push_back(LevelStats{level.level});
+    }
+
+    // `parent_number`: each vertex of the parent cube's its place there (null at level 0).
+    void encode(const Cube& cube, const TerrainLevel& level, const TerrainLevel* coarse, const std::vector<uint32_t>* parent_number) {
+        const CubeData data = cube_data(cube, level, coarse, parent_number);
+        HlodNode node;
+        node.level = level.level;
+        node.i = build::key_i(cube.key), node.j = build::key_j(cube.key), node.k = build::key_k(cube.key);
+        node.vertex_count = data.vertex_count(), node.triangle_count = data.triangle_count();
+        const std::vector<uint8_t> payload = encode_cube(data, kErrorsAreBounds);
+        writer_.add_cube(node, payload);
+        errors_.push_back({node.level, node.i, node.j, node.k, float(lookup(forward_, cube.key)), float(lookup(coverage_, cube.key))});
+        LevelStats& stats = report_.levels.back();
+        stats.cubes++, stats.vertices += node.vertex_count, stats.triangles += node.triangle_count, stats.bytes += payload.size();
     }
 
     // The σ0 the vertices need: their distance to their cube's cell (÷ s_l) and to their parent (÷ s_{l+1}).
     double sigma0_needed() const { return needed_; }
 
 private:
-    static const Cube& find(const std::vector<Cube>& cubes, CubeKey key) {
-        auto it = std::lower_bound(cubes.begin(), cubes.end(), key, [](const Cube& c, CubeKey k) { return c.key < k; });
-        if (it == cubes.end() || it->key != key) throw std::logic_error("terrain build: a cube without its parent");
-        return *it;
-    }
     static double lookup(const terrain::CubeDistances* distances, CubeKey key) {
         if (!distances) return 0;
         auto it = distances->find(key);
         return it == distances->end() ? 0.0 : it->second;
     }
 
-    CubeData cube_data(const Cube& cube, const TerrainLevel& level, const std::vector<float>& normals,
-                       const TerrainLevel* coarse, const Cube& parent) {
+    CubeData cube_data(const Cube& cube, const TerrainLevel& level, const TerrainLevel* coarse, const std::vector<uint32_t>* parent_number) {
         const uint32_t l = level.level, cell[3] = {build::key_i(cube.key), build::key_j(cube.key), build::key_k(cube.key)};
         const double size = f_.cube_size(l), inverse_step = double(uint64_t(1) << (l + kLatticeBits)) / f_.root_size;
         CubeData data;
@@ -276,15 +266,15 @@ private:
                                      " lies half a cube outside its cell); build with larger cubes");
                 data.vertices.positions[3 * v + size_t(a)] = uint16_t(stored);
             }
-            const std::array<int16_t, 2> normal = encode_normal(normals[3 * id], normals[3 * id + 1], normals[3 * id + 2]);
+            const std::array<int16_t, 2> normal = encode_normal(normals_[3 * id], normals_[3 * id + 1], normals_[3 * id + 2]);
             data.vertices.normals[2 * v] = normal[0], data.vertices.normals[2 * v + 1] = normal[1];
             if (!coarse) {
                 data.parent_vertex[v] = uint32_t(v);
                 continue;
             }
-            const uint64_t pid = parent_vertex(level, *coarse, id);
-            data.parent_vertex[v] = parent.index.at(pid);
-            const double* q = coarse->at(pid);
+            const uint64_t parent = parent_vertex(level, *coarse, id);
+            data.parent_vertex[v] = (*parent_number)[parent];
+            const double* q = coarse->at(parent);
             for (int a = 0; a < 3; ++a) needed_ = std::max(needed_, std::abs(p[a] - q[a]) / f_.cube_size(l + 1));
         }
         data.indices = cube.triangles;
@@ -297,8 +287,29 @@ private:
     HlodWriter& writer_;
     std::vector<build::CubeErrors>& errors_;
     BuildReport& report_;
+    std::vector<float> normals_;
+    const terrain::CubeDistances *forward_ = nullptr, *coverage_ = nullptr;
     double needed_ = 0;
 };
+
+// Gives each parent the vertices its children need and it lacks, then encodes the children, parent by
+// parent: a parent's vertex order is final once its children's are. `number`: as for make_cube.
+void encode_children(std::vector<Cube>& parents, const std::vector<Cube>& children, const TerrainLevel& finer,
+                     const TerrainLevel& coarse, std::vector<uint32_t>& number, CubeEncoder& encoder) {
+    std::unordered_map<CubeKey, std::vector<uint32_t>> children_of;
+    for (uint32_t c = 0; c < children.size(); ++c) children_of[build::parent_key(children[c].key)].push_back(c);
+    for (Cube& parent : parents) {
+        for (uint32_t v = 0; v < parent.vertices.size(); ++v) number[parent.vertices[v]] = v;
+        const std::vector<uint32_t>& mine = children_of[parent.key];
+        for (uint32_t c : mine)
+            for (uint64_t v : children[c].vertices) {
+                const uint64_t p = parent_vertex(finer, coarse, v);
+                if (number[p] == kUnnumbered) number[p] = uint32_t(parent.vertices.size()), parent.vertices.push_back(p);
+            }
+        for (uint32_t c : mine) encoder.encode(children[c], finer, &coarse, &number);
+        for (uint64_t v : parent.vertices) number[v] = kUnnumbered;
+    }
+}
 
 HlodHeader terrain_header(const Grid& grid, const build::Frame& f, const std::string& source_name) {
     const RasterInfo& info = grid.info;
@@ -333,10 +344,15 @@ BuildReport build_terrain(const std::vector<std::filesystem::path>& files, const
                           const TerrainSettings& settings, const std::string& source_name, const Progress& progress) {
     if (settings.cube_cells < 8 || settings.cube_cells > 256 || settings.cube_cells % 2)
         throw InputError("cube_cells must be even, 8 to 256, not " + std::to_string(settings.cube_cells));
+    using Clock = std::chrono::steady_clock;
+    auto since = [](Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); };
+    auto start = Clock::now();
     const ElevationRaster raster = ElevationRaster::open(files, settings.crs);
     const Grid grid = read_grid(raster, settings, progress);
     const build::Frame f = octree_frame(grid, settings.cube_cells);
     BuildReport report;
+    report.read_seconds = since(start);
+    start = Clock::now();
     report.max_level = f.max_level;
 
     // The pyramid, finest first, and the bounds between consecutive levels.
@@ -349,6 +365,8 @@ BuildReport build_terrain(const std::vector<std::filesystem::path>& files, const
         levels.push_back(terrain::coarser_level(levels.back()));
         progress("levels", double(levels.size()), double(f.max_level + 1), "levels");
     }
+    report.partition_seconds = since(start);
+    start = Clock::now();
     const double far = std::sqrt(3.0) * f.root_size;
     std::vector<terrain::StepBound> steps(f.max_level);  // steps[l]: level l+1 to level l
     for (uint32_t l = f.max_level; l-- > 0;) {
@@ -358,21 +376,26 @@ BuildReport build_terrain(const std::vector<std::filesystem::path>& files, const
         progress("bounds", double(f.max_level - l), double(f.max_level), "levels");
     }
 
+    report.simplify_seconds = since(start);
+    start = Clock::now();
+
     // Cubes, finest first: a level's cubes are encoded once their parents' vertex order is fixed.
     HlodWriter writer(output);
     std::vector<build::CubeErrors> errors;
     CubeEncoder encoder(f, grid.info.name, writer, errors, report);
-    std::vector<Cube> cubes = level_cubes(levels[0], nullptr);
+    std::vector<uint32_t> number(levels[0].flags.size(), kUnnumbered);
+    std::vector<Cube> cubes = level_cubes(levels[0], nullptr, {}, number);
     for (uint32_t l = f.max_level; l > 0; --l) {
         progress.check();
         const TerrainLevel &level = levels[f.max_level - l], &coarse = levels[f.max_level - l + 1];
-        std::vector<Cube> parents = level_cubes(coarse, &level);
-        add_parents(parents, cubes, level, coarse);
-        encoder.encode_level(cubes, level, &coarse, &parents, &steps[l - 1], l < f.max_level ? &steps[l].forward : nullptr);
+        std::vector<Cube> parents = level_cubes(coarse, &level, cubes, number);
+        encoder.start_level(level, l < f.max_level ? &steps[l].forward : nullptr, &steps[l - 1].finer_coverage);
+        encode_children(parents, cubes, level, coarse, number, encoder);
         cubes.swap(parents);
         progress("encode", double(f.max_level - l + 1), double(f.max_level + 1), "levels");
     }
-    encoder.encode_level(cubes, levels.back(), nullptr, nullptr, nullptr, f.max_level > 0 ? &steps[0].forward : nullptr);
+    encoder.start_level(levels.back(), f.max_level > 0 ? &steps[0].forward : nullptr, nullptr);
+    encoder.encode(cubes.front(), levels.back(), nullptr, nullptr);
 
     const double sigma0 = std::max(double(kLeastSigma0), encoder.sigma0_needed() * 1.001);
     if (sigma0 > kMostSigma0)
@@ -392,6 +415,7 @@ BuildReport build_terrain(const std::vector<std::filesystem::path>& files, const
     header.input_triangles = report.input_triangles;
     writer.finish(header);
     report.sigma0 = bounded.sigma0;
+    report.write_seconds = since(start);
     std::error_code ec;
     report.output_bytes = std::filesystem::file_size(output, ec);
     return report;
