@@ -55,6 +55,17 @@ DatasetPtr open_dataset(const std::filesystem::path& file) {
     return dataset;
 }
 
+// The CRS's EPSG code, when it has one or PROJ identifies it as one.
+std::optional<int> epsg_code(const OGRSpatialReference& reference) {
+    OGRSpatialReference identified(reference);
+    QuietGdal quiet;
+    const char* authority = identified.GetAuthorityName(nullptr);
+    if (!authority) identified.AutoIdentifyEPSG(), authority = identified.GetAuthorityName(nullptr);
+    if (authority && std::string(authority) == "EPSG")
+        if (const char* code = identified.GetAuthorityCode(nullptr)) return std::atoi(code);
+    return std::nullopt;
+}
+
 // The CRS named by the user (EPSG:N, WKT, PROJ): what stands for files that declare none.
 OGRSpatialReference crs_named(const std::string& crs) {
     OGRSpatialReference reference;
@@ -158,6 +169,18 @@ std::array<double, 2> RasterInfo::sample_position(double column, double row) con
     return {g[0] + c * g[1] + r * g[2], g[3] + c * g[4] + r * g[5]};
 }
 
+std::string describe_crs(const std::string& crs) {
+    register_drivers();
+    OGRSpatialReference reference;
+    {
+        QuietGdal quiet;
+        if (reference.SetFromUserInput(crs.c_str()) != OGRERR_NONE) return crs;
+    }
+    const std::string name = reference.GetName() ? reference.GetName() : "unnamed CRS";
+    const std::optional<int> epsg = epsg_code(reference);
+    return epsg ? "EPSG:" + std::to_string(*epsg) + " " + name : name;
+}
+
 std::string RasterInfo::describe_crs() const { return epsg ? "EPSG:" + std::to_string(*epsg) + " " + crs_name : crs_name; }
 
 ElevationRaster ElevationRaster::open(const std::vector<std::filesystem::path>& files, const std::string& crs) {
@@ -199,14 +222,7 @@ ElevationRaster ElevationRaster::open(const std::vector<std::filesystem::path>& 
     info.crs_name = reference.GetName() ? reference.GetName() : "unnamed CRS";
     info.geographic = reference.IsGeographic();
     if (reference.IsProjected()) info.linear_unit = reference.GetLinearUnits();
-    OGRSpatialReference identified(reference);
-    {
-        QuietGdal quiet;
-        const char* authority = identified.GetAuthorityName(nullptr);
-        if (!authority) identified.AutoIdentifyEPSG(), authority = identified.GetAuthorityName(nullptr);
-        if (authority && std::string(authority) == "EPSG")
-            if (const char* code = identified.GetAuthorityCode(nullptr)) info.epsg = std::atoi(code);
-    }
+    info.epsg = epsg_code(reference);
     if (reference.IsCompound() || reference.IsVertical())
         if (const char* vertical = reference.GetAttrValue(reference.IsCompound() ? "COMPD_CS|VERT_CS" : "VERT_CS")) info.vertical_datum = vertical;
     return ElevationRaster(std::move(dataset), std::move(info));

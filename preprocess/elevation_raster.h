@@ -37,6 +37,10 @@ struct RasterInfo {
     std::string describe_crs() const;
 };
 
+// "EPSG:32633 WGS 84 / UTM zone 33N" for a CRS given as an authority code, WKT or PROJ string (its
+// name alone when it has no EPSG code); the text itself when PROJ cannot read it.
+std::string describe_crs(const std::string& crs);
+
 class ElevationRaster {
 public:
     // Opens one raster, or several tiles as one mosaic (same CRS, sample type and resolution, on one

@@ -34,8 +34,9 @@ constexpr size_t kChunkBytes = size_t(8) << 20;  // copies and streamed checksum
 constexpr uint32_t kCrc32cPolynomial = 0x82F63B78u;  // reflected
 
 constexpr char kModelTag[5] = "MODL", kNodeTag[5] = "NODE", kPayloadTag[5] = "PAYL", kGeoreferenceTag[5] = "GEOR",
-               kBoundsTag[5] = "BNDS";
-constexpr size_t kBoundsBytes = 48;  // BNDS: six f64
+               kBoundsTag[5] = "BNDS", kTerrainTag[5] = "TERR";
+constexpr size_t kBoundsBytes = 48;   // BNDS: six f64
+constexpr size_t kTerrainBytes = 48;  // TERR: two u64, two f64, a u64, two u32
 
 // ---- CRC-32C (Castagnoli): hardware instruction where there is one, table otherwise ------------
 
@@ -138,6 +139,11 @@ void write_model(ByteWriter& w, const HlodHeader& h) {
 void write_georeference(ByteWriter& w, const HlodHeader& h) {
     for (double o : h.geo_origin) w.put(o);
     w.put_string(h.crs);
+}
+
+void write_terrain(ByteWriter& w, const TerrainGrid& t) {
+    w.put(t.columns), w.put(t.rows), w.put(t.spacing[0]), w.put(t.spacing[1]), w.put(t.nodata_samples);
+    w.put(t.cube_cells), w.put(uint32_t(t.rows_run_north ? 1 : 0));
 }
 
 void write_bounds(ByteWriter& w, const HlodHeader& h) {
@@ -853,10 +859,11 @@ void HlodWriter::finish(HlodHeader header) {
     // Payloads arrive finest level first; sorting their entries is all the reordering costs in memory.
     std::vector<HlodNode> spooled = nodes_;
     std::stable_sort(spooled.begin(), spooled.end(), in_file_order);
-    ByteWriter model, node_table, georeference, bounds;
+    ByteWriter model, node_table, georeference, bounds, terrain;
     write_model(model, header);
     if (!header.crs.empty()) write_georeference(georeference, header);
     if (header.has_bounds) write_bounds(bounds, header);
+    if (header.terrain) write_terrain(terrain, *header.terrain);
 
     // Layout (FORMAT.md §1): header, section table, the small sections on 8-byte boundaries, then the
     // payloads from a 4 KiB boundary. Sizes are known before contents: NODE is 48 bytes a cube.
@@ -874,6 +881,7 @@ void HlodWriter::finish(HlodHeader header) {
     add(kNodeTag, kRequiredSection, &node_table.bytes, kNodeBytes * spooled.size());
     if (!georeference.bytes.empty()) add(kGeoreferenceTag, 0, &georeference.bytes, georeference.bytes.size());
     if (!bounds.bytes.empty()) add(kBoundsTag, 0, &bounds.bytes, bounds.bytes.size());
+    if (!terrain.bytes.empty()) add(kTerrainTag, 0, &terrain.bytes, terrain.bytes.size());
     add(kPayloadTag, kRequiredSection, nullptr, 0);
     uint64_t at = kFixedHeaderBytes + kSectionEntryBytes * table.size();
     for (HlodSection& s : table) {
@@ -985,6 +993,7 @@ HlodFile::HlodFile(const std::filesystem::path& path)
     read_node_section(*nodes, *payloads);
     if (const HlodSection* georeference = find_section(kGeoreferenceTag)) read_georeference_section(*georeference);
     if (const HlodSection* bounds = find_section(kBoundsTag)) read_bounds_section(*bounds);
+    if (const HlodSection* terrain = find_section(kTerrainTag)) read_terrain_section(*terrain);
 }
 
 void HlodFile::read_at(uint64_t offset, void* data, size_t size, const std::string& what) const {
@@ -1165,6 +1174,28 @@ void HlodFile::read_bounds_section(const HlodSection& section) {
         if (!std::isfinite(header_.bounds_lo[a]) || !std::isfinite(header_.bounds_hi[a]) || header_.bounds_lo[a] > header_.bounds_hi[a])
             throw std::runtime_error(name + ": " + quoted(section) + ": the box is not finite, or its corners are swapped");
     header_.has_bounds = true;
+}
+
+void HlodFile::read_terrain_section(const HlodSection& section) {
+    const std::string what = path_.string() + ": " + quoted(section);
+    const std::vector<uint8_t> bytes = read_section(section, kTerrainBytes);
+    ByteReader r(bytes, what);
+    TerrainGrid t;
+    t.columns = r.get<uint64_t>(), t.rows = r.get<uint64_t>();
+    t.spacing[0] = r.get<double>(), t.spacing[1] = r.get<double>();
+    t.nodata_samples = r.get<uint64_t>();
+    t.cube_cells = r.get<uint32_t>();
+    const uint32_t flags = r.get<uint32_t>();
+    if (!r.at_end()) throw std::runtime_error(what + " is longer than its fields");
+    if (t.columns < 2 || t.rows < 2 || t.columns > (uint64_t(1) << 32) || t.rows > (uint64_t(1) << 32))
+        throw std::runtime_error(what + ": a grid of " + std::to_string(t.columns) + " × " + std::to_string(t.rows) + " samples");
+    if (!(t.spacing[0] > 0) || !(t.spacing[1] > 0) || !std::isfinite(t.spacing[0]) || !std::isfinite(t.spacing[1]))
+        throw std::runtime_error(what + ": sample spacing not a positive number");
+    if (t.nodata_samples > t.columns * t.rows) throw std::runtime_error(what + ": more nodata samples than samples");
+    if (t.cube_cells < 8 || t.cube_cells > 256 || t.cube_cells % 2) throw std::runtime_error(what + ": cubes of " + std::to_string(t.cube_cells) + " cells");
+    if (flags > 1) throw std::runtime_error(what + ": unknown flags " + std::to_string(flags));
+    t.rows_run_north = flags & 1;
+    header_.terrain = t;
 }
 
 std::vector<uint8_t> HlodFile::read_payload(const HlodNode& node) const {

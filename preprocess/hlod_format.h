@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
+#include <optional>
 #include <span>
 #include <string>
 #include <string_view>
@@ -36,6 +37,17 @@ enum HlodFlags : uint32_t {
     kErrorsAreBounds = 1u << 2,
 };
 
+// A terrain built straight from an elevation raster (section TERR): the raster's grid as the model
+// holds it. Level L's vertices are its valid samples, column c and row r at x = c·spacing[0] and
+// y = spacing[1]·(rows − 1 − r) (rows run south) from the south-west sample at the model's x = y = 0.
+struct TerrainGrid {
+    uint64_t columns = 0, rows = 0;   // samples of the raster
+    double spacing[2] = {0, 0};       // metres between columns, between rows
+    uint64_t nodata_samples = 0;      // samples without an elevation: holes, unless the build filled them
+    uint32_t cube_cells = 0;          // cells along a cube's side, at every level
+    bool rows_run_north = false;      // the raster stores its southern row first: y = spacing[1]·r
+};
+
 struct HlodHeader {
     uint32_t version = kHlodVersion;
     uint32_t payload_codec = kCubePayloadCodec;
@@ -61,6 +73,7 @@ struct HlodHeader {
     // streamed model frames and clips with before any cube is read.
     bool has_bounds = false;
     double bounds_lo[3] = {0, 0, 0}, bounds_hi[3] = {0, 0, 0};
+    std::optional<TerrainGrid> terrain;  // section TERR: a terrain built from an elevation raster
 
     bool has_colors() const { return flags & kHasColors; }
     bool has_uvs() const { return flags & kHasUvs; }
@@ -233,6 +246,7 @@ private:
     void read_node_section(const HlodSection& section, const HlodSection& payloads);
     void read_georeference_section(const HlodSection& section);
     void read_bounds_section(const HlodSection& section);
+    void read_terrain_section(const HlodSection& section);
     void read_at(uint64_t offset, void* data, size_t size, const std::string& what) const;
 
     std::filesystem::path path_;

@@ -39,6 +39,7 @@ struct Grid {
     double spacing[2] = {0, 0};  // metres between columns, between rows
     bool rows_run_north = false;
     float low = 0, high = 0;     // valid heights' range
+    uint64_t nodata = 0;         // samples left without a height
 
     double x(uint64_t column) const { return double(column) * spacing[0]; }
     double y(uint64_t row) const { return double(rows_run_north ? row : info.height - 1 - row) * spacing[1]; }
@@ -69,8 +70,10 @@ Grid read_grid(const ElevationRaster& raster, const TerrainSettings& settings, c
         progress("read", double(std::min(row + kBandRows, info.height)), double(info.height), "rows");
     }
     grid.low = INFINITY, grid.high = -INFINITY;
-    for (float h : grid.heights)
-        if (!std::isnan(h)) grid.low = std::min(grid.low, h), grid.high = std::max(grid.high, h);
+    for (float h : grid.heights) {
+        if (std::isnan(h)) ++grid.nodata;
+        else grid.low = std::min(grid.low, h), grid.high = std::max(grid.high, h);
+    }
     if (!(grid.low <= grid.high)) throw InputError(info.name + ": nodata everywhere, no elevation to build a terrain from");
     return grid;
 }
@@ -311,7 +314,7 @@ void encode_children(std::vector<Cube>& parents, const std::vector<Cube>& childr
     }
 }
 
-HlodHeader terrain_header(const Grid& grid, const build::Frame& f, const std::string& source_name) {
+HlodHeader terrain_header(const Grid& grid, const build::Frame& f, uint32_t cube_cells, const std::string& source_name) {
     const RasterInfo& info = grid.info;
     HlodHeader header;
     header.flags = kErrorsAreBounds;
@@ -329,6 +332,12 @@ HlodHeader terrain_header(const Grid& grid, const build::Frame& f, const std::st
     header.bounds_lo[0] = header.bounds_lo[1] = 0, header.bounds_lo[2] = grid.low;
     header.bounds_hi[0] = grid.x(info.width - 1), header.bounds_hi[1] = double(info.height - 1) * grid.spacing[1];
     header.bounds_hi[2] = grid.high;
+    header.terrain = TerrainGrid{.columns = info.width,
+                                 .rows = info.height,
+                                 .spacing = {grid.spacing[0], grid.spacing[1]},
+                                 .nodata_samples = grid.nodata,
+                                 .cube_cells = cube_cells,
+                                 .rows_run_north = grid.rows_run_north};
     return header;
 }
 
@@ -408,7 +417,7 @@ BuildReport build_terrain(const std::vector<std::filesystem::path>& files, const
         writer.set_error(c, bounds[c]);
         report.error_q = std::max(report.error_q, build::round_up(bounds[c] / f.cube_size(errors[c].level)));
     }
-    HlodHeader header = terrain_header(grid, bounded, source_name);
+    HlodHeader header = terrain_header(grid, bounded, settings.cube_cells, source_name);
     header.sigma0 = bounded.sigma0;
     header.error_q = report.error_q;
     header.input_vertices = report.levels.front().vertices;

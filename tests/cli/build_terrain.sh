@@ -9,12 +9,18 @@ checks=$((checks + 1)); grep -q "terrain, 24200 triangles" "$WORK/out.txt" || fa
 expect_success "verify terrain" "$STRATA" verify "$WORK/olinda.hlod"
 expect_success "info terrain" "$STRATA" info "$WORK/olinda.hlod"
 checks=$((checks + 1)); grep -q "^georef .*UTM Zone 25, Southern Hemisphere" "$WORK/out.txt" || fail "info: no CRS: $(grep georef "$WORK/out.txt")"
+size=$(gdalinfo "$dem" | sed -n 's/^Size is \([0-9]*\), \([0-9]*\)$/\1 × \2/p')
+checks=$((checks + 1)); grep -q "^terrain     $size samples, 89.99.. × 89.99.. m apart, 0 nodata" "$WORK/out.txt" ||
+    fail "info: not the raster's $size samples: $(grep terrain "$WORK/out.txt")"
 
 # No georeference: a raster GDAL reads whose samples lie nowhere.
 gdal_translate -q -of AAIGrid "$dem" "$WORK/grid.asc" && rm -f "$WORK/grid.prj"
 sed -i '/^xllcorner/s/.*/xllcorner 0/' "$WORK/grid.asc"
 expect_failure "no CRS" "grid.asc: no CRS" "$STRATA" build "$WORK/grid.asc" -o "$WORK/grid.hlod"
 expect_success "the CRS given" "$STRATA" build "$WORK/grid.asc" --crs EPSG:31985 -o "$WORK/grid.hlod" -q
+expect_success "info of the CRS given" "$STRATA" info "$WORK/grid.hlod"
+checks=$((checks + 1)); grep -q "^georef      EPSG:31985 SIRGAS 2000 / UTM zone 25S, model origin" "$WORK/out.txt" ||
+    fail "info: the CRS not by code and name: $(grep georef "$WORK/out.txt")"
 expect_failure "a geographic CRS" "geographic CRS" "$STRATA" build "$WORK/grid.asc" --crs EPSG:4326 -o "$WORK/degrees.hlod"
 expect_status "fill not a number" 2 "--fill-nodata takes an elevation" "$STRATA" build "$dem" --fill-nodata low -o "$WORK/x.hlod"
 checks=$((checks + 1)); ls "$WORK" | grep -q -e "degrees.hlod" -e "x.hlod" && fail "a failed build left output: $(ls "$WORK")"

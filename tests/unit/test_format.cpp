@@ -941,6 +941,43 @@ TEST_F(BadFile, TheResealedGoodOneOpens) {
     EXPECT_NO_THROW(HlodFile(dir / "copy.hlod"));
 }
 
+// FORMAT.md §4.7: a terrain's grid, at the offsets the format gives, and refused when it cannot be one.
+TEST_F(BadFile, TerrainGridComesBackFromItsOffsetsAndABadOneIsRefused) {
+    SmallModel model;
+    model.header.terrain = TerrainGrid{.columns = 1201, .rows = 2401, .spacing = {30, 25}, .nodata_samples = 77, .cube_cells = 64, .rows_run_north = true};
+    model.write(dir / "terrain.hlod");
+    const std::vector<uint8_t> bytes = test::file_bytes(dir / "terrain.hlod");
+    const uint64_t at = section_offset(bytes, "TERR");
+    ASSERT_NE(entry_of(bytes, "TERR"), 0u);
+    EXPECT_EQ(section_size(bytes, "TERR"), 48u);
+    EXPECT_EQ(get<uint32_t>(bytes, entry_of(bytes, "TERR") + 4), 0u) << "optional";
+    EXPECT_EQ(get<uint64_t>(bytes, at + 0), 1201u);
+    EXPECT_EQ(get<uint64_t>(bytes, at + 8), 2401u);
+    EXPECT_EQ(get<double>(bytes, at + 16), 30.0);
+    EXPECT_EQ(get<double>(bytes, at + 24), 25.0);
+    EXPECT_EQ(get<uint64_t>(bytes, at + 32), 77u);
+    EXPECT_EQ(get<uint32_t>(bytes, at + 40), 64u);
+    EXPECT_EQ(get<uint32_t>(bytes, at + 44), 1u);
+    const HlodFile file(dir / "terrain.hlod");
+    ASSERT_TRUE(file.header().terrain);
+    EXPECT_EQ(file.header().terrain->rows, 2401u);
+    EXPECT_EQ(file.header().terrain->spacing[1], 25.0);
+    EXPECT_TRUE(file.header().terrain->rows_run_north);
+    EXPECT_FALSE(HlodFile(dir / "good.hlod").header().terrain);
+
+    auto with = [&](size_t offset, auto value) {
+        std::vector<uint8_t> copy = bytes;
+        put(copy, at + offset, value);
+        reseal_section(copy, "TERR");
+        return copy;
+    };
+    expect_rejected(with(16, -30.0), "sample spacing");
+    expect_rejected(with(8, uint64_t(1)), "a grid of 1201 × 1 samples");
+    expect_rejected(with(32, uint64_t(1201) * 2401 + 1), "more nodata samples than samples");
+    expect_rejected(with(40, uint32_t(7)), "cubes of 7 cells");
+    expect_rejected(with(44, uint32_t(2)), "unknown flags");
+}
+
 TEST_F(BadFile, Missing) {
     try {
         HlodFile file(dir / "nothing.hlod");
