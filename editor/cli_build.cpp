@@ -122,6 +122,12 @@ int run_terrain(const BuildOptions& o, const std::vector<std::filesystem::path>&
         }
         settings.fill = value;
     }
+    try {
+        settings.memory = o.memory.empty() ? default_memory_limit() : parse_byte_size(o.memory);
+    } catch (const std::invalid_argument& e) {
+        std::fprintf(stderr, "strata build: --memory: %s\n", e.what());
+        return kUsage;
+    }
     const std::atomic<bool>* cancel = install_interrupt_flag();
     ProgressBar bar(!o.quiet);
     const auto start = std::chrono::steady_clock::now();
@@ -135,7 +141,7 @@ int run_terrain(const BuildOptions& o, const std::vector<std::filesystem::path>&
                         report.output_bytes / 1e6, seconds);
         if (o.verbose) {
             print_levels(report);
-            std::printf("  seconds: read %.2f, levels %.2f, bounds %.2f, cubes and write %.2f\n", report.read_seconds,
+            std::printf("  seconds: read %.2f, tiles %.2f, coarse levels %.2f, write %.2f\n", report.read_seconds,
                         report.partition_seconds, report.simplify_seconds, report.write_seconds);
             std::printf("  memory: %s at most\n", describe_bytes(peak_resident_bytes()).c_str());
         }

@@ -123,8 +123,8 @@ public:
 
 private:
     void cell(size_t c, size_t r) {
-        const size_t c0 = finer_position(c, coarse_.width(), finer_.width()), c1 = finer_position(c + 1, coarse_.width(), finer_.width());
-        const size_t r0 = finer_position(r, coarse_.height(), finer_.height()), r1 = finer_position(r + 1, coarse_.height(), finer_.height());
+        const size_t c0 = finer_.columns.finer(c, coarse_.columns), c1 = finer_.columns.finer(c + 1, coarse_.columns);
+        const size_t r0 = finer_.rows.finer(r, coarse_.rows), r1 = finer_.rows.finer(r + 1, coarse_.rows);
         Triangle fine[8];
         size_t count = 0;
         for (size_t fr = r0; fr < r1; ++fr)
@@ -207,9 +207,10 @@ private:
     }
 
     uint64_t parent_vertex(const Point2& param) const {
-        const size_t fc = size_t(std::lower_bound(finer_.columns.begin(), finer_.columns.end(), uint64_t(param[0])) - finer_.columns.begin());
-        const size_t fr = size_t(std::lower_bound(finer_.rows.begin(), finer_.rows.end(), uint64_t(param[1])) - finer_.rows.begin());
-        return coarse_.vertex(parent_position(fc, finer_.width()), parent_position(fr, finer_.height()));
+        const std::vector<uint64_t> &columns = finer_.columns.index, &rows = finer_.rows.index;
+        const size_t fc = size_t(std::lower_bound(columns.begin(), columns.end(), uint64_t(param[0])) - columns.begin());
+        const size_t fr = size_t(std::lower_bound(rows.begin(), rows.end(), uint64_t(param[1])) - rows.begin());
+        return coarse_.vertex(finer_.columns.parent(fc), finer_.rows.parent(fr));
     }
 
     // Whether the corners (distinct or not) all belong to one coarse triangle.

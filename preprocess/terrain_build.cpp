@@ -3,24 +3,38 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <numeric>
+#include <optional>
 #include <unordered_map>
 
+#include "preprocess/byte_size.h"
 #include "preprocess/elevation_raster.h"
 #include "preprocess/error_bound.h"
 #include "preprocess/hlod_format.h"
 #include "preprocess/mesh.h"
 #include "preprocess/terrain_bounds.h"
+#include "preprocess/terrain_cubes.h"
 #include "preprocess/terrain_pyramid.h"
 
 namespace strata {
 namespace {
 
 using build::CubeKey;
+using terrain::Cube;
 using terrain::kNoTriangle;
 using terrain::TerrainLevel;
 
 constexpr float kLeastSigma0 = 0.1f, kMostSigma0 = 0.45f;
+// What a sample of a tile's window costs while its levels are built: positions, flags, cube keys,
+// normals and numbering over all its levels, and its share of the cubes.
+constexpr double kTileBytesPerSample = 120;
+// What a level-T sample costs for the whole raster: the same, kept until the coarse levels are built.
+constexpr double kCoarseBytesPerSample = 120;
+// Level-T cells a tile reads beyond the cubes it owns on each side: what its levels need to come out as
+// they would from the whole raster (a cell of each finer level, and the bounds' search for a dropped
+// fragment, terrain_bounds.cpp) with room to spare.
+constexpr uint64_t kMarginCells = 5;
 
 // Metres per unit of the band's elevations.
 double vertical_unit(const RasterInfo& info) {
@@ -34,8 +48,10 @@ double vertical_unit(const RasterInfo& info) {
 
 // The raster and where its samples go in the model's frame.
 struct Grid {
+    const ElevationRaster* raster = nullptr;
     RasterInfo info;
-    std::vector<float> heights;  // metres, row-major, NaN for nodata
+    double unit = 1;             // metres per elevation unit
+    std::optional<float> fill;   // the height of nodata samples, if filled
     double spacing[2] = {0, 0};  // metres between columns, between rows
     bool rows_run_north = false;
     float low = 0, high = 0;     // valid heights' range
@@ -43,10 +59,18 @@ struct Grid {
 
     double x(uint64_t column) const { return double(column) * spacing[0]; }
     double y(uint64_t row) const { return double(rows_run_north ? row : info.height - 1 - row) * spacing[1]; }
+
+    // A window's heights in metres, NaN where nodata stays a hole.
+    void read(uint64_t column, uint64_t row, uint64_t columns, uint64_t rows, std::vector<float>& out) const {
+        raster->read(column, row, columns, rows, out);
+        for (float& h : out) h = std::isnan(h) ? (fill ? *fill : h) : float(h * unit);
+    }
 };
 
-Grid read_grid(const ElevationRaster& raster, const TerrainSettings& settings, const Progress& progress) {
+// Checks the raster can be a terrain and reads it once through: its height range and nodata.
+Grid scan_grid(const ElevationRaster& raster, const TerrainSettings& settings, const Progress& progress) {
     Grid grid;
+    grid.raster = &raster;
     grid.info = raster.info();
     const RasterInfo& info = grid.info;
     if (info.geographic)
@@ -56,23 +80,21 @@ Grid read_grid(const ElevationRaster& raster, const TerrainSettings& settings, c
     if (std::abs(info.linear_unit - 1) > 1e-12)
         throw InputError(info.name + ": a projected CRS in units of " + std::to_string(info.linear_unit) +
                          " m; Strata builds terrains in metre-based CRSs (reproject it with gdalwarp)");
-    const double unit = vertical_unit(info);
+    grid.unit = vertical_unit(info);
+    grid.fill = settings.fill;
     grid.spacing[0] = info.geotransform[1], grid.spacing[1] = std::abs(info.geotransform[5]);
     grid.rows_run_north = info.geotransform[5] > 0;
-    grid.heights.reserve(info.width * info.height);
-    std::vector<float> band;
-    constexpr uint64_t kBandRows = 256;
-    for (uint64_t row = 0; row < info.height; row += kBandRows) {
-        progress.check();
-        raster.read(0, row, info.width, std::min(kBandRows, info.height - row), band);
-        for (float& h : band) h = std::isnan(h) ? (settings.fill ? *settings.fill : h) : float(h * unit);
-        grid.heights.insert(grid.heights.end(), band.begin(), band.end());
-        progress("read", double(std::min(row + kBandRows, info.height)), double(info.height), "rows");
-    }
     grid.low = INFINITY, grid.high = -INFINITY;
-    for (float h : grid.heights) {
-        if (std::isnan(h)) ++grid.nodata;
-        else grid.low = std::min(grid.low, h), grid.high = std::max(grid.high, h);
+    std::vector<float> band;
+    const uint64_t band_rows = std::max<uint64_t>(1, (uint64_t(1) << 22) / info.width);
+    for (uint64_t row = 0; row < info.height; row += band_rows) {
+        progress.check();
+        grid.read(0, row, info.width, std::min(band_rows, info.height - row), band);
+        for (float h : band) {
+            if (std::isnan(h)) ++grid.nodata;
+            else grid.low = std::min(grid.low, h), grid.high = std::max(grid.high, h);
+        }
+        progress("read", double(std::min(row + band_rows, info.height)), double(info.height), "rows");
     }
     if (!(grid.low <= grid.high)) throw InputError(info.name + ": nodata everywhere, no elevation to build a terrain from");
     return grid;
@@ -94,28 +116,83 @@ build::Frame octree_frame(const Grid& grid, uint32_t cube_cells) {
     return f;
 }
 
-TerrainLevel finest_level(const Grid& grid, const build::Frame& f) {
+// How the raster is cut (issue 17: out of core): tiles of tile_cubes × tile_cubes level-T cube columns,
+// each read with a margin and built from level L to level T alone; then levels T … 0 from level T's
+// grid, which every tile contributes its part of. One tile of the whole raster when it fits.
+struct TilePlan {
+    uint32_t level = 0;       // T
+    uint32_t tile_cubes = 1;  // level-T cubes per tile side
+    uint64_t margin = 0;      // level-L samples read beyond a tile's own on each side
+};
+
+TilePlan plan_tiles(const Grid& grid, const build::Frame& f, uint32_t cube_cells, uint64_t memory) {
+    const double samples = double(grid.info.width) * double(grid.info.height);
+    const double tile_budget = double(memory) / 2 / kTileBytesPerSample;
+    if (samples <= tile_budget) return {0, 1, 0};
+    for (uint32_t depth = 1; depth <= f.max_level; ++depth) {
+        const double scale = double(uint64_t(1) << depth);
+        if (samples / (scale * scale) * kCoarseBytesPerSample > double(memory) / 4) continue;
+        const double side = std::sqrt(tile_budget) / scale;  // level-T samples along a tile's side
+        const double cubes = std::floor((side - 2.0 * kMarginCells) / cube_cells);
+        if (cubes < 1) break;
+        const uint32_t level = f.max_level - depth;
+        return {level, uint32_t(std::min(cubes, double(uint64_t(1) << level))), kMarginCells << depth};
+    }
+    throw InputError(grid.info.name + ": " + describe_bytes(memory) + " of memory cannot hold a tile of this raster's terrain; give more (--memory)");
+}
+
+// Along one axis: which tile owns each sample (by the level-T cube its position falls in), and the
+// range of samples each tile owns.
+struct AxisTiles {
+    std::vector<uint64_t> first, end;  // per tile: its samples [first, end)
+
+    AxisTiles(uint64_t samples, const std::function<double(uint64_t)>& coordinate, double tile_size, uint64_t tiles) {
+        first.assign(tiles, samples), end.assign(tiles, 0);
+        for (uint64_t s = 0; s < samples; ++s) {
+            const uint64_t t = std::min(tiles - 1, uint64_t(std::max(0.0, std::floor(coordinate(s) / tile_size))));
+            first[t] = std::min(first[t], s), end[t] = std::max(end[t], s + 1);
+        }
+    }
+};
+
+// A window of the raster's samples (what a tile reads), on samples that level T keeps.
+struct Window {
+    uint64_t column, row, columns, rows;
+};
+
+Window tile_window(uint64_t c0, uint64_t c1, uint64_t r0, uint64_t r1, const TilePlan& plan, const Grid& grid, uint32_t max_level) {
+    const uint64_t step = uint64_t(1) << (max_level - plan.level);
+    auto low = [&](uint64_t first) { return (first > plan.margin ? first - plan.margin : 0) / step * step; };
+    const uint64_t column = low(c0), row = low(r0);
+    const uint64_t column_end = std::min(grid.info.width, c1 + plan.margin), row_end = std::min(grid.info.height, r1 + plan.margin);
+    return {column, row, column_end - column, row_end - row};
+}
+
+TerrainLevel finest_level(const Grid& grid, const Window& w, const build::Frame& f) {
     TerrainLevel level;
     level.level = f.max_level;
     level.rows_run_north = grid.rows_run_north;
-    level.columns.resize(grid.info.width), level.rows.resize(grid.info.height);
-    std::iota(level.columns.begin(), level.columns.end(), 0);
-    std::iota(level.rows.begin(), level.rows.end(), 0);
-    const size_t w = level.width(), h = level.height();
-    level.position.resize(3 * w * h);
-    level.flags.assign(w * h, 0);
-    for (size_t r = 0; r < h; ++r)
-        for (size_t c = 0; c < w; ++c) {
+    level.columns.index.resize(w.columns), level.rows.index.resize(w.rows);
+    std::iota(level.columns.index.begin(), level.columns.index.end(), w.column);
+    std::iota(level.rows.index.begin(), level.rows.index.end(), w.row);
+    level.columns.ends_raster = w.column + w.columns == grid.info.width;
+    level.rows.ends_raster = w.row + w.rows == grid.info.height;
+    std::vector<float> heights;
+    grid.read(w.column, w.row, w.columns, w.rows, heights);
+    const size_t width = level.width(), height = level.height();
+    level.position.resize(3 * width * height);
+    level.flags.assign(width * height, 0);
+    for (size_t r = 0; r < height; ++r)
+        for (size_t c = 0; c < width; ++c) {
             const uint64_t v = level.vertex(c, r);
-            const float z = grid.heights[v];
-            if (std::isnan(z)) continue;
+            if (std::isnan(heights[v])) continue;
             level.flags[v] = terrain::kSampleValid;
             double* p = &level.position[3 * v];
-            p[0] = grid.x(c), p[1] = grid.y(r), p[2] = z;
+            p[0] = grid.x(level.columns[c]), p[1] = grid.y(level.rows[r]), p[2] = heights[v];
         }
-    level.cube.assign(2 * (w - 1) * (h - 1), kNoTriangle);
-    for (size_t r = 0; r + 1 < h; ++r)
-        for (size_t c = 0; c + 1 < w; ++c)
+    level.cube.assign(2 * (width - 1) * (height - 1), kNoTriangle);
+    for (size_t r = 0; r + 1 < height; ++r)
+        for (size_t c = 0; c + 1 < width; ++c)
             for (int t = 0; t < 2; ++t) {
                 const std::array<uint64_t, 3> v = level.corners(c, r, t);
                 if (!(level.flags[v[0]] & level.flags[v[1]] & level.flags[v[2]] & terrain::kSampleValid)) continue;
@@ -128,190 +205,126 @@ TerrainLevel finest_level(const Grid& grid, const build::Frame& f) {
     return level;
 }
 
-// One cube of one level while the model is assembled: its vertices (the level's ids) in payload
-// order, the parents its children need last.
-struct Cube {
-    CubeKey key = 0;
-    std::vector<uint64_t> vertices;
-    std::vector<uint32_t> triangles;
-    std::array<uint32_t, 8> child_counts{};
+// Level T over the whole raster, with nothing in it yet: the tiles fill it in.
+TerrainLevel empty_level(const Grid& grid, uint32_t max_level, uint32_t level) {
+    TerrainLevel out;
+    out.level = level;
+    out.rows_run_north = grid.rows_run_north;
+    out.columns.index.resize(grid.info.width), out.rows.index.resize(grid.info.height);
+    std::iota(out.columns.index.begin(), out.columns.index.end(), 0);
+    std::iota(out.rows.index.begin(), out.rows.index.end(), 0);
+    for (uint32_t l = max_level; l > level; --l) out.columns = out.columns.coarser(), out.rows = out.rows.coarser();
+    out.position.assign(3 * out.width() * out.height(), 0.0);
+    out.flags.assign(out.width() * out.height(), 0);
+    out.cube.assign(2 * (out.width() - 1) * (out.height() - 1), kNoTriangle);
+    return out;
+}
+
+// Where a level's axis keeps raster sample `index` (it must keep it).
+size_t position_of(const terrain::Axis& axis, uint64_t index) {
+    return size_t(std::lower_bound(axis.index.begin(), axis.index.end(), index) - axis.index.begin());
+}
+
+// The statistics and error terms every tile and the coarse levels add to.
+struct Assembly {
+    const build::Frame& f;
+    HlodWriter writer;
+    std::vector<build::CubeErrors> errors;
+    std::vector<LevelStats> levels;  // by level
+    terrain::CubeEncoder encoder;
+    TerrainLevel coarse;  // level T over the whole raster
+    std::vector<Cube> coarse_cubes;  // level T's cubes, vertices by level-T ids
+    terrain::CubeDistances coarse_forward;  // F of level T's cubes
+    uint64_t input_triangles = 0;
+
+    Assembly(const build::Frame& frame, const std::filesystem::path& output, const std::string& name)
+        : f(frame), writer(output), levels(frame.max_level + 1), encoder(frame, name, writer, errors, levels) {}
 };
 
-constexpr uint32_t kUnnumbered = ~0u;
-
-uint64_t parent_vertex(const TerrainLevel& finer, const TerrainLevel& coarse, uint64_t v) {
-    return coarse.vertex(terrain::parent_position(v % finer.width(), finer.width()),
-                         terrain::parent_position(v / finer.width(), finer.height()));
-}
-
-// The level's triangles by cube, each cube's in row order (consecutive cells nearly always share a cube).
-std::unordered_map<CubeKey, std::vector<uint64_t>> triangles_by_cube(const TerrainLevel& level) {
-    std::unordered_map<CubeKey, std::vector<uint64_t>> by_cube;
-    CubeKey last_key = kNoTriangle;
-    std::vector<uint64_t>* last = nullptr;
-    for (uint64_t triangle = 0; triangle < level.cube.size(); ++triangle) {
-        const CubeKey key = level.cube[triangle];
-        if (key == kNoTriangle) continue;
-        if (key != last_key) last = &by_cube[key], last_key = key;  // elements keep their place when the map grows
-        last->push_back(triangle);
+// One tile: levels L … T of its window, its own cubes of levels L … T + 1 encoded, its level-T cubes
+// and its part of level T's grid handed to the coarse levels.
+void build_tile(const Grid& grid, const Window& window, const std::array<uint32_t, 4>& owned_cubes, const TilePlan& plan,
+                const std::array<uint64_t, 4>& owned_samples, Assembly& out) {
+    const build::Frame& f = out.f;
+    const uint32_t L = f.max_level, T = plan.level;
+    // A cube of level l is the tile's when its level-T ancestor is one of the tile's cubes.
+    auto owned_at = [&](uint32_t l) {
+        return [&, l](CubeKey key) {
+            const uint32_t i = build::key_i(key) >> (l - T), j = build::key_j(key) >> (l - T);
+            return i >= owned_cubes[0] && i < owned_cubes[1] && j >= owned_cubes[2] && j < owned_cubes[3];
+        };
+    };
+    std::vector<TerrainLevel> levels;  // L … T
+    levels.push_back(finest_level(grid, window, f));
+    while (levels.back().level > T) levels.push_back(terrain::coarser_level(levels.back()));
+    std::vector<terrain::StepBound> steps(L - T);  // steps[l − T]: level l + 1 to level l
+    for (uint32_t l = L; l-- > T;) {
+        const terrain::CubeDistances none;
+        steps[l - T] = terrain::bound_step(levels[L - l - 1], levels[L - l], l + 1 < L ? steps[l + 1 - T].forward : none,
+                                           std::sqrt(3.0) * f.root_size);
     }
-    return by_cube;
-}
 
-// One cube from its triangles (2·cell + t, row order): grouped by the child they came from, in
-// vertex-cache order, the vertices in first-use order. `number`: kUnnumbered per level vertex, and
-// left so.
-Cube make_cube(CubeKey key, const std::vector<uint64_t>& triangles, const TerrainLevel& level, const TerrainLevel* finer,
-               std::vector<uint32_t>& number) {
-    Cube cube;
-    cube.key = key;
-    const size_t cells_per_row = level.width() - 1;
-    std::vector<uint8_t> octant(triangles.size(), 0);
-    if (finer)
-        for (size_t t = 0; t < triangles.size(); ++t) {
-            const uint64_t cell = triangles[t] / 2;
-            const size_t fc = terrain::finer_position(cell % cells_per_row + 1, level.width(), finer->width()) - 1;
-            const size_t fr = terrain::finer_position(cell / cells_per_row + 1, level.height(), finer->height()) - 1;
-            octant[t] = uint8_t(build::octant(finer->cube[2 * finer->cell(fc, fr) + triangles[t] % 2]));
+    std::vector<uint32_t> number(levels[0].flags.size(), terrain::kUnnumbered);
+    std::vector<Cube> cubes = terrain::level_cubes(levels[0], nullptr, {}, number, owned_at(L));
+    for (const Cube& cube : cubes) out.input_triangles += cube.triangles.size() / 3;
+    for (uint32_t l = L; l > T; --l) {
+        const TerrainLevel &level = levels[L - l], &coarse = levels[L - l + 1];
+        std::vector<Cube> parents = terrain::level_cubes(coarse, &level, cubes, number, owned_at(l - 1));
+        out.encoder.start_level(level, l < L ? &steps[l - T].forward : nullptr, &steps[l - 1 - T].finer_coverage);
+        terrain::encode_children(parents, cubes, level, coarse, number, out.encoder);
+        cubes.swap(parents);
+    }
+
+    // Level T: the tile's cubes (their F), and its samples and cells of the level's grid.
+    const TerrainLevel& mine = levels.back();
+    TerrainLevel& whole = out.coarse;
+    auto global_vertex = [&](uint64_t v) {
+        return whole.vertex(position_of(whole.columns, mine.columns[v % mine.width()]), position_of(whole.rows, mine.rows[v / mine.width()]));
+    };
+    for (Cube& cube : cubes) {
+        if (T < L)
+            if (auto it = steps[0].forward.find(cube.key); it != steps[0].forward.end()) out.coarse_forward[cube.key] = it->second;
+        for (uint64_t& v : cube.vertices) v = global_vertex(v);
+        out.coarse_cubes.push_back(std::move(cube));
+    }
+    auto owns = [&](uint64_t column, uint64_t row) {
+        return column >= owned_samples[0] && column < owned_samples[1] && row >= owned_samples[2] && row < owned_samples[3];
+    };
+    for (size_t r = 0; r < mine.height(); ++r)
+        for (size_t c = 0; c < mine.width(); ++c) {
+            if (!owns(mine.columns[c], mine.rows[r])) continue;
+            const uint64_t from = mine.vertex(c, r), to = global_vertex(from);
+            whole.flags[to] = mine.flags[from];
+            for (int a = 0; a < 3; ++a) whole.position[3 * to + a] = mine.position[3 * from + a];
+            if (c + 1 == mine.width() || r + 1 == mine.height()) continue;
+            const uint64_t cell = whole.cell(position_of(whole.columns, mine.columns[c]), position_of(whole.rows, mine.rows[r]));
+            for (int t = 0; t < 2; ++t) whole.cube[2 * cell + t] = mine.cube[2 * mine.cell(c, r) + t];
         }
-    for (uint8_t o : octant) cube.child_counts[o]++;
-    std::array<uint32_t, 8> next{};
-    for (uint32_t o = 1; o < 8; ++o) next[o] = next[o - 1] + cube.child_counts[o - 1];
-    cube.triangles.resize(3 * triangles.size());
-    for (size_t t = 0; t < triangles.size(); ++t) {
-        const uint64_t cell = triangles[t] / 2;
-        const uint32_t place = next[octant[t]]++;
-        const std::array<uint64_t, 3> corners = level.corners(size_t(cell % cells_per_row), size_t(cell / cells_per_row), int(triangles[t] % 2));
-        for (int c = 0; c < 3; ++c) {
-            uint32_t& n = number[corners[size_t(c)]];
-            if (n == kUnnumbered) n = uint32_t(cube.vertices.size()), cube.vertices.push_back(corners[size_t(c)]);
-            cube.triangles[3 * size_t(place) + size_t(c)] = n;
-        }
-    }
-    for (uint64_t v : cube.vertices) number[v] = kUnnumbered;
-    std::vector<uint32_t> order(cube.vertices.size());
-    std::iota(order.begin(), order.end(), 0u);
-    build::order_for_payload(cube.triangles, cube.child_counts, order);
-    std::vector<uint64_t> ordered(order.size());
-    for (size_t v = 0; v < order.size(); ++v) ordered[v] = cube.vertices[order[v]];
-    cube.vertices.swap(ordered);
-    return cube;
 }
 
-// The level's cubes in key order, with a cube (empty) for every parent of `children` that has no
-// triangle of its own.
-std::vector<Cube> level_cubes(const TerrainLevel& level, const TerrainLevel* finer, const std::vector<Cube>& children,
-                              std::vector<uint32_t>& number) {
-    std::unordered_map<CubeKey, std::vector<uint64_t>> by_cube = triangles_by_cube(level);
-    for (const Cube& child : children) by_cube[build::parent_key(child.key)];
-    std::vector<CubeKey> keys;
-    for (const auto& entry : by_cube) keys.push_back(entry.first);
-    std::sort(keys.begin(), keys.end());
-    std::vector<Cube> cubes;
-    for (CubeKey key : keys) cubes.push_back(make_cube(key, by_cube[key], level, finer, number));
-    return cubes;
-}
-
-// Encodes cubes, each vertex naming its parent in the parent cube (itself at level 0).
-class CubeEncoder {
-public:
-    CubeEncoder(const build::Frame& f, std::string name, HlodWriter& writer, std::vector<build::CubeErrors>& errors, BuildReport& report)
-        : f_(f), name_(std::move(name)), writer_(writer), errors_(errors), report_(report) {}
-
-    // Sets the level whose cubes come next: its normals, and its cubes' F and D.
-    void start_level(const TerrainLevel& level, const terrain::CubeDistances* forward, const terrain::CubeDistances* coverage) {
-        normals_ = terrain::vertex_normals(level);
-        forward_ = forward, coverage_ = coverage;
-        report_.levels.push_back(LevelStats{level.level});
+// Levels T … 0 from level T's grid and cubes; encodes level T's cubes and every coarser one.
+void build_coarse_levels(const build::Frame& f, uint32_t T, Assembly& out, const Progress& progress) {
+    std::vector<TerrainLevel> levels;  // T … 0
+    levels.push_back(std::move(out.coarse));
+    while (levels.back().level > 0) levels.push_back(terrain::coarser_level(levels.back()));
+    std::vector<terrain::StepBound> steps(T);  // steps[l]: level l + 1 to level l
+    for (uint32_t l = T; l-- > 0;)
+        steps[l] = terrain::bound_step(levels[T - l - 1], levels[T - l], l + 1 < T ? steps[l + 1].forward : out.coarse_forward,
+                                       std::sqrt(3.0) * f.root_size);
+    auto everything = [](CubeKey) { return true; };
+    std::vector<uint32_t> number(levels[0].flags.size(), terrain::kUnnumbered);
+    std::vector<Cube> cubes = std::move(out.coarse_cubes);
+    std::sort(cubes.begin(), cubes.end(), [](const Cube& a, const Cube& b) { return a.key < b.key; });
+    for (uint32_t l = T; l > 0; --l) {
+        progress.check();
+        const TerrainLevel &level = levels[T - l], &coarse = levels[T - l + 1];
+        std::vector<Cube> parents = terrain::level_cubes(coarse, &level, cubes, number, everything);
+        out.encoder.start_level(level, l < T ? &steps[l].forward : &out.coarse_forward, &steps[l - 1].finer_coverage);
+        terrain::encode_children(parents, cubes, level, coarse, number, out.encoder);
+        cubes.swap(parents);
     }
-
-    // `parent_number`: each vertex of the parent cube's its place there (null at level 0).
-    void encode(const Cube& cube, const TerrainLevel& level, const TerrainLevel* coarse, const std::vector<uint32_t>* parent_number) {
-        const CubeData data = cube_data(cube, level, coarse, parent_number);
-        HlodNode node;
-        node.level = level.level;
-        node.i = build::key_i(cube.key), node.j = build::key_j(cube.key), node.k = build::key_k(cube.key);
-        node.vertex_count = data.vertex_count(), node.triangle_count = data.triangle_count();
-        const std::vector<uint8_t> payload = encode_cube(data, kErrorsAreBounds);
-        writer_.add_cube(node, payload);
-        errors_.push_back({node.level, node.i, node.j, node.k, float(lookup(forward_, cube.key)), float(lookup(coverage_, cube.key))});
-        LevelStats& stats = report_.levels.back();
-        stats.cubes++, stats.vertices += node.vertex_count, stats.triangles += node.triangle_count, stats.bytes += payload.size();
-    }
-
-    // The σ0 the vertices need: their distance to their cube's cell (÷ s_l) and to their parent (÷ s_{l+1}).
-    double sigma0_needed() const { return needed_; }
-
-private:
-    static double lookup(const terrain::CubeDistances* distances, CubeKey key) {
-        if (!distances) return 0;
-        auto it = distances->find(key);
-        return it == distances->end() ? 0.0 : it->second;
-    }
-
-    CubeData cube_data(const Cube& cube, const TerrainLevel& level, const TerrainLevel* coarse, const std::vector<uint32_t>* parent_number) {
-        const uint32_t l = level.level, cell[3] = {build::key_i(cube.key), build::key_j(cube.key), build::key_k(cube.key)};
-        const double size = f_.cube_size(l), inverse_step = double(uint64_t(1) << (l + kLatticeBits)) / f_.root_size;
-        CubeData data;
-        const size_t n = cube.vertices.size();
-        data.vertices.positions.resize(3 * n);
-        data.vertices.normals.resize(2 * n);
-        data.parent_vertex.resize(n);
-        for (size_t v = 0; v < n; ++v) {
-            const uint64_t id = cube.vertices[v];
-            const double* p = level.at(id);
-            for (int a = 0; a < 3; ++a) {
-                const double low = f_.origin[a] + cell[a] * size;
-                needed_ = std::max(needed_, std::max({0.0, low - p[a], p[a] - low - size}) / size);
-                const int64_t stored = std::llround((p[a] - f_.origin[a]) * inverse_step) - (int64_t(cell[a]) << kLatticeBits) + kLatticeBias;
-                if (stored < 0 || stored > 0xFFFF)
-                    throw InputError(name_ + ": ground too steep for its cubes (a vertex of level " + std::to_string(l) +
-                                     " lies half a cube outside its cell); build with larger cubes");
-                data.vertices.positions[3 * v + size_t(a)] = uint16_t(stored);
-            }
-            const std::array<int16_t, 2> normal = encode_normal(normals_[3 * id], normals_[3 * id + 1], normals_[3 * id + 2]);
-            data.vertices.normals[2 * v] = normal[0], data.vertices.normals[2 * v + 1] = normal[1];
-            if (!coarse) {
-                data.parent_vertex[v] = uint32_t(v);
-                continue;
-            }
-            const uint64_t parent = parent_vertex(level, *coarse, id);
-            data.parent_vertex[v] = (*parent_number)[parent];
-            const double* q = coarse->at(parent);
-            for (int a = 0; a < 3; ++a) needed_ = std::max(needed_, std::abs(p[a] - q[a]) / f_.cube_size(l + 1));
-        }
-        data.indices = cube.triangles;
-        data.child_triangle_counts = cube.child_counts;
-        return data;
-    }
-
-    const build::Frame& f_;
-    const std::string name_;
-    HlodWriter& writer_;
-    std::vector<build::CubeErrors>& errors_;
-    BuildReport& report_;
-    std::vector<float> normals_;
-    const terrain::CubeDistances *forward_ = nullptr, *coverage_ = nullptr;
-    double needed_ = 0;
-};
-
-// Gives each parent the vertices its children need and it lacks, then encodes the children, parent by
-// parent: a parent's vertex order is final once its children's are. `number`: as for make_cube.
-void encode_children(std::vector<Cube>& parents, const std::vector<Cube>& children, const TerrainLevel& finer,
-                     const TerrainLevel& coarse, std::vector<uint32_t>& number, CubeEncoder& encoder) {
-    std::unordered_map<CubeKey, std::vector<uint32_t>> children_of;
-    for (uint32_t c = 0; c < children.size(); ++c) children_of[build::parent_key(children[c].key)].push_back(c);
-    for (Cube& parent : parents) {
-        for (uint32_t v = 0; v < parent.vertices.size(); ++v) number[parent.vertices[v]] = v;
-        const std::vector<uint32_t>& mine = children_of[parent.key];
-        for (uint32_t c : mine)
-            for (uint64_t v : children[c].vertices) {
-                const uint64_t p = parent_vertex(finer, coarse, v);
-                if (number[p] == kUnnumbered) number[p] = uint32_t(parent.vertices.size()), parent.vertices.push_back(p);
-            }
-        for (uint32_t c : mine) encoder.encode(children[c], finer, &coarse, &number);
-        for (uint64_t v : parent.vertices) number[v] = kUnnumbered;
-    }
+    out.encoder.start_level(levels.back(), T > 0 ? &steps[0].forward : &out.coarse_forward, nullptr);
+    out.encoder.encode(cubes.front(), levels.back(), nullptr, nullptr);
 }
 
 HlodHeader terrain_header(const Grid& grid, const build::Frame& f, uint32_t cube_cells, const std::string& source_name) {
@@ -322,6 +335,7 @@ HlodHeader terrain_header(const Grid& grid, const build::Frame& f, uint32_t cube
     header.root_size = f.root_size;
     header.max_level = f.max_level;
     header.block_size = f.block;
+    header.sigma0 = f.sigma0;
     header.ratio = 0.25f;
     header.source = source_name;
     const double south_row = grid.rows_run_north ? 0.5 : double(info.height) - 0.5;
@@ -357,72 +371,60 @@ BuildReport build_terrain(const std::vector<std::filesystem::path>& files, const
     auto since = [](Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); };
     auto start = Clock::now();
     const ElevationRaster raster = ElevationRaster::open(files, settings.crs);
-    const Grid grid = read_grid(raster, settings, progress);
+    const Grid grid = scan_grid(raster, settings, progress);
     const build::Frame f = octree_frame(grid, settings.cube_cells);
+    const TilePlan plan = settings.tiles ? TilePlan{(*settings.tiles)[0], (*settings.tiles)[1], kMarginCells << (f.max_level - (*settings.tiles)[0])}
+                                         : plan_tiles(grid, f, settings.cube_cells, settings.memory ? settings.memory : default_memory_limit());
+    if (plan.level > f.max_level || plan.tile_cubes == 0) throw std::invalid_argument("build_terrain: tiles outside the model's levels");
     BuildReport report;
+    report.max_level = f.max_level;
     report.read_seconds = since(start);
     start = Clock::now();
-    report.max_level = f.max_level;
 
-    // The pyramid, finest first, and the bounds between consecutive levels.
-    std::vector<TerrainLevel> levels;
-    levels.push_back(finest_level(grid, f));
-    report.input_triangles = levels.back().triangle_count();
+    Assembly out(f, output, grid.info.name);
+    out.coarse = empty_level(grid, f.max_level, plan.level);
+    const double tile_size = f.cube_size(plan.level) * plan.tile_cubes;
+    const uint64_t tiles = (uint64_t(1) << plan.level) / plan.tile_cubes + ((uint64_t(1) << plan.level) % plan.tile_cubes != 0);
+    const AxisTiles columns(grid.info.width, [&](uint64_t c) { return grid.x(c); }, tile_size, tiles);
+    const AxisTiles rows(grid.info.height, [&](uint64_t r) { return grid.y(r); }, tile_size, tiles);
+    uint64_t done = 0;
+    for (uint64_t tj = 0; tj < tiles; ++tj)
+        for (uint64_t ti = 0; ti < tiles; ++ti) {
+            progress.check();
+            if (columns.first[ti] < columns.end[ti] && rows.first[tj] < rows.end[tj]) {
+                const std::array<uint64_t, 4> samples{columns.first[ti], columns.end[ti], rows.first[tj], rows.end[tj]};
+                const std::array<uint32_t, 4> cubes{uint32_t(ti * plan.tile_cubes), uint32_t((ti + 1) * plan.tile_cubes),
+                                                    uint32_t(tj * plan.tile_cubes), uint32_t((tj + 1) * plan.tile_cubes)};
+                build_tile(grid, tile_window(samples[0], samples[1], samples[2], samples[3], plan, grid, f.max_level), cubes, plan,
+                           samples, out);
+            }
+            progress("tiles", double(++done), double(tiles * tiles), "tiles");
+        }
+    report.input_triangles = out.input_triangles;
     if (report.input_triangles == 0) throw InputError(grid.info.name + ": no cell has three valid corners: no ground to build");
-    while (levels.back().level > 0) {
-        progress.check();
-        levels.push_back(terrain::coarser_level(levels.back()));
-        progress("levels", double(levels.size()), double(f.max_level + 1), "levels");
-    }
     report.partition_seconds = since(start);
     start = Clock::now();
-    const double far = std::sqrt(3.0) * f.root_size;
-    std::vector<terrain::StepBound> steps(f.max_level);  // steps[l]: level l+1 to level l
-    for (uint32_t l = f.max_level; l-- > 0;) {
-        progress.check();
-        const terrain::CubeDistances none;
-        steps[l] = terrain::bound_step(levels[f.max_level - l - 1], levels[f.max_level - l], l + 1 < f.max_level ? steps[l + 1].forward : none, far);
-        progress("bounds", double(f.max_level - l), double(f.max_level), "levels");
-    }
-
+    build_coarse_levels(f, plan.level, out, progress);
     report.simplify_seconds = since(start);
     start = Clock::now();
 
-    // Cubes, finest first: a level's cubes are encoded once their parents' vertex order is fixed.
-    HlodWriter writer(output);
-    std::vector<build::CubeErrors> errors;
-    CubeEncoder encoder(f, grid.info.name, writer, errors, report);
-    std::vector<uint32_t> number(levels[0].flags.size(), kUnnumbered);
-    std::vector<Cube> cubes = level_cubes(levels[0], nullptr, {}, number);
-    for (uint32_t l = f.max_level; l > 0; --l) {
-        progress.check();
-        const TerrainLevel &level = levels[f.max_level - l], &coarse = levels[f.max_level - l + 1];
-        std::vector<Cube> parents = level_cubes(coarse, &level, cubes, number);
-        encoder.start_level(level, l < f.max_level ? &steps[l].forward : nullptr, &steps[l - 1].finer_coverage);
-        encode_children(parents, cubes, level, coarse, number, encoder);
-        cubes.swap(parents);
-        progress("encode", double(f.max_level - l + 1), double(f.max_level + 1), "levels");
-    }
-    encoder.start_level(levels.back(), f.max_level > 0 ? &steps[0].forward : nullptr, nullptr);
-    encoder.encode(cubes.front(), levels.back(), nullptr, nullptr);
-
-    const double sigma0 = std::max(double(kLeastSigma0), encoder.sigma0_needed() * 1.001);
+    const double sigma0 = std::max(double(kLeastSigma0), out.encoder.sigma0_needed() * 1.001);
     if (sigma0 > kMostSigma0)
         throw InputError(grid.info.name + ": ground too steep for cubes of " + std::to_string(settings.cube_cells) +
                          " cells (σ0 would be " + std::to_string(sigma0) + "); build with larger cubes");
     build::Frame bounded = f;
     bounded.sigma0 = float(sigma0);
-    const std::vector<float> bounds = build::final_bounds(errors, bounded);
+    const std::vector<float> bounds = build::final_bounds(out.errors, bounded);
     for (size_t c = 0; c < bounds.size(); ++c) {
-        writer.set_error(c, bounds[c]);
-        report.error_q = std::max(report.error_q, build::round_up(bounds[c] / f.cube_size(errors[c].level)));
+        out.writer.set_error(c, bounds[c]);
+        report.error_q = std::max(report.error_q, build::round_up(bounds[c] / f.cube_size(out.errors[c].level)));
     }
     HlodHeader header = terrain_header(grid, bounded, settings.cube_cells, source_name);
-    header.sigma0 = bounded.sigma0;
     header.error_q = report.error_q;
-    header.input_vertices = report.levels.front().vertices;
+    header.input_vertices = out.levels[f.max_level].vertices;
     header.input_triangles = report.input_triangles;
-    writer.finish(header);
+    out.writer.finish(header);
+    for (uint32_t l = f.max_level + 1; l-- > 0;) report.levels.push_back(out.levels[l]);
     report.sigma0 = bounded.sigma0;
     report.write_seconds = since(start);
     std::error_code ec;

@@ -9,6 +9,7 @@
 // coarser level, whose samples are twice as far apart.
 #pragma once
 
+#include <array>
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -23,11 +24,18 @@ struct TerrainSettings {
     uint32_t cube_cells = 64;     // cells per cube side (even, 8‥256)
     std::optional<float> fill;    // nodata becomes this elevation (metres) instead of a hole
     std::string crs;              // the CRS of rasters that declare none (EPSG:N, WKT, PROJ string)
+    // Bytes the build may hold; 0: a quarter of physical memory. A raster larger than half of it is
+    // built in tiles (each read with a margin), then the coarse levels from one of its levels; never
+    // changes a byte of the output.
+    uint64_t memory = 0;
+    // The tiles instead of what `memory` allows: level T and level-T cubes per tile side (tests and
+    // benchmarks show the output does not depend on them).
+    std::optional<std::array<uint32_t, 2>> tiles;
 };
 
 // Builds `output` from the DEM `files` (one raster, or the tiles of one grid). The report's stage
-// seconds: read_seconds the raster, partition_seconds the pyramid's levels, simplify_seconds their
-// error bounds, write_seconds the cubes and the file. Throws InputError naming the raster and the problem (not a DEM, no CRS, a geographic CRS, a unit it cannot convert, nodata
+// seconds: read_seconds the first pass over the raster, partition_seconds the tiles (levels L … T),
+// simplify_seconds the coarse levels (T … 0), write_seconds the bounds and the file. Throws InputError naming the raster and the problem (not a DEM, no CRS, a geographic CRS, a unit it cannot convert, nodata
 // everywhere, ground too steep for its cubes), Cancelled when progress.cancel is raised,
 // std::runtime_error when the output cannot be written; in every case no output file is left behind.
 BuildReport build_terrain(const std::vector<std::filesystem::path>& files, const std::filesystem::path& output,

@@ -5,12 +5,13 @@
 
 namespace strata::terrain {
 
-std::vector<uint64_t> coarser_axis(const std::vector<uint64_t>& finer) {
-    if (finer.empty()) throw std::logic_error("coarser_axis: an empty axis");
-    const size_t count = parent_position(finer.size() - 1, finer.size()) + 1;
-    std::vector<uint64_t> coarser(count);
-    for (size_t p = 0; p < count; ++p) coarser[p] = finer[finer_position(p, count, finer.size())];
-    return coarser;
+Axis Axis::coarser() const {
+    if (index.empty()) throw std::logic_error("Axis::coarser: an empty axis");
+    Axis coarse;
+    coarse.ends_raster = ends_raster;
+    coarse.index.resize(parent(size() - 1) + 1);
+    for (size_t p = 0; p < coarse.size(); ++p) coarse.index[p] = index[finer(p, coarse)];
+    return coarse;
 }
 
 std::array<uint64_t, 3> TerrainLevel::corners(size_t column, size_t row, int t) const {
@@ -37,7 +38,7 @@ void coarse_vertices(const TerrainLevel& finer, TerrainLevel& coarse) {
     coarse.flags.assign(w * h, 0);
     for (size_t r = 0; r < h; ++r)
         for (size_t c = 0; c < w; ++c) {
-            const uint64_t f = finer.vertex(finer_position(c, w, finer.width()), finer_position(r, h, finer.height()));
+            const uint64_t f = finer.vertex(finer.columns.finer(c, coarse.columns), finer.rows.finer(r, coarse.rows));
             const uint64_t v = coarse.vertex(c, r);
             if (!(finer.flags[f] & kSampleValid)) continue;
             coarse.flags[v] = kSampleValid;
@@ -47,7 +48,7 @@ void coarse_vertices(const TerrainLevel& finer, TerrainLevel& coarse) {
         for (size_t c = 0; c < finer.width(); ++c) {
             const uint64_t f = finer.vertex(c, r);
             if (!(finer.flags[f] & kNeeded)) continue;
-            const uint64_t v = coarse.vertex(parent_position(c, finer.width()), parent_position(r, finer.height()));
+            const uint64_t v = coarse.vertex(finer.columns.parent(c), finer.rows.parent(r));
             if (!(coarse.flags[v] & (kSampleValid | kNeeded)))
                 for (int a = 0; a < 3; ++a) coarse.position[3 * v + a] = finer.position[3 * f + a];
             coarse.flags[v] |= kNeeded;
@@ -61,7 +62,7 @@ void coarse_triangles(const TerrainLevel& finer, TerrainLevel& coarse) {
     coarse.cube.assign(2 * (w - 1) * (h - 1), kNoTriangle);
     for (size_t r = 0; r + 1 < h; ++r)
         for (size_t c = 0; c + 1 < w; ++c) {
-            const size_t fc = finer_position(c + 1, w, finer.width()) - 1, fr = finer_position(r + 1, h, finer.height()) - 1;
+            const size_t fc = finer.columns.finer(c + 1, coarse.columns) - 1, fr = finer.rows.finer(r + 1, coarse.rows) - 1;
             for (int t = 0; t < 2; ++t) {
                 const build::CubeKey key = finer.cube[2 * finer.cell(fc, fr) + t];
                 if (key == kNoTriangle) continue;
@@ -81,8 +82,8 @@ TerrainLevel coarser_level(const TerrainLevel& finer) {
     TerrainLevel coarse;
     coarse.level = finer.level - 1;
     coarse.rows_run_north = finer.rows_run_north;
-    coarse.columns = coarser_axis(finer.columns);
-    coarse.rows = coarser_axis(finer.rows);
+    coarse.columns = finer.columns.coarser();
+    coarse.rows = finer.rows.coarser();
     coarse_vertices(finer, coarse);
     coarse_triangles(finer, coarse);
     return coarse;

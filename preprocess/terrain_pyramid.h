@@ -34,20 +34,30 @@ enum VertexFlags : uint8_t {
     kNeeded = 4,       // used, or the parent of a vertex the finer level needs: it has a position
 };
 
-// One axis of the coarser level, from the finer level's (sample indices, increasing).
-std::vector<uint64_t> coarser_axis(const std::vector<uint64_t>& finer);
-// Where the parent of the finer axis's `position`-th index lies in the coarser axis.
-inline size_t parent_position(size_t position, size_t finer_count) {
-    return position + 1 == finer_count ? (position + 1) / 2 : position / 2;
-}
-// Where the coarser axis's `position`-th index lies in the finer axis.
-inline size_t finer_position(size_t position, size_t coarser_count, size_t finer_count) {
-    return position + 1 == coarser_count ? finer_count - 1 : 2 * position;
-}
+// One axis of a level over a window of the raster (or all of it): the DEM sample indices the level keeps
+// there, increasing, and whether the last of them is the raster's last sample. A window starts on a
+// sample every level keeps.
+struct Axis {
+    std::vector<uint64_t> index;
+    bool ends_raster = true;
+
+    size_t size() const { return index.size(); }
+    uint64_t operator[](size_t position) const { return index[position]; }
+    // The coarser level's axis: every other index from the first, and the raster's last.
+    Axis coarser() const;
+    // Where the parent of this axis's `position`-th index lies in the coarser axis.
+    size_t parent(size_t position) const {
+        return ends_raster && position + 1 == size() ? (position + 1) / 2 : position / 2;
+    }
+    // Where the coarser axis's `position`-th index lies in this one.
+    size_t finer(size_t position, const Axis& coarse) const {
+        return ends_raster && position + 1 == coarse.size() ? size() - 1 : 2 * position;
+    }
+};
 
 struct TerrainLevel {
     uint32_t level = 0;
-    std::vector<uint64_t> columns, rows;  // the DEM sample indices this level keeps
+    Axis columns, rows;  // the DEM sample indices this level keeps
     // Rows run south in model space (y north) unless the raster stores them south-up; triangles
     // are counter-clockwise seen from above either way.
     bool rows_run_north = false;

@@ -1,0 +1,176 @@
+#include "preprocess/terrain_cubes.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <unordered_map>
+
+#include "preprocess/mesh.h"
+
+namespace strata::terrain {
+
+using build::CubeKey;
+
+uint64_t parent_vertex(const TerrainLevel& finer, const TerrainLevel& coarse, uint64_t v) {
+    return coarse.vertex(finer.columns.parent(v % finer.width()), finer.rows.parent(v / finer.width()));
+}
+
+namespace {
+
+// The level's triangles by cube, each cube's in row order (consecutive cells nearly always share a cube).
+std::unordered_map<CubeKey, std::vector<uint64_t>> triangles_by_cube(const TerrainLevel& level) {
+    std::unordered_map<CubeKey, std::vector<uint64_t>> by_cube;
+    CubeKey last_key = kNoTriangle;
+    std::vector<uint64_t>* last = nullptr;
+    for (uint64_t triangle = 0; triangle < level.cube.size(); ++triangle) {
+        const CubeKey key = level.cube[triangle];
+        if (key == kNoTriangle) continue;
+        if (key != last_key) last = &by_cube[key], last_key = key;  // elements keep their place when the map grows
+        last->push_back(triangle);
+    }
+    return by_cube;
+}
+
+// One cube from its triangles (2·cell + t, row order): grouped by the child they came from, in
+// vertex-cache order, the vertices in first-use order. `number`: kUnnumbered per level vertex, and
+// left so.
+Cube make_cube(CubeKey key, const std::vector<uint64_t>& triangles, const TerrainLevel& level, const TerrainLevel* finer,
+               std::vector<uint32_t>& number) {
+    Cube cube;
+    cube.key = key;
+    const size_t cells_per_row = level.width() - 1;
+    std::vector<uint8_t> octant(triangles.size(), 0);
+    if (finer)
+        for (size_t t = 0; t < triangles.size(); ++t) {
+            const uint64_t cell = triangles[t] / 2;
+            const size_t fc = finer->columns.finer(cell % cells_per_row + 1, level.columns) - 1;
+            const size_t fr = finer->rows.finer(cell / cells_per_row + 1, level.rows) - 1;
+            octant[t] = uint8_t(build::octant(finer->cube[2 * finer->cell(fc, fr) + triangles[t] % 2]));
+        }
+    for (uint8_t o : octant) cube.child_counts[o]++;
+    std::array<uint32_t, 8> next{};
+    for (uint32_t o = 1; o < 8; ++o) next[o] = next[o - 1] + cube.child_counts[o - 1];
+    cube.triangles.resize(3 * triangles.size());
+    for (size_t t = 0; t < triangles.size(); ++t) {
+        const uint64_t cell = triangles[t] / 2;
+        const uint32_t place = next[octant[t]]++;
+        const std::array<uint64_t, 3> corners = level.corners(size_t(cell % cells_per_row), size_t(cell / cells_per_row), int(triangles[t] % 2));
+        for (int c = 0; c < 3; ++c) {
+            uint32_t& n = number[corners[size_t(c)]];
+            if (n == kUnnumbered) n = uint32_t(cube.vertices.size()), cube.vertices.push_back(corners[size_t(c)]);
+            cube.triangles[3 * size_t(place) + size_t(c)] = n;
+        }
+    }
+    for (uint64_t v : cube.vertices) number[v] = kUnnumbered;
+    std::vector<uint32_t> order(cube.vertices.size());
+    std::iota(order.begin(), order.end(), 0u);
+    build::order_for_payload(cube.triangles, cube.child_counts, order);
+    std::vector<uint64_t> ordered(order.size());
+    for (size_t v = 0; v < order.size(); ++v) ordered[v] = cube.vertices[order[v]];
+    cube.vertices.swap(ordered);
+    return cube;
+}
+
+}  // namespace
+
+std::vector<Cube> level_cubes(const TerrainLevel& level, const TerrainLevel* finer, const std::vector<Cube>& children,
+                              std::vector<uint32_t>& number, const std::function<bool(CubeKey)>& owned) {
+    std::unordered_map<CubeKey, std::vector<uint64_t>> by_cube = triangles_by_cube(level);
+    for (const Cube& child : children) by_cube[build::parent_key(child.key)];
+    std::vector<CubeKey> keys;
+    for (const auto& entry : by_cube)
+        if (owned(entry.first)) keys.push_back(entry.first);
+    std::sort(keys.begin(), keys.end());
+    std::vector<Cube> cubes;
+    for (CubeKey key : keys) cubes.push_back(make_cube(key, by_cube[key], level, finer, number));
+    return cubes;
+}
+
+CubeEncoder::CubeEncoder(const build::Frame& f, std::string name, HlodWriter& writer, std::vector<build::CubeErrors>& errors,
+                         std::vector<LevelStats>& levels)
+    : f_(f), name_(std::move(name)), writer_(writer), errors_(errors), levels_(levels) {}
+
+void CubeEncoder::start_level(const TerrainLevel& level, const CubeDistances* forward, const CubeDistances* coverage) {
+    normals_ = vertex_normals(level);
+    forward_ = forward, coverage_ = coverage;
+}
+
+namespace {
+double lookup(const CubeDistances* distances, CubeKey key) {
+    if (!distances) return 0;
+    auto it = distances->find(key);
+    return it == distances->end() ? 0.0 : it->second;
+}
+}  // namespace
+
+void CubeEncoder::encode(const Cube& cube, const TerrainLevel& level, const TerrainLevel* coarse, const std::vector<uint32_t>* parent_number) {
+    const CubeData data = cube_data(cube, level, coarse, parent_number);
+    HlodNode node;
+    node.level = level.level;
+    node.i = build::key_i(cube.key), node.j = build::key_j(cube.key), node.k = build::key_k(cube.key);
+    node.vertex_count = data.vertex_count(), node.triangle_count = data.triangle_count();
+    const std::vector<uint8_t> payload = encode_cube(data, kErrorsAreBounds);
+    writer_.add_cube(node, payload);
+    errors_.push_back({node.level, node.i, node.j, node.k, float(lookup(forward_, cube.key)), float(lookup(coverage_, cube.key))});
+    LevelStats& stats = levels_.at(level.level);
+    stats.level = level.level;
+    stats.cubes++, stats.vertices += node.vertex_count, stats.triangles += node.triangle_count, stats.bytes += payload.size();
+}
+
+CubeData CubeEncoder::cube_data(const Cube& cube, const TerrainLevel& level, const TerrainLevel* coarse, const std::vector<uint32_t>* parent_number) {
+    const uint32_t l = level.level, cell[3] = {build::key_i(cube.key), build::key_j(cube.key), build::key_k(cube.key)};
+    const double size = f_.cube_size(l), inverse_step = double(uint64_t(1) << (l + kLatticeBits)) / f_.root_size;
+    CubeData data;
+    const size_t n = cube.vertices.size();
+    data.vertices.positions.resize(3 * n);
+    data.vertices.normals.resize(2 * n);
+    data.parent_vertex.resize(n);
+    for (size_t v = 0; v < n; ++v) {
+        const uint64_t id = cube.vertices[v];
+        const double* p = level.at(id);
+        for (int a = 0; a < 3; ++a) {
+            const double low = f_.origin[a] + cell[a] * size;
+            needed_ = std::max(needed_, std::max({0.0, low - p[a], p[a] - low - size}) / size);
+            const int64_t stored = std::llround((p[a] - f_.origin[a]) * inverse_step) - (int64_t(cell[a]) << kLatticeBits) + kLatticeBias;
+            if (stored < 0 || stored > 0xFFFF)
+                throw InputError(name_ + ": ground too steep for its cubes (a vertex of level " + std::to_string(l) +
+                                 " lies half a cube outside its cell); build with larger cubes");
+            data.vertices.positions[3 * v + size_t(a)] = uint16_t(stored);
+        }
+        const std::array<int16_t, 2> normal = encode_normal(normals_[3 * id], normals_[3 * id + 1], normals_[3 * id + 2]);
+        data.vertices.normals[2 * v] = normal[0], data.vertices.normals[2 * v + 1] = normal[1];
+        if (!coarse) {
+            data.parent_vertex[v] = uint32_t(v);
+            continue;
+        }
+        const uint64_t parent = parent_vertex(level, *coarse, id);
+        data.parent_vertex[v] = (*parent_number)[parent];
+        const double* q = coarse->at(parent);
+        for (int a = 0; a < 3; ++a) needed_ = std::max(needed_, std::abs(p[a] - q[a]) / f_.cube_size(l + 1));
+    }
+    data.indices = cube.triangles;
+    data.child_triangle_counts = cube.child_counts;
+    return data;
+}
+
+
+// Gives each parent the vertices its children need and it lacks, then encodes the children, parent by
+// parent: a parent's vertex order is final once its children's are. `number`: as for make_cube.
+void encode_children(std::vector<Cube>& parents, const std::vector<Cube>& children, const TerrainLevel& finer,
+                     const TerrainLevel& coarse, std::vector<uint32_t>& number, CubeEncoder& encoder) {
+    std::unordered_map<CubeKey, std::vector<uint32_t>> children_of;
+    for (uint32_t c = 0; c < children.size(); ++c) children_of[build::parent_key(children[c].key)].push_back(c);
+    for (Cube& parent : parents) {
+        for (uint32_t v = 0; v < parent.vertices.size(); ++v) number[parent.vertices[v]] = v;
+        const std::vector<uint32_t>& mine = children_of[parent.key];
+        for (uint32_t c : mine)
+            for (uint64_t v : children[c].vertices) {
+                const uint64_t p = parent_vertex(finer, coarse, v);
+                if (number[p] == kUnnumbered) number[p] = uint32_t(parent.vertices.size()), parent.vertices.push_back(p);
+            }
+        for (uint32_t c : mine) encoder.encode(children[c], finer, &coarse, &number);
+        for (uint64_t v : parent.vertices) number[v] = kUnnumbered;
+    }
+}
+
+}  // namespace strata::terrain

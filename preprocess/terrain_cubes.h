@@ -1,0 +1,74 @@
+// A terrain's levels cut into the octree's cubes and encoded (DESIGN.md §2): each triangle goes to the
+// cube the grid pyramid gave it (preprocess/terrain_pyramid.h), grouped by the child it came from; a
+// cube's vertices are in payload order with the parents its children need appended; each vertex names
+// its parent's place in the parent cube.
+#pragma once
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "preprocess/build_cubes.h"
+#include "preprocess/error_bound.h"
+#include "preprocess/hlod_builder.h"
+#include "preprocess/hlod_format.h"
+#include "preprocess/terrain_bounds.h"
+#include "preprocess/terrain_pyramid.h"
+
+namespace strata::terrain {
+
+// One cube of one level while the model is assembled: its vertices (the level's ids) in payload order,
+// the parents its children need last.
+struct Cube {
+    build::CubeKey key = 0;
+    std::vector<uint64_t> vertices;
+    std::vector<uint32_t> triangles;
+    std::array<uint32_t, 8> child_counts{};
+};
+
+// A place per vertex of a level, kUnnumbered except while one cube is being numbered.
+inline constexpr uint32_t kUnnumbered = ~0u;
+
+// The coarser level's vertex that is P(v) of the finer level's vertex v.
+uint64_t parent_vertex(const TerrainLevel& finer, const TerrainLevel& coarse, uint64_t v);
+
+// The level's cubes that `owned` accepts, in key order, with an (empty) cube for every parent of
+// `children` that has no triangle of its own. `finer`: the level below (null at level L), whose cubes
+// the triangles came from. `number`: kUnnumbered for each of the level's vertices, and left so.
+std::vector<Cube> level_cubes(const TerrainLevel& level, const TerrainLevel* finer, const std::vector<Cube>& children,
+                              std::vector<uint32_t>& number, const std::function<bool(build::CubeKey)>& owned);
+
+// Encodes cubes into the writer, each vertex naming its parent in the parent cube (itself at level 0),
+// and keeps each cube's F and D for the error bounds and its level's counts.
+class CubeEncoder {
+public:
+    CubeEncoder(const build::Frame& f, std::string name, HlodWriter& writer, std::vector<build::CubeErrors>& errors,
+                std::vector<LevelStats>& levels);
+
+    // Sets the level whose cubes come next: its normals, and its cubes' F and D (null: 0).
+    void start_level(const TerrainLevel& level, const CubeDistances* forward, const CubeDistances* coverage);
+    // `parent_number`: each vertex of the parent cube's its place there (null at level 0).
+    void encode(const Cube& cube, const TerrainLevel& level, const TerrainLevel* coarse, const std::vector<uint32_t>* parent_number);
+    // The σ0 the vertices need: their distance to their cube's cell (÷ s_l) and to their parent (÷ s_{l+1}).
+    double sigma0_needed() const { return needed_; }
+
+private:
+    CubeData cube_data(const Cube& cube, const TerrainLevel& level, const TerrainLevel* coarse, const std::vector<uint32_t>* parent_number);
+
+    const build::Frame& f_;
+    const std::string name_;
+    HlodWriter& writer_;
+    std::vector<build::CubeErrors>& errors_;
+    std::vector<LevelStats>& levels_;  // by level
+    std::vector<float> normals_;
+    const CubeDistances *forward_ = nullptr, *coverage_ = nullptr;
+    double needed_ = 0;
+};
+
+// Gives each parent the vertices its children need and it lacks, then encodes the children, parent by
+// parent: a parent's vertex order is final once its children's are. `number`: as for level_cubes, over
+// the coarse level.
+void encode_children(std::vector<Cube>& parents, const std::vector<Cube>& children, const TerrainLevel& finer,
+                     const TerrainLevel& coarse, std::vector<uint32_t>& number, CubeEncoder& encoder);
+
+}  // namespace strata::terrain
