@@ -113,6 +113,7 @@ int run_terrain(const BuildOptions& o, const std::vector<std::filesystem::path>&
         return kUsage;
     }
     TerrainSettings settings = o.terrain;
+    settings.threads = o.settings.threads;
     if (!o.fill_nodata.empty()) {
         char* end = nullptr;
         const float value = std::strtof(o.fill_nodata.c_str(), &end);

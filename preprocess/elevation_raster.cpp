@@ -169,6 +169,8 @@ std::array<double, 2> RasterInfo::sample_position(double column, double row) con
     return {g[0] + c * g[1] + r * g[2], g[3] + c * g[4] + r * g[5]};
 }
 
+void limit_raster_cache(uint64_t bytes) { GDALSetCacheMax64(GIntBig(std::min<uint64_t>(bytes, uint64_t(1) << 62))); }
+
 std::string describe_crs(const std::string& crs) {
     register_drivers();
     OGRSpatialReference reference;

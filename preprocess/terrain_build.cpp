@@ -13,6 +13,7 @@
 #include "preprocess/error_bound.h"
 #include "preprocess/hlod_format.h"
 #include "preprocess/mesh.h"
+#include "preprocess/parallel.h"
 #include "preprocess/terrain_bounds.h"
 #include "preprocess/terrain_cubes.h"
 #include "preprocess/terrain_pyramid.h"
@@ -28,9 +29,9 @@ using terrain::TerrainLevel;
 constexpr float kLeastSigma0 = 0.1f, kMostSigma0 = 0.45f;
 // What a sample of a tile's window costs while its levels are built: positions, flags, cube keys,
 // normals and numbering over all its levels, and its share of the cubes.
-constexpr double kTileBytesPerSample = 120;
+constexpr double kTileBytesPerSample = 170;
 // What a level-T sample costs for the whole raster: the same, kept until the coarse levels are built.
-constexpr double kCoarseBytesPerSample = 120;
+constexpr double kCoarseBytesPerSample = 170;
 // Level-T cells a tile reads beyond the cubes it owns on each side: what its levels need to come out as
 // they would from the whole raster (a cell of each finer level, and the bounds' search for a dropped
 // fragment, terrain_bounds.cpp) with room to spare.
@@ -237,8 +238,8 @@ struct Assembly {
     terrain::CubeDistances coarse_forward;  // F of level T's cubes
     uint64_t input_triangles = 0;
 
-    Assembly(const build::Frame& frame, const std::filesystem::path& output, const std::string& name)
-        : f(frame), writer(output), levels(frame.max_level + 1), encoder(frame, name, writer, errors, levels) {}
+    Assembly(const build::Frame& frame, const std::filesystem::path& output, const std::string& name, unsigned threads)
+        : f(frame), writer(output), levels(frame.max_level + 1), encoder(frame, name, writer, errors, levels, threads) {}
 };
 
 // One tile: levels L … T of its window, its own cubes of levels L … T + 1 encoded, its level-T cubes
@@ -324,7 +325,8 @@ void build_coarse_levels(const build::Frame& f, uint32_t T, Assembly& out, const
         cubes.swap(parents);
     }
     out.encoder.start_level(levels.back(), T > 0 ? &steps[0].forward : &out.coarse_forward, nullptr);
-    out.encoder.encode(cubes.front(), levels.back(), nullptr, nullptr);
+    std::vector<CubeData> root{out.encoder.cube_data(cubes.front(), levels.back(), nullptr, nullptr)};
+    out.encoder.write({&cubes.front()}, root, 0);
 }
 
 HlodHeader terrain_header(const Grid& grid, const build::Frame& f, uint32_t cube_cells, const std::string& source_name) {
@@ -370,18 +372,20 @@ BuildReport build_terrain(const std::vector<std::filesystem::path>& files, const
     using Clock = std::chrono::steady_clock;
     auto since = [](Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); };
     auto start = Clock::now();
+    const uint64_t memory = settings.memory ? settings.memory : default_memory_limit();
+    limit_raster_cache(memory / 16);
     const ElevationRaster raster = ElevationRaster::open(files, settings.crs);
     const Grid grid = scan_grid(raster, settings, progress);
     const build::Frame f = octree_frame(grid, settings.cube_cells);
     const TilePlan plan = settings.tiles ? TilePlan{(*settings.tiles)[0], (*settings.tiles)[1], kMarginCells << (f.max_level - (*settings.tiles)[0])}
-                                         : plan_tiles(grid, f, settings.cube_cells, settings.memory ? settings.memory : default_memory_limit());
+                                         : plan_tiles(grid, f, settings.cube_cells, memory - memory / 16);
     if (plan.level > f.max_level || plan.tile_cubes == 0) throw std::invalid_argument("build_terrain: tiles outside the model's levels");
     BuildReport report;
     report.max_level = f.max_level;
     report.read_seconds = since(start);
     start = Clock::now();
 
-    Assembly out(f, output, grid.info.name);
+    Assembly out(f, output, grid.info.name, resolve_thread_count(settings.threads));
     out.coarse = empty_level(grid, f.max_level, plan.level);
     const double tile_size = f.cube_size(plan.level) * plan.tile_cubes;
     const uint64_t tiles = (uint64_t(1) << plan.level) / plan.tile_cubes + ((uint64_t(1) << plan.level) % plan.tile_cubes != 0);

@@ -28,6 +28,7 @@ struct TerrainSettings {
     // built in tiles (each read with a margin), then the coarse levels from one of its levels; never
     // changes a byte of the output.
     uint64_t memory = 0;
+    int threads = 0;              // threads compressing cubes; 0: every core
     // The tiles instead of what `memory` allows: level T and level-T cubes per tile side (tests and
     // benchmarks show the output does not depend on them).
     std::optional<std::array<uint32_t, 2>> tiles;

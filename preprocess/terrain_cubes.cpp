@@ -6,6 +6,7 @@
 #include <unordered_map>
 
 #include "preprocess/mesh.h"
+#include "preprocess/parallel.h"
 
 namespace strata::terrain {
 
@@ -71,6 +72,12 @@ Cube make_cube(CubeKey key, const std::vector<uint64_t>& triangles, const Terrai
     return cube;
 }
 
+double lookup(const CubeDistances* distances, CubeKey key) {
+    if (!distances) return 0;
+    auto it = distances->find(key);
+    return it == distances->end() ? 0.0 : it->second;
+}
+
 }  // namespace
 
 std::vector<Cube> level_cubes(const TerrainLevel& level, const TerrainLevel* finer, const std::vector<Cube>& children,
@@ -87,34 +94,32 @@ std::vector<Cube> level_cubes(const TerrainLevel& level, const TerrainLevel* fin
 }
 
 CubeEncoder::CubeEncoder(const build::Frame& f, std::string name, HlodWriter& writer, std::vector<build::CubeErrors>& errors,
-                         std::vector<LevelStats>& levels)
-    : f_(f), name_(std::move(name)), writer_(writer), errors_(errors), levels_(levels) {}
+                         std::vector<LevelStats>& levels, unsigned threads)
+    : f_(f), name_(std::move(name)), writer_(writer), errors_(errors), levels_(levels), threads_(threads) {}
 
 void CubeEncoder::start_level(const TerrainLevel& level, const CubeDistances* forward, const CubeDistances* coverage) {
     normals_ = vertex_normals(level);
     forward_ = forward, coverage_ = coverage;
 }
 
-namespace {
-double lookup(const CubeDistances* distances, CubeKey key) {
-    if (!distances) return 0;
-    auto it = distances->find(key);
-    return it == distances->end() ? 0.0 : it->second;
-}
-}  // namespace
-
-void CubeEncoder::encode(const Cube& cube, const TerrainLevel& level, const TerrainLevel* coarse, const std::vector<uint32_t>* parent_number) {
-    const CubeData data = cube_data(cube, level, coarse, parent_number);
-    HlodNode node;
-    node.level = level.level;
-    node.i = build::key_i(cube.key), node.j = build::key_j(cube.key), node.k = build::key_k(cube.key);
-    node.vertex_count = data.vertex_count(), node.triangle_count = data.triangle_count();
-    const std::vector<uint8_t> payload = encode_cube(data, kErrorsAreBounds);
-    writer_.add_cube(node, payload);
-    errors_.push_back({node.level, node.i, node.j, node.k, float(lookup(forward_, cube.key)), float(lookup(coverage_, cube.key))});
-    LevelStats& stats = levels_.at(level.level);
-    stats.level = level.level;
-    stats.cubes++, stats.vertices += node.vertex_count, stats.triangles += node.triangle_count, stats.bytes += payload.size();
+void CubeEncoder::write(const std::vector<const Cube*>& cubes, std::vector<CubeData>& data, uint32_t level) {
+    std::vector<std::vector<uint8_t>> payloads(cubes.size());
+    parallel_for(cubes.size(), threads_, [&](size_t c, unsigned) {
+        payloads[c] = encode_cube(data[c], kErrorsAreBounds);
+        data[c] = CubeData();  // its memory back as soon as it is packed
+    });
+    LevelStats& stats = levels_.at(level);
+    stats.level = level;
+    for (size_t c = 0; c < cubes.size(); ++c) {
+        const CubeKey key = cubes[c]->key;
+        HlodNode node;
+        node.level = level;
+        node.i = build::key_i(key), node.j = build::key_j(key), node.k = build::key_k(key);
+        node.vertex_count = uint32_t(cubes[c]->vertices.size()), node.triangle_count = uint32_t(cubes[c]->triangles.size() / 3);
+        writer_.add_cube(node, payloads[c]);
+        errors_.push_back({node.level, node.i, node.j, node.k, float(lookup(forward_, key)), float(lookup(coverage_, key))});
+        stats.cubes++, stats.vertices += node.vertex_count, stats.triangles += node.triangle_count, stats.bytes += payloads[c].size();
+    }
 }
 
 CubeData CubeEncoder::cube_data(const Cube& cube, const TerrainLevel& level, const TerrainLevel* coarse, const std::vector<uint32_t>* parent_number) {
@@ -160,6 +165,8 @@ void encode_children(std::vector<Cube>& parents, const std::vector<Cube>& childr
                      const TerrainLevel& coarse, std::vector<uint32_t>& number, CubeEncoder& encoder) {
     std::unordered_map<CubeKey, std::vector<uint32_t>> children_of;
     for (uint32_t c = 0; c < children.size(); ++c) children_of[build::parent_key(children[c].key)].push_back(c);
+    std::vector<const Cube*> order;
+    std::vector<CubeData> data;
     for (Cube& parent : parents) {
         for (uint32_t v = 0; v < parent.vertices.size(); ++v) number[parent.vertices[v]] = v;
         const std::vector<uint32_t>& mine = children_of[parent.key];
@@ -168,9 +175,13 @@ void encode_children(std::vector<Cube>& parents, const std::vector<Cube>& childr
                 const uint64_t p = parent_vertex(finer, coarse, v);
                 if (number[p] == kUnnumbered) number[p] = uint32_t(parent.vertices.size()), parent.vertices.push_back(p);
             }
-        for (uint32_t c : mine) encoder.encode(children[c], finer, &coarse, &number);
+        for (uint32_t c : mine) {
+            order.push_back(&children[c]);
+            data.push_back(encoder.cube_data(children[c], finer, &coarse, &number));
+        }
         for (uint64_t v : parent.vertices) number[v] = kUnnumbered;
     }
+    encoder.write(order, data, finer.level);
 }
 
 }  // namespace strata::terrain

@@ -43,18 +43,20 @@ std::vector<Cube> level_cubes(const TerrainLevel& level, const TerrainLevel* fin
 class CubeEncoder {
 public:
     CubeEncoder(const build::Frame& f, std::string name, HlodWriter& writer, std::vector<build::CubeErrors>& errors,
-                std::vector<LevelStats>& levels);
+                std::vector<LevelStats>& levels, unsigned threads);
 
     // Sets the level whose cubes come next: its normals, and its cubes' F and D (null: 0).
     void start_level(const TerrainLevel& level, const CubeDistances* forward, const CubeDistances* coverage);
-    // `parent_number`: each vertex of the parent cube's its place there (null at level 0).
-    void encode(const Cube& cube, const TerrainLevel& level, const TerrainLevel* coarse, const std::vector<uint32_t>* parent_number);
+    // A cube's payload content: its vertices on the level's lattice, each naming its parent's place in
+    // the parent cube (`parent_number`, over the coarse level) or itself at level 0 (null `coarse`).
+    CubeData cube_data(const Cube& cube, const TerrainLevel& level, const TerrainLevel* coarse, const std::vector<uint32_t>* parent_number);
+    // Compresses the cubes' payloads on the encoder's threads and adds them to the writer in the
+    // order given (so the output does not depend on the thread count).
+    void write(const std::vector<const Cube*>& cubes, std::vector<CubeData>& data, uint32_t level);
     // The σ0 the vertices need: their distance to their cube's cell (÷ s_l) and to their parent (÷ s_{l+1}).
     double sigma0_needed() const { return needed_; }
 
 private:
-    CubeData cube_data(const Cube& cube, const TerrainLevel& level, const TerrainLevel* coarse, const std::vector<uint32_t>* parent_number);
-
     const build::Frame& f_;
     const std::string name_;
     HlodWriter& writer_;
@@ -62,6 +64,7 @@ private:
     std::vector<LevelStats>& levels_;  // by level
     std::vector<float> normals_;
     const CubeDistances *forward_ = nullptr, *coverage_ = nullptr;
+    unsigned threads_;
     double needed_ = 0;
 };
 
