@@ -25,6 +25,7 @@ struct BuildOptions {
     BuildSettings settings;
     TerrainSettings terrain;
     std::string fill_nodata;  // an elevation, or empty: nodata stays a hole
+    std::string frame = "enu";
     bool quiet = false;
     bool verbose = false;
 };
@@ -114,6 +115,7 @@ int run_terrain(const BuildOptions& o, const std::vector<std::filesystem::path>&
     }
     TerrainSettings settings = o.terrain;
     settings.threads = o.settings.threads;
+    settings.frame = o.frame == "ecef" ? TerrainFrameKind::ecef : TerrainFrameKind::enu;
     if (!o.fill_nodata.empty()) {
         char* end = nullptr;
         const float value = std::strtof(o.fill_nodata.c_str(), &end);
@@ -321,6 +323,13 @@ Command add_build(CLI::App& app) {
                     "default beside the output. Removed when the build succeeds, is interrupted or meets bad "
                     "input; kept after a kill or another failure, for --resume");
     sub->add_option("--crs", o->terrain.crs, "Terrains: the CRS of elevation rasters that declare none (EPSG:N, WKT or PROJ)");
+    sub->add_option("--elevation-unit", o->terrain.elevation_unit,
+                    "Terrains: the unit of elevations when the raster does not say: m, ft or us-ft (default m)")
+        ->check(CLI::IsMember({"m", "ft", "us-ft"}));
+    sub->add_option("--frame", o->frame,
+                    "Terrains in degrees: enu (a flat tangent plane at the centre, heights up) or ecef (the Earth's curvature kept)")
+        ->check(CLI::IsMember({"enu", "ecef"}))
+        ->capture_default_str();
     sub->add_option("--fill-nodata", o->fill_nodata,
                     "Terrains: give nodata samples this elevation (metres) instead of leaving holes");
     sub->add_flag("-q,--quiet", o->quiet, "No progress bar and no summary");

@@ -15,10 +15,16 @@ namespace {
 void print_terrain(const HlodHeader& h) {
     const TerrainGrid& t = *h.terrain;
     const double samples = double(t.columns) * double(t.rows);
-    std::printf("terrain     %llu × %llu samples, %g × %g m apart, %llu nodata (%.2g %%), cubes of %u cells\n",
-                (unsigned long long)t.columns, (unsigned long long)t.rows, t.spacing[0], t.spacing[1],
+    const char* unit = t.frame ? "°" : " m";
+    std::printf("terrain     %llu × %llu samples, %g × %g%s apart, %llu nodata (%.2g %%), cubes of %u cells\n",
+                (unsigned long long)t.columns, (unsigned long long)t.rows, t.spacing[0], t.spacing[1], unit,
                 (unsigned long long)t.nodata_samples, 100.0 * double(t.nodata_samples) / samples, t.cube_cells);
-    std::printf("frame       x east, y north, z up, metres: the CRS's plane from its model origin\n");
+    if (t.frame == 0)
+        std::printf("frame       x east, y north, z up, metres: the CRS's plane from its model origin\n");
+    else
+        std::printf("frame       x east, y north, z up, metres: %s at longitude %.9g°, latitude %.9g°\n",
+                    t.frame == 1 ? "enu, the flat tangent plane" : "ecef, the Earth's curvature kept, seen", h.geo_origin[0],
+                    h.geo_origin[1]);
     if (h.has_bounds)
         std::printf("extent      %.10g × %.10g m, heights %.10g to %.10g m\n", h.bounds_hi[0] - h.bounds_lo[0],
                     h.bounds_hi[1] - h.bounds_lo[1], h.bounds_lo[2], h.bounds_hi[2]);
@@ -34,8 +40,8 @@ int run_info(const std::string& path) {
                 h.texture.empty() ? "" : ", texture ", h.texture.c_str());
     std::printf("bounds      origin (%g, %g, %g), root cube %g\n", h.origin[0], h.origin[1], h.origin[2], h.root_size);
     if (!h.crs.empty())
-        std::printf("georef      %s, model origin at (%.17g, %.17g, %.17g)\n", describe_crs(h.crs).c_str(), h.geo_origin[0],
-                    h.geo_origin[1], h.geo_origin[2]);
+        std::printf("georef      %s, %s (%.17g, %.17g, %.17g)\n", describe_crs(h.crs).c_str(),
+                    h.terrain && h.terrain->frame ? "tangent point" : "model origin at", h.geo_origin[0], h.geo_origin[1], h.geo_origin[2]);
     if (h.terrain) print_terrain(h);
     std::printf("levels      %u (0 … %u), block %u³, σ0 %.4g, ε_q %.4g\n", h.max_level + 1, h.max_level, h.block_size,
                 h.sigma0, h.error_q);

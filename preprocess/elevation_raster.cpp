@@ -223,6 +223,8 @@ ElevationRaster ElevationRaster::open(const std::vector<std::filesystem::path>& 
     CPLFree(wkt);
     info.crs_name = reference.GetName() ? reference.GetName() : "unnamed CRS";
     info.geographic = reference.IsGeographic();
+    info.semi_major = reference.GetSemiMajor();
+    info.inverse_flattening = reference.GetInvFlattening();
     if (reference.IsProjected()) info.linear_unit = reference.GetLinearUnits();
     info.epsg = epsg_code(reference);
     if (reference.IsCompound() || reference.IsVertical())

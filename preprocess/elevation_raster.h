@@ -25,6 +25,7 @@ struct RasterInfo {
     std::string crs_name;               // "WGS 84", "SIRGAS 2000 / UTM zone 25S"
     std::optional<int> epsg;            // when the CRS is (or is identified as) an EPSG one
     bool geographic = false;            // degrees of latitude and longitude, not a projected plane
+    double semi_major = 0, inverse_flattening = 0;  // the CRS's ellipsoid (metres; 0 for a sphere)
     double linear_unit = 1;             // metres per CRS unit of a projected CRS (0.3048 for feet)
     std::string vertical_datum;         // the vertical CRS's name when the raster declares one
     std::optional<double> nodata;       // raw value, before scale and offset; may lie outside the type's range

@@ -36,7 +36,7 @@ constexpr uint32_t kCrc32cPolynomial = 0x82F63B78u;  // reflected
 constexpr char kModelTag[5] = "MODL", kNodeTag[5] = "NODE", kPayloadTag[5] = "PAYL", kGeoreferenceTag[5] = "GEOR",
                kBoundsTag[5] = "BNDS", kTerrainTag[5] = "TERR";
 constexpr size_t kBoundsBytes = 48;   // BNDS: six f64
-constexpr size_t kTerrainBytes = 48;  // TERR: two u64, two f64, a u64, two u32
+constexpr size_t kTerrainBytes = 56;  // TERR: two u64, two f64, a u64, four u32
 
 // ---- CRC-32C (Castagnoli): hardware instruction where there is one, table otherwise ------------
 
@@ -143,7 +143,7 @@ void write_georeference(ByteWriter& w, const HlodHeader& h) {
 
 void write_terrain(ByteWriter& w, const TerrainGrid& t) {
     w.put(t.columns), w.put(t.rows), w.put(t.spacing[0]), w.put(t.spacing[1]), w.put(t.nodata_samples);
-    w.put(t.cube_cells), w.put(uint32_t(t.rows_run_north ? 1 : 0));
+    w.put(t.cube_cells), w.put(uint32_t(t.rows_run_north ? 1 : 0)), w.put(t.frame), w.put(uint32_t(0));
 }
 
 void write_bounds(ByteWriter& w, const HlodHeader& h) {
@@ -881,7 +881,9 @@ void HlodWriter::finish(HlodHeader header) {
     add(kNodeTag, kRequiredSection, &node_table.bytes, kNodeBytes * spooled.size());
     if (!georeference.bytes.empty()) add(kGeoreferenceTag, 0, &georeference.bytes, georeference.bytes.size());
     if (!bounds.bytes.empty()) add(kBoundsTag, 0, &bounds.bytes, bounds.bytes.size());
-    if (!terrain.bytes.empty()) add(kTerrainTag, 0, &terrain.bytes, terrain.bytes.size());
+    // A terrain in a frame other than its CRS's plane must not be read by a reader that would take GEOR
+    // as an offset in the CRS: its TERR is required.
+    if (!terrain.bytes.empty()) add(kTerrainTag, header.terrain->frame ? kRequiredSection : 0, &terrain.bytes, terrain.bytes.size());
     add(kPayloadTag, kRequiredSection, nullptr, 0);
     uint64_t at = kFixedHeaderBytes + kSectionEntryBytes * table.size();
     for (HlodSection& s : table) {
@@ -1061,7 +1063,7 @@ void HlodFile::read_section_table(std::span<const uint8_t> fixed) {
                                      "' overlap");
     for (const HlodSection& s : sections_) {
         const bool known = is_tag(s, kModelTag) || is_tag(s, kNodeTag) || is_tag(s, kPayloadTag) || is_tag(s, kGeoreferenceTag) ||
-                           is_tag(s, kBoundsTag);
+                           is_tag(s, kBoundsTag) || is_tag(s, kTerrainTag);
         if (!known && (s.flags & kRequiredSection))
             throw std::runtime_error(name + ": needs section '" + s.name() +
                                      "', which this Strata does not know; it was written by a newer version");
@@ -1186,6 +1188,8 @@ void HlodFile::read_terrain_section(const HlodSection& section) {
     t.nodata_samples = r.get<uint64_t>();
     t.cube_cells = r.get<uint32_t>();
     const uint32_t flags = r.get<uint32_t>();
+    t.frame = r.get<uint32_t>();
+    r.get<uint32_t>();  // reserved
     if (!r.at_end()) throw std::runtime_error(what + " is longer than its fields");
     if (t.columns < 2 || t.rows < 2 || t.columns > (uint64_t(1) << 32) || t.rows > (uint64_t(1) << 32))
         throw std::runtime_error(what + ": a grid of " + std::to_string(t.columns) + " × " + std::to_string(t.rows) + " samples");
@@ -1194,6 +1198,7 @@ void HlodFile::read_terrain_section(const HlodSection& section) {
     if (t.nodata_samples > t.columns * t.rows) throw std::runtime_error(what + ": more nodata samples than samples");
     if (t.cube_cells < 8 || t.cube_cells > 256 || t.cube_cells % 2) throw std::runtime_error(what + ": cubes of " + std::to_string(t.cube_cells) + " cells");
     if (flags > 1) throw std::runtime_error(what + ": unknown flags " + std::to_string(flags));
+    if (t.frame > 2) throw std::runtime_error(what + ": frame " + std::to_string(t.frame) + ", which this Strata does not know");
     t.rows_run_north = flags & 1;
     header_.terrain = t;
 }

@@ -38,14 +38,16 @@ enum HlodFlags : uint32_t {
 };
 
 // A terrain built straight from an elevation raster (section TERR): the raster's grid as the model
-// holds it. Level L's vertices are its valid samples, column c and row r at x = c·spacing[0] and
-// y = spacing[1]·(rows − 1 − r) (rows run south) from the south-west sample at the model's x = y = 0.
+// holds it (FORMAT.md §4.7). Level L's vertices are its valid samples.
 struct TerrainGrid {
     uint64_t columns = 0, rows = 0;   // samples of the raster
-    double spacing[2] = {0, 0};       // metres between columns, between rows
+    double spacing[2] = {0, 0};       // between columns, between rows, in the CRS's units (metres or degrees)
     uint64_t nodata_samples = 0;      // samples without an elevation: holes, unless the build filled them
     uint32_t cube_cells = 0;          // cells along a cube's side, at every level
     bool rows_run_north = false;      // the raster stores its southern row first: y = spacing[1]·r
+    // How samples go into the model (preprocess/terrain_frame.h): 0 the projected CRS's plane (GEOR's
+    // origin + (x, y) is the CRS position), 1 enu and 2 ecef at GEOR's origin (longitude, latitude, height).
+    uint32_t frame = 0;
 };
 
 struct HlodHeader {

@@ -16,6 +16,7 @@
 #include "preprocess/parallel.h"
 #include "preprocess/terrain_bounds.h"
 #include "preprocess/terrain_cubes.h"
+#include "preprocess/terrain_frame.h"
 #include "preprocess/terrain_pyramid.h"
 
 namespace strata {
@@ -37,29 +38,27 @@ constexpr double kCoarseBytesPerSample = 170;
 // fragment, terrain_bounds.cpp) with room to spare.
 constexpr uint64_t kMarginCells = 5;
 
-// Metres per unit of the band's elevations.
-double vertical_unit(const RasterInfo& info) {
-    std::string unit = info.unit;
+// Metres per unit of the band's elevations: the unit the raster states, else the one given.
+double vertical_unit(const RasterInfo& info, const std::string& given) {
+    std::string unit = info.unit.empty() ? given : info.unit;
     std::transform(unit.begin(), unit.end(), unit.begin(), [](unsigned char c) { return char(std::tolower(c)); });
     if (unit.empty() || unit == "m" || unit == "metre" || unit == "meter" || unit == "metres" || unit == "meters") return 1;
     if (unit == "ft" || unit == "foot" || unit == "feet" || unit == "international foot") return 0.3048;
     if (unit == "us-ft" || unit == "us survey foot" || unit == "ftus") return 1200.0 / 3937.0;
-    throw InputError(info.name + ": elevations in '" + info.unit + "', a unit Strata cannot convert to metres");
+    throw InputError((info.unit.empty() ? "--elevation-unit" : info.name + ": elevations in") + " '" + unit + "', a unit Strata cannot convert to metres");
 }
 
 // The raster and where its samples go in the model's frame.
 struct Grid {
     const ElevationRaster* raster = nullptr;
     RasterInfo info;
+    TerrainFrame frame;
     double unit = 1;             // metres per elevation unit
     std::optional<float> fill;   // the height of nodata samples, if filled
-    double spacing[2] = {0, 0};  // metres between columns, between rows
     bool rows_run_north = false;
     float low = 0, high = 0;     // valid heights' range
+    std::array<double, 3> lo{}, hi{};  // the valid samples' box in the model
     uint64_t nodata = 0;         // samples left without a height
-
-    double x(uint64_t column) const { return double(column) * spacing[0]; }
-    double y(uint64_t row) const { return double(rows_run_north ? row : info.height - 1 - row) * spacing[1]; }
 
     // A window's heights in metres, NaN where nodata stays a hole.
     void read(uint64_t column, uint64_t row, uint64_t columns, uint64_t rows, std::vector<float>& out) const {
@@ -68,32 +67,32 @@ struct Grid {
     }
 };
 
-// Checks the raster can be a terrain and reads it once through: its height range and nodata.
+// Checks the raster can be a terrain and reads it once through: its height range, box and nodata.
 Grid scan_grid(const ElevationRaster& raster, const TerrainSettings& settings, const Progress& progress) {
     Grid grid;
     grid.raster = &raster;
     grid.info = raster.info();
     const RasterInfo& info = grid.info;
-    if (info.geographic)
-        throw InputError(info.name + ": a geographic CRS (" + info.describe_crs() +
-                         "): a terrain in degrees needs a metric frame, which Strata cannot make yet; reproject it "
-                         "first (gdalwarp -t_srs with a projected CRS, e.g. its UTM zone)");
-    if (std::abs(info.linear_unit - 1) > 1e-12)
-        throw InputError(info.name + ": a projected CRS in units of " + std::to_string(info.linear_unit) +
-                         " m; Strata builds terrains in metre-based CRSs (reproject it with gdalwarp)");
-    grid.unit = vertical_unit(info);
+    grid.frame = TerrainFrame::for_raster(info, settings.frame);
+    grid.unit = vertical_unit(info, settings.elevation_unit);
     grid.fill = settings.fill;
-    grid.spacing[0] = info.geotransform[1], grid.spacing[1] = std::abs(info.geotransform[5]);
     grid.rows_run_north = info.geotransform[5] > 0;
     grid.low = INFINITY, grid.high = -INFINITY;
+    grid.lo.fill(INFINITY), grid.hi.fill(-INFINITY);
     std::vector<float> band;
     const uint64_t band_rows = std::max<uint64_t>(1, (uint64_t(1) << 22) / info.width);
     for (uint64_t row = 0; row < info.height; row += band_rows) {
         progress.check();
         grid.read(0, row, info.width, std::min(band_rows, info.height - row), band);
-        for (float h : band) {
-            if (std::isnan(h)) ++grid.nodata;
-            else grid.low = std::min(grid.low, h), grid.high = std::max(grid.high, h);
+        for (size_t s = 0; s < band.size(); ++s) {
+            const float h = band[s];
+            if (std::isnan(h)) {
+                ++grid.nodata;
+                continue;
+            }
+            grid.low = std::min(grid.low, h), grid.high = std::max(grid.high, h);
+            const std::array<double, 3> p = grid.frame.position(s % info.width, row + s / info.width, h);
+            for (size_t a = 0; a < 3; ++a) grid.lo[a] = std::min(grid.lo[a], p[a]), grid.hi[a] = std::max(grid.hi[a], p[a]);
         }
         progress("read", double(std::min(row + band_rows, info.height)), double(info.height), "rows");
     }
@@ -101,13 +100,20 @@ Grid scan_grid(const ElevationRaster& raster, const TerrainSettings& settings, c
     return grid;
 }
 
-// The octree over the grid: the origin at the south-west sample and the lowest height, level-L
-// cubes of cube_cells samples, as many levels as cover the grid and its height range.
+// The octree over the grid: level-L cubes of cube_cells samples (at the centre), as many levels as
+// cover the grid and its height range. In a projected CRS the origin is the south-west sample at the
+// lowest height, so that cubes fall on whole samples; otherwise the box's lowest corner.
 build::Frame octree_frame(const Grid& grid, uint32_t cube_cells) {
     build::Frame f{};
-    f.origin[0] = 0, f.origin[1] = 0, f.origin[2] = grid.low;
-    const double step = std::max(grid.spacing[0], grid.spacing[1]);
-    const double extent = std::max({grid.x(grid.info.width - 1), double(grid.info.height - 1) * grid.spacing[1], double(grid.high - grid.low)});
+    const bool projected = grid.frame.kind() == TerrainFrameKind::projected;
+    std::array<double, 3> low = grid.lo, high = grid.hi;
+    if (projected) {
+        const std::array<double, 3> corner = grid.frame.position(grid.info.width - 1, grid.rows_run_north ? grid.info.height - 1 : 0, 0);
+        low = {0, 0, grid.low}, high = {corner[0], corner[1], grid.high};
+    }
+    for (int a = 0; a < 3; ++a) f.origin[a] = low[size_t(a)];
+    const double step = std::max(grid.frame.spacing()[0], grid.frame.spacing()[1]);
+    const double extent = std::max({high[0] - low[0], high[1] - low[1], high[2] - low[2]});
     f.max_level = 0;
     while (cube_cells * step * double(uint64_t(1) << f.max_level) < extent) ++f.max_level;
     if (f.max_level > 15) throw InputError(grid.info.name + ": too many samples for one model's 16 levels");
@@ -142,18 +148,33 @@ TilePlan plan_tiles(const Grid& grid, const build::Frame& f, uint32_t cube_cells
     throw InputError(grid.info.name + ": " + describe_bytes(memory) + " of memory cannot hold a tile of this raster's terrain; give more (--memory)");
 }
 
-// Along one axis: which tile owns each sample (by the level-T cube its position falls in), and the
-// range of samples each tile owns.
-struct AxisTiles {
-    std::vector<uint64_t> first, end;  // per tile: its samples [first, end)
+// Which tile owns each level-T sample: the one whose cubes its position (at height 0) falls in. A tile
+// reads the samples around its own; level T's grid takes each sample from its owner.
+struct TileOwners {
+    uint64_t tiles = 0;               // per side
+    std::vector<uint32_t> tile_of;    // per level-T vertex: tj · tiles + ti
+    std::vector<std::array<uint64_t, 4>> box;  // per tile: its samples' first and last column, first and last row
 
-    AxisTiles(uint64_t samples, const std::function<double(uint64_t)>& coordinate, double tile_size, uint64_t tiles) {
-        first.assign(tiles, samples), end.assign(tiles, 0);
-        for (uint64_t s = 0; s < samples; ++s) {
-            const uint64_t t = std::min(tiles - 1, uint64_t(std::max(0.0, std::floor(coordinate(s) / tile_size))));
-            first[t] = std::min(first[t], s), end[t] = std::max(end[t], s + 1);
-        }
+    TileOwners(const Grid& grid, const TerrainLevel& level, const build::Frame& f, uint32_t tile_cubes) {
+        const uint32_t T = level.level;
+        tiles = (uint64_t(1) << T) / tile_cubes + ((uint64_t(1) << T) % tile_cubes != 0);
+        tile_of.resize(level.width() * level.height());
+        box.assign(tiles * tiles, {~uint64_t(0), 0, ~uint64_t(0), 0});
+        const double size = f.cube_size(T);
+        for (size_t r = 0; r < level.height(); ++r)
+            for (size_t c = 0; c < level.width(); ++c) {
+                const std::array<double, 3> p = grid.frame.position(level.columns[c], level.rows[r], 0);
+                auto index = [&](int a) {
+                    const double cube = std::floor((p[size_t(a)] - f.origin[a]) / size);
+                    return std::min(tiles - 1, uint64_t(std::max(0.0, cube)) / tile_cubes);
+                };
+                const uint32_t t = uint32_t(index(1) * tiles + index(0));
+                tile_of[level.vertex(c, r)] = t;
+                std::array<uint64_t, 4>& b = box[t];
+                b = {std::min(b[0], level.columns[c]), std::max(b[1], level.columns[c]), std::min(b[2], level.rows[r]), std::max(b[3], level.rows[r])};
+            }
     }
+    bool owns_samples(uint32_t tile) const { return box[tile][0] <= box[tile][1]; }
 };
 
 // A window of the raster's samples (what a tile reads), on samples that level T keeps.
@@ -161,11 +182,11 @@ struct Window {
     uint64_t column, row, columns, rows;
 };
 
-Window tile_window(uint64_t c0, uint64_t c1, uint64_t r0, uint64_t r1, const TilePlan& plan, const Grid& grid, uint32_t max_level) {
+Window tile_window(const std::array<uint64_t, 4>& box, const TilePlan& plan, const Grid& grid, uint32_t max_level) {
     const uint64_t step = uint64_t(1) << (max_level - plan.level);
     auto low = [&](uint64_t first) { return (first > plan.margin ? first - plan.margin : 0) / step * step; };
-    const uint64_t column = low(c0), row = low(r0);
-    const uint64_t column_end = std::min(grid.info.width, c1 + plan.margin), row_end = std::min(grid.info.height, r1 + plan.margin);
+    const uint64_t column = low(box[0]), row = low(box[2]);
+    const uint64_t column_end = std::min(grid.info.width, box[1] + 1 + plan.margin), row_end = std::min(grid.info.height, box[3] + 1 + plan.margin);
     return {column, row, column_end - column, row_end - row};
 }
 
@@ -188,8 +209,8 @@ TerrainLevel finest_level(const Grid& grid, const Window& w, const build::Frame&
             const uint64_t v = level.vertex(c, r);
             if (std::isnan(heights[v])) continue;
             level.flags[v] = terrain::kSampleValid;
-            double* p = &level.position[3 * v];
-            p[0] = grid.x(level.columns[c]), p[1] = grid.y(level.rows[r]), p[2] = heights[v];
+            const std::array<double, 3> p = grid.frame.position(level.columns[c], level.rows[r], heights[v]);
+            std::copy(p.begin(), p.end(), &level.position[3 * v]);
         }
     level.cube.assign(2 * (width - 1) * (height - 1), kNoTriangle);
     for (size_t r = 0; r + 1 < height; ++r)
@@ -245,7 +266,7 @@ struct Assembly {
 // One tile: levels L … T of its window, its own cubes of levels L … T + 1 encoded, its level-T cubes
 // and its part of level T's grid handed to the coarse levels.
 void build_tile(const Grid& grid, const Window& window, const std::array<uint32_t, 4>& owned_cubes, const TilePlan& plan,
-                const std::array<uint64_t, 4>& owned_samples, Assembly& out) {
+                const TileOwners& owners, uint32_t tile, Assembly& out) {
     const build::Frame& f = out.f;
     const uint32_t L = f.max_level, T = plan.level;
     // A cube of level l is the tile's when its level-T ancestor is one of the tile's cubes.
@@ -288,13 +309,10 @@ void build_tile(const Grid& grid, const Window& window, const std::array<uint32_
         for (uint64_t& v : cube.vertices) v = global_vertex(v);
         out.coarse_cubes.push_back(std::move(cube));
     }
-    auto owns = [&](uint64_t column, uint64_t row) {
-        return column >= owned_samples[0] && column < owned_samples[1] && row >= owned_samples[2] && row < owned_samples[3];
-    };
     for (size_t r = 0; r < mine.height(); ++r)
         for (size_t c = 0; c < mine.width(); ++c) {
-            if (!owns(mine.columns[c], mine.rows[r])) continue;
             const uint64_t from = mine.vertex(c, r), to = global_vertex(from);
+            if (owners.tile_of[to] != tile) continue;
             whole.flags[to] = mine.flags[from];
             for (int a = 0; a < 3; ++a) whole.position[3 * to + a] = mine.position[3 * from + a];
             if (c + 1 == mine.width() || r + 1 == mine.height()) continue;
@@ -340,20 +358,19 @@ HlodHeader terrain_header(const Grid& grid, const build::Frame& f, uint32_t cube
     header.sigma0 = f.sigma0;
     header.ratio = 0.25f;
     header.source = source_name;
-    const double south_row = grid.rows_run_north ? 0.5 : double(info.height) - 0.5;
-    header.geo_origin[0] = info.geotransform[0] + 0.5 * info.geotransform[1];
-    header.geo_origin[1] = info.geotransform[3] + south_row * info.geotransform[5];
+    const std::array<double, 3>& geo = grid.frame.geo_origin();
+    std::copy(geo.begin(), geo.end(), header.geo_origin);
     header.crs = info.epsg ? "EPSG:" + std::to_string(*info.epsg) : info.crs_wkt;
     header.has_bounds = true;
-    header.bounds_lo[0] = header.bounds_lo[1] = 0, header.bounds_lo[2] = grid.low;
-    header.bounds_hi[0] = grid.x(info.width - 1), header.bounds_hi[1] = double(info.height - 1) * grid.spacing[1];
-    header.bounds_hi[2] = grid.high;
+    std::copy(grid.lo.begin(), grid.lo.end(), header.bounds_lo);
+    std::copy(grid.hi.begin(), grid.hi.end(), header.bounds_hi);
     header.terrain = TerrainGrid{.columns = info.width,
                                  .rows = info.height,
-                                 .spacing = {grid.spacing[0], grid.spacing[1]},
+                                 .spacing = {std::abs(info.geotransform[1]), std::abs(info.geotransform[5])},
                                  .nodata_samples = grid.nodata,
                                  .cube_cells = cube_cells,
-                                 .rows_run_north = grid.rows_run_north};
+                                 .rows_run_north = grid.rows_run_north,
+                                 .frame = uint32_t(grid.frame.kind())};
     return header;
 }
 
@@ -387,23 +404,16 @@ BuildReport build_terrain(const std::vector<std::filesystem::path>& files, const
 
     Assembly out(f, output, grid.info.name, resolve_thread_count(settings.threads));
     out.coarse = empty_level(grid, f.max_level, plan.level);
-    const double tile_size = f.cube_size(plan.level) * plan.tile_cubes;
-    const uint64_t tiles = (uint64_t(1) << plan.level) / plan.tile_cubes + ((uint64_t(1) << plan.level) % plan.tile_cubes != 0);
-    const AxisTiles columns(grid.info.width, [&](uint64_t c) { return grid.x(c); }, tile_size, tiles);
-    const AxisTiles rows(grid.info.height, [&](uint64_t r) { return grid.y(r); }, tile_size, tiles);
-    uint64_t done = 0;
-    for (uint64_t tj = 0; tj < tiles; ++tj)
-        for (uint64_t ti = 0; ti < tiles; ++ti) {
-            progress.check();
-            if (columns.first[ti] < columns.end[ti] && rows.first[tj] < rows.end[tj]) {
-                const std::array<uint64_t, 4> samples{columns.first[ti], columns.end[ti], rows.first[tj], rows.end[tj]};
-                const std::array<uint32_t, 4> cubes{uint32_t(ti * plan.tile_cubes), uint32_t((ti + 1) * plan.tile_cubes),
-                                                    uint32_t(tj * plan.tile_cubes), uint32_t((tj + 1) * plan.tile_cubes)};
-                build_tile(grid, tile_window(samples[0], samples[1], samples[2], samples[3], plan, grid, f.max_level), cubes, plan,
-                           samples, out);
-            }
-            progress("tiles", double(++done), double(tiles * tiles), "tiles");
+    const TileOwners owners(grid, out.coarse, f, plan.tile_cubes);
+    for (uint32_t tile = 0; tile < owners.tiles * owners.tiles; ++tile) {
+        progress.check();
+        if (owners.owns_samples(tile)) {
+            const uint32_t ti = uint32_t(tile % owners.tiles), tj = uint32_t(tile / owners.tiles), b = plan.tile_cubes;
+            build_tile(grid, tile_window(owners.box[tile], plan, grid, f.max_level), {ti * b, (ti + 1) * b, tj * b, (tj + 1) * b}, plan,
+                       owners, tile, out);
         }
+        progress("tiles", double(tile + 1), double(owners.tiles * owners.tiles), "tiles");
+    }
     report.input_triangles = out.input_triangles;
     if (report.input_triangles == 0) throw InputError(grid.info.name + ": no cell has three valid corners: no ground to build");
     report.partition_seconds = since(start);

@@ -3,10 +3,11 @@
 // into the octree's cubes as DESIGN.md §2 asks of every model (so `strata verify` and the renderer treat
 // it as any other), each cube with its error bound against the full raster (preprocess/terrain_bounds.h).
 //
-// The model's frame is the raster's projected CRS moved to its south-west sample: x east, y north,
-// z up, in metres (GEOR: geo_origin + x is the CRS position). Cubes are aligned with the samples when
-// the pixels are square: a level-L cube holds kCubeCells × kCubeCells cells, as does a cube of every
-// coarser level, whose samples are twice as far apart.
+// The model's frame (preprocess/terrain_frame.h): x east, y north, z up, in metres; a projected CRS's
+// own plane moved to the south-west sample, or for a raster in degrees a tangent plane at its centre.
+// In a projected CRS with square pixels the cubes fall on whole samples: a level-L cube holds
+// cube_cells × cube_cells cells, as does a cube of every coarser level, whose samples are twice as far
+// apart.
 #pragma once
 
 #include <array>
@@ -17,6 +18,7 @@
 
 #include "preprocess/hlod_builder.h"
 #include "preprocess/progress.h"
+#include "preprocess/terrain_frame.h"
 
 namespace strata {
 
@@ -24,6 +26,10 @@ struct TerrainSettings {
     uint32_t cube_cells = 64;     // cells per cube side (even, 8‥256)
     std::optional<float> fill;    // nodata becomes this elevation (metres) instead of a hole
     std::string crs;              // the CRS of rasters that declare none (EPSG:N, WKT, PROJ string)
+    // The unit of elevations when the raster does not say (m, ft, us-ft); empty: metres.
+    std::string elevation_unit;
+    // The model's frame for a raster in degrees (preprocess/terrain_frame.h): enu or ecef.
+    TerrainFrameKind frame = TerrainFrameKind::enu;
     // Bytes the build may hold; 0: a quarter of physical memory. A raster larger than half of it is
     // built in tiles (each read with a margin), then the coarse levels from one of its levels; never
     // changes a byte of the output.

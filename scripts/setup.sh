@@ -7,7 +7,7 @@ cd "$(dirname "$0")/.."
 packages=(
   cmake ninja-build g++ pkg-config
   libmeshoptimizer-dev libzstd-dev libcli11-dev nlohmann-json3-dev
-  libgdal-dev gdal-bin  # elevation rasters for terrain; the tests compare with gdalinfo and gdallocationinfo
+  libgdal-dev gdal-bin libproj-dev  # elevation rasters for terrain; the tests compare with gdalinfo, gdallocationinfo and PROJ
   libgtest-dev libgmock-dev
   libepoxy-dev libegl-dev libegl-mesa0 libgl1-mesa-dri libglfw3-dev libglm-dev
   libopenexr-dev openexr libstb-dev xvfb

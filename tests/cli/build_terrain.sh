@@ -21,7 +21,21 @@ expect_success "the CRS given" "$STRATA" build "$WORK/grid.asc" --crs EPSG:31985
 expect_success "info of the CRS given" "$STRATA" info "$WORK/grid.hlod"
 checks=$((checks + 1)); grep -q "^georef      EPSG:31985 SIRGAS 2000 / UTM zone 25S, model origin" "$WORK/out.txt" ||
     fail "info: the CRS not by code and name: $(grep georef "$WORK/out.txt")"
-expect_failure "a geographic CRS" "geographic CRS" "$STRATA" build "$WORK/grid.asc" --crs EPSG:4326 -o "$WORK/degrees.hlod"
+expect_status "an unknown frame" 2 "frame" "$STRATA" build "$WORK/grid.asc" --frame utm -o "$WORK/degrees.hlod"
 expect_status "fill not a number" 2 "--fill-nodata takes an elevation" "$STRATA" build "$dem" --fill-nodata low -o "$WORK/x.hlod"
 checks=$((checks + 1)); ls "$WORK" | grep -q -e "degrees.hlod" -e "x.hlod" && fail "a failed build left output: $(ls "$WORK")"
+
+# A real DEM in degrees (trinidad.nc: 3 arc-seconds, elevations in feet, no CRS in the file): the
+# tangent plane at its centre, heights in metres (Blanca Peak's sample, 14 176 ft, is the highest).
+trinidad=$2/data/trinidad.nc
+if [ -s "$trinidad" ]; then
+    expect_success "build in degrees" "$STRATA" build "$trinidad" --crs EPSG:4326 --elevation-unit ft -o "$WORK/trinidad.hlod" -q
+    expect_success "verify in degrees" "$STRATA" verify "$WORK/trinidad.hlod"
+    expect_success "info in degrees" "$STRATA" info "$WORK/trinidad.hlod"
+    checks=$((checks + 1)); grep -q "^frame .*enu, the flat tangent plane at longitude -105°, latitude 37.5°" "$WORK/out.txt" ||
+        fail "info: not the tangent plane at the centre: $(grep frame "$WORK/out.txt")"
+    checks=$((checks + 1)); grep -q "^extent .* m, heights .* to 4320.89" "$WORK/out.txt" ||
+        fail "info: the highest sample is not 14176 ft: $(grep extent "$WORK/out.txt")"
+    expect_status "an unknown elevation unit" 2 "elevation-unit" "$STRATA" build "$trinidad" --crs EPSG:4326 --elevation-unit furlong -o "$WORK/x.hlod"
+fi
 finish

@@ -944,13 +944,13 @@ TEST_F(BadFile, TheResealedGoodOneOpens) {
 // FORMAT.md §4.7: a terrain's grid, at the offsets the format gives, and refused when it cannot be one.
 TEST_F(BadFile, TerrainGridComesBackFromItsOffsetsAndABadOneIsRefused) {
     SmallModel model;
-    model.header.terrain = TerrainGrid{.columns = 1201, .rows = 2401, .spacing = {30, 25}, .nodata_samples = 77, .cube_cells = 64, .rows_run_north = true};
+    model.header.terrain = TerrainGrid{.columns = 1201, .rows = 2401, .spacing = {30, 25}, .nodata_samples = 77, .cube_cells = 64, .rows_run_north = true, .frame = 0};
     model.write(dir / "terrain.hlod");
     const std::vector<uint8_t> bytes = test::file_bytes(dir / "terrain.hlod");
     const uint64_t at = section_offset(bytes, "TERR");
     ASSERT_NE(entry_of(bytes, "TERR"), 0u);
-    EXPECT_EQ(section_size(bytes, "TERR"), 48u);
-    EXPECT_EQ(get<uint32_t>(bytes, entry_of(bytes, "TERR") + 4), 0u) << "optional";
+    EXPECT_EQ(section_size(bytes, "TERR"), 56u);
+    EXPECT_EQ(get<uint32_t>(bytes, entry_of(bytes, "TERR") + 4), 0u) << "optional in the CRS's own plane";
     EXPECT_EQ(get<uint64_t>(bytes, at + 0), 1201u);
     EXPECT_EQ(get<uint64_t>(bytes, at + 8), 2401u);
     EXPECT_EQ(get<double>(bytes, at + 16), 30.0);
@@ -958,6 +958,7 @@ TEST_F(BadFile, TerrainGridComesBackFromItsOffsetsAndABadOneIsRefused) {
     EXPECT_EQ(get<uint64_t>(bytes, at + 32), 77u);
     EXPECT_EQ(get<uint32_t>(bytes, at + 40), 64u);
     EXPECT_EQ(get<uint32_t>(bytes, at + 44), 1u);
+    EXPECT_EQ(get<uint32_t>(bytes, at + 48), 0u);
     const HlodFile file(dir / "terrain.hlod");
     ASSERT_TRUE(file.header().terrain);
     EXPECT_EQ(file.header().terrain->rows, 2401u);
@@ -976,6 +977,14 @@ TEST_F(BadFile, TerrainGridComesBackFromItsOffsetsAndABadOneIsRefused) {
     expect_rejected(with(32, uint64_t(1201) * 2401 + 1), "more nodata samples than samples");
     expect_rejected(with(40, uint32_t(7)), "cubes of 7 cells");
     expect_rejected(with(44, uint32_t(2)), "unknown flags");
+    expect_rejected(with(48, uint32_t(3)), "frame 3, which this Strata does not know");
+
+    // In a tangent plane, GEOR's origin is a longitude and latitude: a reader must know TERR to place it.
+    model.header.terrain->frame = 1;
+    model.write(dir / "enu.hlod");
+    const std::vector<uint8_t> enu = test::file_bytes(dir / "enu.hlod");
+    EXPECT_EQ(get<uint32_t>(enu, entry_of(enu, "TERR") + 4), 1u) << "required";
+    EXPECT_EQ(HlodFile(dir / "enu.hlod").header().terrain->frame, 1u);
 }
 
 TEST_F(BadFile, Missing) {

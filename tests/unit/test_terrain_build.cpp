@@ -11,10 +11,15 @@
 #include <random>
 #include <set>
 
+#include <geodesic.h>
+#include <proj.h>
+
 #include "nodes/hlod_model.h"
 #include "preprocess/hlod_verify.h"
+#include "preprocess/elevation_raster.h"
 #include "preprocess/mesh.h"
 #include "preprocess/terrain_build.h"
+#include "preprocess/terrain_frame.h"
 #include "tests/support/geotiff.h"
 
 #pragma GCC diagnostic ignored "-Wmissing-field-initializers"
@@ -244,6 +249,89 @@ TEST(TerrainBuild, TiledBuildsAreByteIdenticalToTheWholeRastersBuild) {
     }
 }
 
+// A PROJ pipeline, for the expected positions: geodetic → geocentric → east, north, up at a point.
+class Topocentric {
+public:
+    Topocentric(double longitude, double latitude)
+        : context_(proj_context_create()),
+          pipeline_(proj_create(context_, ("+proj=pipeline +step +proj=cart +ellps=WGS84 +step +proj=topocentric +ellps=WGS84 +lon_0=" +
+                                           std::to_string(longitude) + " +lat_0=" + std::to_string(latitude) + " +h_0=0")
+                                              .c_str())) {}
+    ~Topocentric() { proj_destroy(pipeline_), proj_context_destroy(context_); }
+    std::array<double, 3> operator()(double longitude, double latitude, double height) const {
+        const PJ_COORD c = proj_trans(pipeline_, PJ_FWD, proj_coord(proj_torad(longitude), proj_torad(latitude), height, 0));
+        return {c.xyz.x, c.xyz.y, c.xyz.z};
+    }
+    bool ok() const { return pipeline_ != nullptr; }
+
+private:
+    PJ_CONTEXT* context_;
+    PJ* pipeline_;
+};
+
+// A DEM in degrees (EPSG:4326, 0.6° × 0.5° of the Alps at 0.005°): in the enu frame each sample lies
+// where PROJ puts its ellipsoid point in the tangent plane at the centre, at its height; in ecef where
+// PROJ puts the point itself. Horizontal distances differ from the ellipsoid's geodesics (PROJ's
+// geod_inverse) by at most the documented (d/R)²/2 of the tangent plane.
+TEST(TerrainBuild, ADemInDegreesLiesInATangentPlaneAtItsCentre) {
+    test::TempDir dir;
+    test::TiffSpec spec{.width = 121, .height = 101, .type = GDT_Float32, .geotransform = {7.0, 0.005, 0, 47.0, 0, -0.005}, .crs = "EPSG:4326"};
+    spec.values = rough_heights(spec.width, spec.height, 8);
+    test::write_tiff(dir / "alps.tif", spec);
+    const double lon0 = 7.0 + 0.005 * (60 + 0.5), lat0 = 47.0 - 0.005 * (50 + 0.5);  // the centre sample
+    const Topocentric topocentric(lon0, lat0);
+    ASSERT_TRUE(topocentric.ok());
+    geod_geodesic wgs84;
+    geod_init(&wgs84, 6378137, 1 / 298.257223563);
+
+    for (const TerrainFrameKind frame : {TerrainFrameKind::enu, TerrainFrameKind::ecef}) {
+        SCOPED_TRACE(frame == TerrainFrameKind::enu ? "enu" : "ecef");
+        build(dir / "alps.tif", dir / "alps.hlod", {.cube_cells = 16, .frame = frame});
+        const auto model = HlodModel::load(dir / "alps.hlod");
+        const HlodHeader& h = model->header();
+        ASSERT_TRUE(h.terrain);
+        EXPECT_EQ(h.terrain->frame, uint32_t(frame));
+        EXPECT_NEAR(h.geo_origin[0], lon0, 1e-9);
+        EXPECT_NEAR(h.geo_origin[1], lat0, 1e-9);
+        std::vector<std::array<double, 3>> finest;
+        for (const HlodCube& cube : model->cubes())
+            for (uint32_t v = 0; cube.node.level == h.max_level && v < cube.data->vertex_count(); ++v) {
+                const glm::vec3 p = model->vertex_position(cube, v);
+                finest.push_back({h.origin[0] + p.x, h.origin[1] + p.y, h.origin[2] + p.z});
+            }
+        auto vertex_near = [&](const std::array<double, 3>& want) {
+            double best = INFINITY;
+            std::array<double, 3> found{};
+            for (const auto& p : finest)
+                if (const double d = std::hypot(p[0] - want[0], p[1] - want[1]); d < best) best = d, found = p;
+            return found;
+        };
+        std::mt19937 rng(3);
+        const double step = h.lattice_step(h.max_level);
+        double worst_distortion = 0;
+        for (int s = 0; s < 60; ++s) {
+            const int c = int(rng() % 121), r = int(rng() % 101), c2 = int(rng() % 121), r2 = int(rng() % 101);
+            const double lon = 7.0 + 0.005 * (c + 0.5), lat = 47.0 - 0.005 * (r + 0.5), height = spec.values[size_t(r * 121 + c)];
+            const std::array<double, 3> at_zero = topocentric(lon, lat, 0), at_height = topocentric(lon, lat, height);
+            const std::array<double, 3> want = frame == TerrainFrameKind::enu ? std::array{at_zero[0], at_zero[1], height} : at_height;
+            const std::array<double, 3> got = vertex_near(want);
+            for (int a = 0; a < 3; ++a) EXPECT_NEAR(got[size_t(a)], want[size_t(a)], step) << "sample " << c << ", " << r << " axis " << a;
+            if (frame != TerrainFrameKind::enu) continue;
+            // The frame's horizontal distance against the geodesic between the two samples.
+            const TerrainFrame plane = TerrainFrame::for_raster(ElevationRaster::open({dir / "alps.tif"}).info());
+            const std::array<double, 3> a = plane.position(uint64_t(c), uint64_t(r), 0), b = plane.position(uint64_t(c2), uint64_t(r2), 0);
+            double geodesic = 0;
+            geod_inverse(&wgs84, lat, lon, 47.0 - 0.005 * (r2 + 0.5), 7.0 + 0.005 * (c2 + 0.5), &geodesic, nullptr, nullptr);
+            if (geodesic > 1000) worst_distortion = std::max(worst_distortion, std::abs(std::hypot(b[0] - a[0], b[1] - a[1]) - geodesic) / geodesic);
+        }
+        if (frame == TerrainFrameKind::enu) {
+            const double reach = 40e3 / 6371e3;  // the farthest sample from the centre, over the Earth's radius
+            EXPECT_LT(worst_distortion, reach * reach / 2);
+            std::printf("enu: distances in the plane within %.2g of the geodesics (bound (d/R)²/2 = %.2g)\n", worst_distortion, reach * reach / 2);
+        }
+    }
+}
+
 std::string build_error(const fs::path& dem, const fs::path& out) {
     try {
         build_terrain({dem}, out, {}, dem.filename().string());
@@ -262,8 +350,6 @@ TEST(TerrainBuild, BadRastersFailNamingTheFileAndLeaveNothing) {
         const char* says;
     };
     const Case cases[] = {
-        {"degrees.tif", {.width = 20, .height = 16, .values = heights, .geotransform = {10, 0.001, 0, 45, 0, -0.001}, .crs = "EPSG:4326"},
-         "geographic CRS"},
         {"feet.tif", {.width = 20, .height = 16, .values = heights, .crs = "EPSG:2227"}, "units of 0.3048"},
         {"bands.tif", {.width = 20, .height = 16, .bands = 3, .values = heights}, "band"},
         {"nowhere.tif", {.width = 20, .height = 16, .values = heights, .georeferenced = false, .crs = ""}, "geotransform"},
