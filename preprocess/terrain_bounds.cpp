@@ -229,9 +229,10 @@ private:
     }
 
     // A fragment the coarse level dropped: its distance to the nearest vertex a coarse triangle uses,
-    // searched in rings around where it collapsed; the model's diagonal when none is near.
+    // searched in rings around where it collapsed; the model's diagonal when none is near. Two rings: a
+    // tiled build reads that far, and more, around each tile (terrain_build.cpp, kMarginCells).
     double nearest_used(const Triangle& small, uint64_t around) const {
-        constexpr int64_t kRings = 8;
+        constexpr int64_t kRings = 2;
         const int64_t c = int64_t(around % coarse_.width()), r = int64_t(around / coarse_.width());
         for (int64_t ring = 1; ring <= kRings; ++ring) {
             double best = far_;

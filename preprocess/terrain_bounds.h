@@ -13,7 +13,7 @@
 // Σ b_i V_i has Σ b_i u_i on that triangle). A finer triangle with no coarse triangle over it collapses
 // to an edge or a point of the coarse grid: when that is part of a coarse triangle, the same argument
 // bounds it; otherwise (the coarse level has dropped a fragment of ground) by its distance to the
-// nearest vertex a coarse triangle uses, searched nearby, or the model's diagonal.
+// nearest vertex a coarse triangle uses, searched within two coarse cells, or the model's diagonal.
 #pragma once
 
 #include <unordered_map>

@@ -33,9 +33,10 @@ constexpr float kLeastSigma0 = 0.1f, kMostSigma0 = 0.45f;
 constexpr double kTileBytesPerSample = 170;
 // What a level-T sample costs for the whole raster: the same, kept until the coarse levels are built.
 constexpr double kCoarseBytesPerSample = 170;
-// Level-T cells a tile reads beyond the cubes it owns on each side: what its levels need to come out as
-// they would from the whole raster (a cell of each finer level, and the bounds' search for a dropped
-// fragment, terrain_bounds.cpp) with room to spare.
+// Level-T cells a tile reads beyond the samples it owns on each side: what its levels need to come out
+// as they would from the whole raster, with room to spare: a vertex of level l depends on the level
+// below within one of its cells (two level-T cells over all the tile's levels), and the bounds search
+// two cells around a dropped fragment (terrain_bounds.cpp).
 constexpr uint64_t kMarginCells = 5;
 
 // Metres per unit of the band's elevations: the unit the raster states, else the one given.
