@@ -6,6 +6,7 @@
 
 #include "editor/commands.h"
 #include "editor/scene_files.h"
+#include "editor/world_file.h"
 #include "engine/gl/context.h"
 #include "engine/gl/framebuffer.h"
 #include "engine/io/image.h"
@@ -23,6 +24,7 @@ struct RenderOptions {
     std::vector<double> eye, target, up{0, 1, 0};
     double fov = 50;
     bool orthographic = false;
+    bool top = false;
     int samples = 4;
     std::string channels = "RGBA,Z";
     std::string compression = "zip";
@@ -37,6 +39,11 @@ glm::dvec3 vec3_of(const std::vector<double>& v) { return {v[0], v[1], v[2]}; }
 
 // Without --eye: the whole scene framed, looking at --target (the scene's centre by default).
 void place_camera(Camera& camera, const RenderOptions& o, const Box& bounds) {
+    if (o.top) {  // a map: straight down, north up, framed to the scene
+        camera.look_at(bounds.center() + glm::dvec3(0, 0, 1), bounds.center(), glm::dvec3(0, 1, 0));
+        camera.frame(bounds);
+        return;
+    }
     const glm::dvec3 up = vec3_of(o.up);
     const glm::dvec3 target = o.target.empty() ? bounds.center() : vec3_of(o.target);
     if (!o.eye.empty()) {
@@ -81,7 +88,7 @@ int run_render(const RenderOptions& o) {
     camera.width = width;
     camera.height = height;
     camera.fov_y_degrees = o.fov;
-    if (o.orthographic) camera.projection = ProjectionKind::orthographic;
+    if (o.orthographic || o.top) camera.projection = ProjectionKind::orthographic;
     place_camera(camera, o, scene->bound());
 
     gl::Framebuffer target({.width = width, .height = height, .samples = o.samples,
@@ -96,10 +103,14 @@ int run_render(const RenderOptions& o) {
     const Image image = renderer.read_image(target);
     if (extension == ".png") write_png(image, output);
     else write_exr(image, output, channels, exr);
+    const WorldFiles world = write_world_files(output, camera, *scene);
+    if (!world.not_written.empty()) std::fprintf(stderr, "strata render: note: no world file: %s\n", world.not_written.c_str());
     if (!o.quiet)
         std::printf("%s: %dx%d, %llu triangles, %llu cubes, %llu draw calls, cull %.2f ms (%s)\n", o.output.c_str(), width,
                     height, (unsigned long long)stats.triangles, (unsigned long long)stats.cubes,
                     (unsigned long long)stats.draw_calls, stats.cull_ms, context->renderer().c_str());
+    if (!o.quiet && !world.written.empty())
+        std::printf("%s: placed by %s and %s\n", o.output.c_str(), world.written[0].filename().c_str(), world.written[1].filename().c_str());
     return kOk;
 }
 
@@ -116,7 +127,11 @@ Command add_render(CLI::App& app) {
     sub->add_option("--target", o->target, "Point looked at x,y,z (default: the scene's centre)")->delimiter(',')->expected(3);
     sub->add_option("--up", o->up, "Up direction x,y,z")->delimiter(',')->expected(3)->capture_default_str();
     sub->add_option("--fov", o->fov, "Vertical field of view, degrees")->check(CLI::Range(1.0, 170.0))->capture_default_str();
-    sub->add_flag("--ortho", o->orthographic, "Orthographic projection (elevations, orthophotos): framed to the scene");
+    sub->add_flag("--ortho", o->orthographic,
+                  "Orthographic projection (elevations, orthophotos): framed to the scene. Looking straight down on "
+                  "georeferenced models, also writes a world file and a .prj beside the image");
+    sub->add_flag("--top", o->top, "A map: orthographic, straight down, north up, framed to the scene (with a world file and .prj)")
+        ->excludes("--eye");
     sub->add_option("--pixel-error", o->scene.pixel_error, "Pixels an HLOD cube's error bound may span at its nearest point (the finest level is exempt)")
         ->check(positive_number())->capture_default_str();
     sub->add_option("--channels", o->channels, "EXR channels: RGBA, Z (eye-space depth), N (world normals), level, id")

@@ -169,6 +169,18 @@ std::array<double, 2> RasterInfo::sample_position(double column, double row) con
     return {g[0] + c * g[1] + r * g[2], g[3] + c * g[4] + r * g[5]};
 }
 
+std::string crs_as_esri_wkt(const std::string& crs) {
+    register_drivers();
+    OGRSpatialReference reference;
+    QuietGdal quiet;
+    if (reference.SetFromUserInput(crs.c_str()) != OGRERR_NONE) return crs;
+    char* wkt = nullptr;
+    const char* options[] = {"FORMAT=WKT1_ESRI", nullptr};
+    std::string text = reference.exportToWkt(&wkt, options) == OGRERR_NONE && wkt ? wkt : crs;
+    CPLFree(wkt);
+    return text;
+}
+
 void limit_raster_cache(uint64_t bytes) { GDALSetCacheMax64(GIntBig(std::min<uint64_t>(bytes, uint64_t(1) << 62))); }
 
 std::string describe_crs(const std::string& crs) {

@@ -42,6 +42,10 @@ struct RasterInfo {
 // name alone when it has no EPSG code); the text itself when PROJ cannot read it.
 std::string describe_crs(const std::string& crs);
 
+// The CRS (an authority code, WKT or PROJ string) as ESRI WKT, what a .prj file beside an image holds;
+// the text itself when PROJ cannot read it.
+std::string crs_as_esri_wkt(const std::string& crs);
+
 // Caps the memory GDAL keeps of raster blocks it has read (its block cache, by default a share of the
 // machine's memory), so that a build stays within its own limit.
 void limit_raster_cache(uint64_t bytes);

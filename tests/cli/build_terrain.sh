@@ -13,6 +13,31 @@ size=$(gdalinfo "$dem" | sed -n 's/^Size is \([0-9]*\), \([0-9]*\)$/\1 × \2/p')
 checks=$((checks + 1)); grep -q "^terrain     $size samples, 89.99.. × 89.99.. m apart, 0 nodata" "$WORK/out.txt" ||
     fail "info: not the raster's $size samples: $(grep terrain "$WORK/out.txt")"
 
+# A map of it (--top): the world file and .prj place the picture. GDAL reads the world file as the PNG's
+# geotransform; the outermost covered pixels' centres lie within a pixel of the DEM's outermost samples
+# (gdalinfo's geotransform, pixel centres); the .prj is the DEM's CRS (ESRI WKT has no TOWGS84: the
+# DEM's null one aside).
+expect_success "render a map" "$STRATA" render "$WORK/olinda.hlod" --top --size 300x300 --samples 1 --background 0,0,0,0 -o "$WORK/map.png"
+checks=$((checks + 1)); grep -q "placed by map.pgw and map.prj" "$WORK/out.txt" || fail "render --top: no world file: $(cat "$WORK/out.txt")"
+read -r x0 y0 x1 y1 _ < <(python3 "$2/tests/support/png_pixels.py" box "$WORK/map.png" 0,0,0,0)
+map=$(GDAL_PAM_ENABLED=NO gdalinfo -json "$WORK/map.png" | tr -d ' \n' | sed -n 's/.*"geoTransform":\[\([^]]*\)\].*/\1/p')
+dem_g=$(GDAL_PAM_ENABLED=NO gdalinfo -json "$dem" | tr -d ' \n' | sed -n 's/.*"geoTransform":\[\([^]]*\)\].*/\1/p')
+checks=$((checks + 1))
+awk -v m="$map" -v d="$dem_g" -v x0="$x0" -v y0="$y0" -v x1="$x1" -v y1="$y1" -v n=111 'BEGIN {
+    split(m, g, ","); split(d, e, ",")
+    # GDAL: the upper-left corner of pixel (i, j) is (g1 + i g2 + j g3, g4 + i g5 + j g6); centres at +0.5.
+    west = g[1] + (x0 + 0.5) * g[2]; east = g[1] + (x1 + 0.5) * g[2]
+    north = g[4] + (y0 + 0.5) * g[6]; south = g[4] + (y1 + 0.5) * g[6]
+    want_w = e[1] + 0.5 * e[2]; want_e = e[1] + (n - 0.5) * e[2]; want_n = e[4] + 0.5 * e[6]; want_s = e[4] + (n - 0.5) * e[6]
+    px = g[2]; bad = 0
+    if ((west - want_w)^2 > px^2 || (east - want_e)^2 > px^2 || (north - want_n)^2 > px^2 || (south - want_s)^2 > px^2) bad = 1
+    if (bad) printf "covered %.1f..%.1f x %.1f..%.1f, the DEM %.1f..%.1f x %.1f..%.1f (pixel %.1f)\n", west, east, south, north, want_w, want_e, want_s, want_n, px
+    exit bad }' || fail "render --top: the world file does not place the terrain on its samples"
+checks=$((checks + 1))
+proj4() { gdalsrsinfo -o proj4 "$1" 2>/dev/null | sed 's/ +towgs84=0,0,0,0,0,0,0//' | tr -d '\n'; }
+[ "$(proj4 "$WORK/map.prj")" = "$(proj4 "$dem")" ] && [ -n "$(proj4 "$dem")" ] ||
+    fail "render --top: map.prj is not the DEM's CRS: $(cat "$WORK/map.prj")"
+
 # No georeference: a raster GDAL reads whose samples lie nowhere.
 gdal_translate -q -of AAIGrid "$dem" "$WORK/grid.asc" && rm -f "$WORK/grid.prj"
 sed -i '/^xllcorner/s/.*/xllcorner 0/' "$WORK/grid.asc"
