@@ -330,6 +330,11 @@ Command add_build(CLI::App& app) {
                     "Terrains in degrees: enu (a flat tangent plane at the centre, heights up) or ecef (the Earth's curvature kept)")
         ->check(CLI::IsMember({"enu", "ecef"}))
         ->capture_default_str();
+    sub->add_option("--cube-cells", o->terrain.cube_cells,
+                    "Terrains: cells along a cube's side (even, 8 to 256): larger for very steep ground")
+        ->check(CLI::Range(8u, 256u))
+        ->check([](const std::string& value) { return std::stoul(value) % 2 ? std::string("an even number of cells") : std::string(); })
+        ->capture_default_str();
     sub->add_option("--fill-nodata", o->fill_nodata,
                     "Terrains: give nodata samples this elevation (metres) instead of leaving holes");
     sub->add_flag("-q,--quiet", o->quiet, "No progress bar and no summary");

@@ -426,7 +426,7 @@ BuildReport build_terrain(const std::vector<std::filesystem::path>& files, const
     const double sigma0 = std::max(double(kLeastSigma0), out.encoder.sigma0_needed() * 1.001);
     if (sigma0 > kMostSigma0)
         throw InputError(grid.info.name + ": ground too steep for cubes of " + std::to_string(settings.cube_cells) +
-                         " cells (σ0 would be " + std::to_string(sigma0) + "); build with larger cubes");
+                         " cells (σ0 would be " + std::to_string(sigma0) + "); build with larger cubes (--cube-cells)");
     build::Frame bounded = f;
     bounded.sigma0 = float(sigma0);
     const std::vector<float> bounds = build::final_bounds(out.errors, bounded);

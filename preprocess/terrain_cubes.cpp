@@ -139,7 +139,7 @@ CubeData CubeEncoder::cube_data(const Cube& cube, const TerrainLevel& level, con
             const int64_t stored = std::llround((p[a] - f_.origin[a]) * inverse_step) - (int64_t(cell[a]) << kLatticeBits) + kLatticeBias;
             if (stored < 0 || stored > 0xFFFF)
                 throw InputError(name_ + ": ground too steep for its cubes (a vertex of level " + std::to_string(l) +
-                                 " lies half a cube outside its cell); build with larger cubes");
+                                 " lies half a cube outside its cell); build with larger cubes (--cube-cells)");
             data.vertices.positions[3 * v + size_t(a)] = uint16_t(stored);
         }
         const std::array<int16_t, 2> normal = encode_normal(normals_[3 * id], normals_[3 * id + 1], normals_[3 * id + 2]);

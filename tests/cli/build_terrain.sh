@@ -47,6 +47,9 @@ expect_success "info of the CRS given" "$STRATA" info "$WORK/grid.hlod"
 checks=$((checks + 1)); grep -q "^georef      EPSG:31985 SIRGAS 2000 / UTM zone 25S, model origin" "$WORK/out.txt" ||
     fail "info: the CRS not by code and name: $(grep georef "$WORK/out.txt")"
 expect_status "an unknown frame" 2 "frame" "$STRATA" build "$WORK/grid.asc" --frame utm -o "$WORK/degrees.hlod"
+expect_status "odd cube cells" 2 "even" "$STRATA" build "$dem" --cube-cells 33 -o "$WORK/x.hlod"
+expect_success "larger cubes" "$STRATA" build "$dem" --cube-cells 128 -o "$WORK/big_cubes.hlod" -q
+expect_success "verify larger cubes" "$STRATA" verify "$WORK/big_cubes.hlod"
 expect_status "fill not a number" 2 "--fill-nodata takes an elevation" "$STRATA" build "$dem" --fill-nodata low -o "$WORK/x.hlod"
 checks=$((checks + 1)); ls "$WORK" | grep -q -e "degrees.hlod" -e "x.hlod" && fail "a failed build left output: $(ls "$WORK")"
 
