@@ -283,7 +283,8 @@ Command add_build(CLI::App& app) {
     auto o = std::make_shared<BuildOptions>();
     CLI::App* sub = app.add_subcommand("build", "Build a multiresolution model (.hlod) from a scan (PLY, OBJ, OFF, STL), or a terrain from elevation rasters (GeoTIFF or any DEM GDAL reads).");
     sub->add_option("input", o->inputs,
-                    "The scan: one file, or the tiles of one model (welded along shared borders); @LIST reads "
+                    "The scan: one file, or the tiles of one model (welded along shared borders), or for a terrain one "
+                    "elevation raster or the tiles of one grid; @LIST reads "
                     "the inputs from a text file, one per line (# comments; relative to the list's folder)");
     sub->add_option("-o,--output", o->output, "The .hlod file to write");
     sub->add_flag("--resume", o->settings.resume,
@@ -316,7 +317,8 @@ Command add_build(CLI::App& app) {
                     "Memory for the build's buffers and any input read whole, in bytes or with a binary suffix K, M, "
                     "G, T (2G, 512M, 1.5G); at least 16M, default a quarter of physical memory. Peak memory stays "
                     "under it plus a fixed overhead (about 150 MiB). Binary PLY streams from disk; other formats "
-                    "are read whole, and a build estimated not to fit is refused before reading. Never changes the output");
+                    "are read whole, and a build estimated not to fit is refused before reading. A terrain larger than "
+                    "half of it is built in tiles. Never changes the output");
     sub->add_option("--temp", o->settings.temp_dir,
                     "Folder for the build's work folder OUT.build (the input's triangles sorted by block, then "
                     "each level's cubes and shared border points; about 40 bytes per input triangle at the peak); "
