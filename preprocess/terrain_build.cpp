@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <functional>
+#include <mutex>
 #include <numeric>
 #include <optional>
 #include <unordered_map>
@@ -133,10 +134,10 @@ struct TilePlan {
     uint64_t margin = 0;      // level-L samples read beyond a tile's own on each side
 };
 
-TilePlan plan_tiles(const Grid& grid, const build::Frame& f, uint32_t cube_cells, uint64_t memory) {
+TilePlan plan_tiles(const Grid& grid, const build::Frame& f, uint32_t cube_cells, uint64_t memory, unsigned threads) {
     const double samples = double(grid.info.width) * double(grid.info.height);
-    const double tile_budget = double(memory) / 2 / kTileBytesPerSample;
-    if (samples <= tile_budget) return {0, 1, 0};
+    if (samples <= double(memory) / 2 / kTileBytesPerSample) return {0, 1, 0};
+    const double tile_budget = double(memory) / 2 / kTileBytesPerSample / threads;  // tiles run side by side
     for (uint32_t depth = 1; depth <= f.max_level; ++depth) {
         const double scale = double(uint64_t(1) << depth);
         if (samples / (scale * scale) * kCoarseBytesPerSample > double(memory) / 4) continue;
@@ -248,26 +249,30 @@ size_t position_of(const terrain::Axis& axis, uint64_t index) {
     return size_t(std::lower_bound(axis.index.begin(), axis.index.end(), index) - axis.index.begin());
 }
 
-// The statistics and error terms every tile and the coarse levels add to.
+// What every tile and the coarse levels add to; tiles run on several threads, so `lock` guards it all
+// but level T's grid, whose samples and cells each tile writes only where it owns them.
 struct Assembly {
     const build::Frame& f;
+    const std::string name;
     HlodWriter writer;
     std::vector<build::CubeErrors> errors;
     std::vector<LevelStats> levels;  // by level
-    terrain::CubeEncoder encoder;
+    std::mutex lock;
     TerrainLevel coarse;  // level T over the whole raster
     std::vector<Cube> coarse_cubes;  // level T's cubes, vertices by level-T ids
     terrain::CubeDistances coarse_forward;  // F of level T's cubes
     uint64_t input_triangles = 0;
+    double sigma0_needed = 0;
 
-    Assembly(const build::Frame& frame, const std::filesystem::path& output, const std::string& name, unsigned threads)
-        : f(frame), writer(output), levels(frame.max_level + 1), encoder(frame, name, writer, errors, levels, threads) {}
+    Assembly(const build::Frame& frame, const std::filesystem::path& output, std::string raster_name)
+        : f(frame), name(std::move(raster_name)), writer(output), levels(frame.max_level + 1) {}
+    terrain::CubeEncoder encoder(unsigned threads) { return terrain::CubeEncoder(f, name, writer, errors, levels, lock, threads); }
 };
 
 // One tile: levels L … T of its window, its own cubes of levels L … T + 1 encoded, its level-T cubes
 // and its part of level T's grid handed to the coarse levels.
 void build_tile(const Grid& grid, const Window& window, const std::array<uint32_t, 4>& owned_cubes, const TilePlan& plan,
-                const TileOwners& owners, uint32_t tile, Assembly& out) {
+                const TileOwners& owners, uint32_t tile, unsigned threads, Assembly& out) {
     const build::Frame& f = out.f;
     const uint32_t L = f.max_level, T = plan.level;
     // A cube of level l is the tile's when its level-T ancestor is one of the tile's cubes.
@@ -287,14 +292,16 @@ void build_tile(const Grid& grid, const Window& window, const std::array<uint32_
                                            std::sqrt(3.0) * f.root_size);
     }
 
+    terrain::CubeEncoder encoder = out.encoder(threads);
     std::vector<uint32_t> number(levels[0].flags.size(), terrain::kUnnumbered);
     std::vector<Cube> cubes = terrain::level_cubes(levels[0], nullptr, {}, number, owned_at(L));
-    for (const Cube& cube : cubes) out.input_triangles += cube.triangles.size() / 3;
+    uint64_t triangles = 0;
+    for (const Cube& cube : cubes) triangles += cube.triangles.size() / 3;
     for (uint32_t l = L; l > T; --l) {
         const TerrainLevel &level = levels[L - l], &coarse = levels[L - l + 1];
         std::vector<Cube> parents = terrain::level_cubes(coarse, &level, cubes, number, owned_at(l - 1));
-        out.encoder.start_level(level, l < L ? &steps[l - T].forward : nullptr, &steps[l - 1 - T].finer_coverage);
-        terrain::encode_children(parents, cubes, level, coarse, number, out.encoder);
+        encoder.start_level(level, l < L ? &steps[l - T].forward : nullptr, &steps[l - 1 - T].finer_coverage);
+        terrain::encode_children(parents, cubes, level, coarse, number, encoder);
         cubes.swap(parents);
     }
 
@@ -304,11 +311,17 @@ void build_tile(const Grid& grid, const Window& window, const std::array<uint32_
     auto global_vertex = [&](uint64_t v) {
         return whole.vertex(position_of(whole.columns, mine.columns[v % mine.width()]), position_of(whole.rows, mine.rows[v / mine.width()]));
     };
-    for (Cube& cube : cubes) {
-        if (T < L)
-            if (auto it = steps[0].forward.find(cube.key); it != steps[0].forward.end()) out.coarse_forward[cube.key] = it->second;
+    for (Cube& cube : cubes)
         for (uint64_t& v : cube.vertices) v = global_vertex(v);
-        out.coarse_cubes.push_back(std::move(cube));
+    {
+        std::lock_guard lock(out.lock);
+        for (Cube& cube : cubes) {
+            if (T < L)
+                if (auto it = steps[0].forward.find(cube.key); it != steps[0].forward.end()) out.coarse_forward[cube.key] = it->second;
+            out.coarse_cubes.push_back(std::move(cube));
+        }
+        out.input_triangles += triangles;
+        out.sigma0_needed = std::max(out.sigma0_needed, encoder.sigma0_needed());
     }
     for (size_t r = 0; r < mine.height(); ++r)
         for (size_t c = 0; c < mine.width(); ++c) {
@@ -323,7 +336,8 @@ void build_tile(const Grid& grid, const Window& window, const std::array<uint32_
 }
 
 // Levels T … 0 from level T's grid and cubes; encodes level T's cubes and every coarser one.
-void build_coarse_levels(const build::Frame& f, uint32_t T, Assembly& out, const Progress& progress) {
+void build_coarse_levels(const build::Frame& f, uint32_t T, unsigned threads, Assembly& out, const Progress& progress) {
+    terrain::CubeEncoder encoder = out.encoder(threads);
     std::vector<TerrainLevel> levels;  // T … 0
     levels.push_back(std::move(out.coarse));
     while (levels.back().level > 0) levels.push_back(terrain::coarser_level(levels.back()));
@@ -339,13 +353,14 @@ void build_coarse_levels(const build::Frame& f, uint32_t T, Assembly& out, const
         progress.check();
         const TerrainLevel &level = levels[T - l], &coarse = levels[T - l + 1];
         std::vector<Cube> parents = terrain::level_cubes(coarse, &level, cubes, number, everything);
-        out.encoder.start_level(level, l < T ? &steps[l].forward : &out.coarse_forward, &steps[l - 1].finer_coverage);
-        terrain::encode_children(parents, cubes, level, coarse, number, out.encoder);
+        encoder.start_level(level, l < T ? &steps[l].forward : &out.coarse_forward, &steps[l - 1].finer_coverage);
+        terrain::encode_children(parents, cubes, level, coarse, number, encoder);
         cubes.swap(parents);
     }
-    out.encoder.start_level(levels.back(), T > 0 ? &steps[0].forward : &out.coarse_forward, nullptr);
-    std::vector<CubeData> root{out.encoder.cube_data(cubes.front(), levels.back(), nullptr, nullptr)};
-    out.encoder.write({&cubes.front()}, root, 0);
+    encoder.start_level(levels.back(), T > 0 ? &steps[0].forward : &out.coarse_forward, nullptr);
+    std::vector<CubeData> root{encoder.cube_data(cubes.front(), levels.back(), nullptr, nullptr)};
+    encoder.write({&cubes.front()}, root, 0);
+    out.sigma0_needed = std::max(out.sigma0_needed, encoder.sigma0_needed());
 }
 
 HlodHeader terrain_header(const Grid& grid, const build::Frame& f, uint32_t cube_cells, const std::string& source_name) {
@@ -395,35 +410,41 @@ BuildReport build_terrain(const std::vector<std::filesystem::path>& files, const
     const ElevationRaster raster = ElevationRaster::open(files, settings.crs);
     const Grid grid = scan_grid(raster, settings, progress);
     const build::Frame f = octree_frame(grid, settings.cube_cells);
+    const unsigned threads = resolve_thread_count(settings.threads);
     const TilePlan plan = settings.tiles ? TilePlan{(*settings.tiles)[0], (*settings.tiles)[1], kMarginCells << (f.max_level - (*settings.tiles)[0])}
-                                         : plan_tiles(grid, f, settings.cube_cells, memory - memory / 16);
+                                         : plan_tiles(grid, f, settings.cube_cells, memory - memory / 16, threads);
     if (plan.level > f.max_level || plan.tile_cubes == 0) throw std::invalid_argument("build_terrain: tiles outside the model's levels");
     BuildReport report;
     report.max_level = f.max_level;
     report.read_seconds = since(start);
     start = Clock::now();
 
-    Assembly out(f, output, grid.info.name, resolve_thread_count(settings.threads));
+    Assembly out(f, output, grid.info.name);
     out.coarse = empty_level(grid, f.max_level, plan.level);
     const TileOwners owners(grid, out.coarse, f, plan.tile_cubes);
-    for (uint32_t tile = 0; tile < owners.tiles * owners.tiles; ++tile) {
+    // Tiles side by side, each compressing its cubes on its share of the threads.
+    const uint32_t tiles = uint32_t(owners.tiles * owners.tiles);
+    const unsigned concurrent = std::min<unsigned>(threads, tiles), inner = std::max(1u, threads / concurrent);
+    uint32_t done = 0;
+    parallel_for(tiles, concurrent, [&](size_t tile, unsigned) {
         progress.check();
-        if (owners.owns_samples(tile)) {
+        if (owners.owns_samples(uint32_t(tile))) {
             const uint32_t ti = uint32_t(tile % owners.tiles), tj = uint32_t(tile / owners.tiles), b = plan.tile_cubes;
             build_tile(grid, tile_window(owners.box[tile], plan, grid, f.max_level), {ti * b, (ti + 1) * b, tj * b, (tj + 1) * b}, plan,
-                       owners, tile, out);
+                       owners, uint32_t(tile), inner, out);
         }
-        progress("tiles", double(tile + 1), double(owners.tiles * owners.tiles), "tiles");
-    }
+        std::lock_guard lock(out.lock);
+        progress("tiles", double(++done), double(tiles), "tiles");
+    });
     report.input_triangles = out.input_triangles;
     if (report.input_triangles == 0) throw InputError(grid.info.name + ": no cell has three valid corners: no ground to build");
     report.partition_seconds = since(start);
     start = Clock::now();
-    build_coarse_levels(f, plan.level, out, progress);
+    build_coarse_levels(f, plan.level, threads, out, progress);
     report.simplify_seconds = since(start);
     start = Clock::now();
 
-    const double sigma0 = std::max(double(kLeastSigma0), out.encoder.sigma0_needed() * 1.001);
+    const double sigma0 = std::max(double(kLeastSigma0), out.sigma0_needed * 1.001);
     if (sigma0 > kMostSigma0)
         throw InputError(grid.info.name + ": ground too steep for cubes of " + std::to_string(settings.cube_cells) +
                          " cells (σ0 would be " + std::to_string(sigma0) + "); build with larger cubes (--cube-cells)");

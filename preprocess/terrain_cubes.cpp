@@ -94,8 +94,8 @@ std::vector<Cube> level_cubes(const TerrainLevel& level, const TerrainLevel* fin
 }
 
 CubeEncoder::CubeEncoder(const build::Frame& f, std::string name, HlodWriter& writer, std::vector<build::CubeErrors>& errors,
-                         std::vector<LevelStats>& levels, unsigned threads)
-    : f_(f), name_(std::move(name)), writer_(writer), errors_(errors), levels_(levels), threads_(threads) {}
+                         std::vector<LevelStats>& levels, std::mutex& output_lock, unsigned threads)
+    : f_(f), name_(std::move(name)), writer_(writer), errors_(errors), levels_(levels), output_lock_(output_lock), threads_(threads) {}
 
 void CubeEncoder::start_level(const TerrainLevel& level, const CubeDistances* forward, const CubeDistances* coverage) {
     normals_ = vertex_normals(level);
@@ -108,6 +108,7 @@ void CubeEncoder::write(const std::vector<const Cube*>& cubes, std::vector<CubeD
         payloads[c] = encode_cube(data[c], kErrorsAreBounds);
         data[c] = CubeData();  // its memory back as soon as it is packed
     });
+    std::lock_guard lock(output_lock_);
     LevelStats& stats = levels_.at(level);
     stats.level = level;
     for (size_t c = 0; c < cubes.size(); ++c) {

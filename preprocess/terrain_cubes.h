@@ -5,6 +5,7 @@
 #pragma once
 
 #include <functional>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -42,8 +43,10 @@ std::vector<Cube> level_cubes(const TerrainLevel& level, const TerrainLevel* fin
 // and keeps each cube's F and D for the error bounds and its level's counts.
 class CubeEncoder {
 public:
+    // The writer, errors and level counts may be shared by encoders on other threads: `output_lock`
+    // guards them.
     CubeEncoder(const build::Frame& f, std::string name, HlodWriter& writer, std::vector<build::CubeErrors>& errors,
-                std::vector<LevelStats>& levels, unsigned threads);
+                std::vector<LevelStats>& levels, std::mutex& output_lock, unsigned threads);
 
     // Sets the level whose cubes come next: its normals, and its cubes' F and D (null: 0).
     void start_level(const TerrainLevel& level, const CubeDistances* forward, const CubeDistances* coverage);
@@ -62,6 +65,7 @@ private:
     HlodWriter& writer_;
     std::vector<build::CubeErrors>& errors_;
     std::vector<LevelStats>& levels_;  // by level
+    std::mutex& output_lock_;
     std::vector<float> normals_;
     const CubeDistances *forward_ = nullptr, *coverage_ = nullptr;
     unsigned threads_;
