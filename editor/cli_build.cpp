@@ -107,8 +107,8 @@ int run_clean(const BuildOptions& o) {
     return kOk;
 }
 
-// strata build DEM... -o OUT.hlod: a terrain straight from elevation rasters.
-int run_terrain(const BuildOptions& o, const std::vector<std::filesystem::path>& files) {
+// strata build DEM... -o OUT.hlod: a terrain straight from elevation rasters, in `memory` bytes.
+int run_terrain(const BuildOptions& o, const std::vector<std::filesystem::path>& files, uint64_t memory) {
     if (!o.plan.empty() || o.settings.resume) {
         std::fprintf(stderr, "strata build: --plan and --resume build meshes; a terrain builds in one run\n");
         return kUsage;
@@ -125,12 +125,7 @@ int run_terrain(const BuildOptions& o, const std::vector<std::filesystem::path>&
         }
         settings.fill = value;
     }
-    try {
-        settings.memory = o.memory.empty() ? default_memory_limit() : parse_byte_size(o.memory);
-    } catch (const std::invalid_argument& e) {
-        std::fprintf(stderr, "strata build: --memory: %s\n", e.what());
-        return kUsage;
-    }
+    settings.memory = memory;
     const std::atomic<bool>* cancel = install_interrupt_flag();
     ProgressBar bar(!o.quiet);
     const auto start = std::chrono::steady_clock::now();
@@ -209,7 +204,7 @@ int run_build(const BuildOptions& o) {
         return kUsage;
     }
     const std::vector<std::filesystem::path> files = expand_inputs(o.inputs);
-    if (std::all_of(files.begin(), files.end(), is_elevation_raster)) return run_terrain(o, files);
+    if (std::all_of(files.begin(), files.end(), is_elevation_raster)) return run_terrain(o, files, memory_limit);
     const MemoryEstimate estimate = estimate_build(files, memory_limit);
     const std::filesystem::path temp = o.plan.empty() ? temp_folder(o.output, o.settings.temp_dir) : std::filesystem::path(o.plan);
     if (o.verbose) {

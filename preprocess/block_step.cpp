@@ -115,12 +115,9 @@ BlockWeld weld_block(std::span<const CubeRecord* const> cubes, const BorderTable
     return w;
 }
 
-// q = round((x − O)/h_l), as a multiplication by 1/h_l (a power of two over L_c): the same code
-// quantizes a vertex in every cube that holds a copy of it, so the copies always agree.
+// A vertex's stored lattice coordinate (lattice_offset), which its cell's σ0 overhang keeps in range.
 uint16_t lattice(const Frame& f, float x, int axis, uint32_t level, uint32_t cell) {
-    const double inverse_step = double(uint64_t(1) << (level + kLatticeBits)) / f.root_size;
-    const int64_t q = std::llround((double(x) - f.origin[axis]) * inverse_step);
-    const int64_t stored = q - (int64_t(cell) << kLatticeBits) + kLatticeBias;
+    const int64_t stored = lattice_offset(f, x, axis, level, cell);
     if (stored < 0 || stored > 0xFFFF)
         throw std::runtime_error("internal error: a level-" + std::to_string(level) +
                                  " vertex lies outside its cell's σ0 overhang");

@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "preprocess/hlod_format.h"
 #include "preprocess/quadric.h"
 
 namespace strata::build {
@@ -43,6 +44,15 @@ struct Frame {
         return origin[axis] + (double(b) * block - double(block / 2)) * cube_size(level);
     }
 };
+
+// A coordinate on level `level`'s lattice, as stored relative to its cube's cell (FORMAT.md §6): q −
+// 2^15·cell + 2^14 with q = round((x − O)/h_l), h_l a power of two over L_c. Every builder quantizes
+// through it, so the copies of a vertex that cubes share agree bit for bit; the stored 16 bits hold it
+// when it lies in [0, 0xFFFF], which callers check.
+inline int64_t lattice_offset(const Frame& f, double x, int axis, uint32_t level, uint32_t cell) {
+    const double inverse_step = double(uint64_t(1) << (level + kLatticeBits)) / f.root_size;
+    return std::llround((x - f.origin[axis]) * inverse_step) - (int64_t(cell) << kLatticeBits) + kLatticeBias;
+}
 
 // (a + b + c) / 3 in double: the point whose cell holds a triangle (000 §3.2.3; triangles are never cut).
 inline std::array<double, 3> barycenter(const float* a, const float* b, const float* c) {

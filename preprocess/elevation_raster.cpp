@@ -66,13 +66,27 @@ std::optional<int> epsg_code(const OGRSpatialReference& reference) {
     return std::nullopt;
 }
 
-// The CRS named by the user (EPSG:N, WKT, PROJ): what stands for files that declare none.
-OGRSpatialReference crs_named(const std::string& crs) {
+// A CRS given as text (EPSG:N, WKT, a PROJ string), read without GDAL printing; none when PROJ cannot
+// read it (QuietGdal::last() then says why).
+std::optional<OGRSpatialReference> read_crs(const std::string& crs) {
+    register_drivers();
     OGRSpatialReference reference;
     reference.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
     QuietGdal quiet;
-    if (reference.SetFromUserInput(crs.c_str()) != OGRERR_NONE) throw InputError("--crs " + crs + ": not a CRS PROJ knows" + QuietGdal::last());
+    if (reference.SetFromUserInput(crs.c_str()) != OGRERR_NONE) return std::nullopt;
     return reference;
+}
+
+// The CRS named by the user: what stands for files that declare none.
+OGRSpatialReference crs_named(const std::string& crs) {
+    std::optional<OGRSpatialReference> reference = read_crs(crs);
+    if (!reference) throw InputError("--crs " + crs + ": not a CRS PROJ knows" + QuietGdal::last());
+    return *reference;
+}
+
+// "EPSG:32633 WGS 84 / UTM zone 33N", or the name alone.
+std::string crs_label(std::optional<int> epsg, const std::string& name) {
+    return epsg ? "EPSG:" + std::to_string(*epsg) + " " + name : name;
 }
 
 // One file's raster, checked as a DEM: one band of real samples, an upright geotransform, a CRS.
@@ -170,13 +184,11 @@ std::array<double, 2> RasterInfo::sample_position(double column, double row) con
 }
 
 std::string crs_as_esri_wkt(const std::string& crs) {
-    register_drivers();
-    OGRSpatialReference reference;
-    QuietGdal quiet;
-    if (reference.SetFromUserInput(crs.c_str()) != OGRERR_NONE) return crs;
+    const std::optional<OGRSpatialReference> reference = read_crs(crs);
+    if (!reference) return crs;
     char* wkt = nullptr;
     const char* options[] = {"FORMAT=WKT1_ESRI", nullptr};
-    std::string text = reference.exportToWkt(&wkt, options) == OGRERR_NONE && wkt ? wkt : crs;
+    std::string text = reference->exportToWkt(&wkt, options) == OGRERR_NONE && wkt ? wkt : crs;
     CPLFree(wkt);
     return text;
 }
@@ -184,18 +196,12 @@ std::string crs_as_esri_wkt(const std::string& crs) {
 void limit_raster_cache(uint64_t bytes) { GDALSetCacheMax64(GIntBig(std::min<uint64_t>(bytes, uint64_t(1) << 62))); }
 
 std::string describe_crs(const std::string& crs) {
-    register_drivers();
-    OGRSpatialReference reference;
-    {
-        QuietGdal quiet;
-        if (reference.SetFromUserInput(crs.c_str()) != OGRERR_NONE) return crs;
-    }
-    const std::string name = reference.GetName() ? reference.GetName() : "unnamed CRS";
-    const std::optional<int> epsg = epsg_code(reference);
-    return epsg ? "EPSG:" + std::to_string(*epsg) + " " + name : name;
+    const std::optional<OGRSpatialReference> reference = read_crs(crs);
+    if (!reference) return crs;
+    return crs_label(epsg_code(*reference), reference->GetName() ? reference->GetName() : "unnamed CRS");
 }
 
-std::string RasterInfo::describe_crs() const { return epsg ? "EPSG:" + std::to_string(*epsg) + " " + crs_name : crs_name; }
+std::string RasterInfo::describe_crs() const { return crs_label(epsg, crs_name); }
 
 ElevationRaster ElevationRaster::open(const std::vector<std::filesystem::path>& files, const std::string& crs) {
     if (files.empty()) throw std::invalid_argument("ElevationRaster::open: no files");

@@ -44,9 +44,8 @@ Cube make_cube(CubeKey key, const std::vector<uint64_t>& triangles, const Terrai
     if (finer)
         for (size_t t = 0; t < triangles.size(); ++t) {
             const uint64_t cell = triangles[t] / 2;
-            const size_t fc = finer->columns.finer(cell % cells_per_row + 1, level.columns) - 1;
-            const size_t fr = finer->rows.finer(cell / cells_per_row + 1, level.rows) - 1;
-            octant[t] = uint8_t(build::octant(finer->cube[2 * finer->cell(fc, fr) + triangles[t] % 2]));
+            const uint64_t preimage = preimage_cell(*finer, level, size_t(cell % cells_per_row), size_t(cell / cells_per_row));
+            octant[t] = uint8_t(build::octant(finer->cube[2 * preimage + triangles[t] % 2]));
         }
     for (uint8_t o : octant) cube.child_counts[o]++;
     std::array<uint32_t, 8> next{};
@@ -125,7 +124,7 @@ void CubeEncoder::write(const std::vector<const Cube*>& cubes, std::vector<CubeD
 
 CubeData CubeEncoder::cube_data(const Cube& cube, const TerrainLevel& level, const TerrainLevel* coarse, const std::vector<uint32_t>* parent_number) {
     const uint32_t l = level.level, cell[3] = {build::key_i(cube.key), build::key_j(cube.key), build::key_k(cube.key)};
-    const double size = f_.cube_size(l), inverse_step = double(uint64_t(1) << (l + kLatticeBits)) / f_.root_size;
+    const double size = f_.cube_size(l);
     CubeData data;
     const size_t n = cube.vertices.size();
     data.vertices.positions.resize(3 * n);
@@ -137,7 +136,7 @@ CubeData CubeEncoder::cube_data(const Cube& cube, const TerrainLevel& level, con
         for (int a = 0; a < 3; ++a) {
             const double low = f_.origin[a] + cell[a] * size;
             needed_ = std::max(needed_, std::max({0.0, low - p[a], p[a] - low - size}) / size);
-            const int64_t stored = std::llround((p[a] - f_.origin[a]) * inverse_step) - (int64_t(cell[a]) << kLatticeBits) + kLatticeBias;
+            const int64_t stored = build::lattice_offset(f_, p[a], a, l, cell[a]);
             if (stored < 0 || stored > 0xFFFF)
                 throw InputError(name_ + ": ground too steep for its cubes (a vertex of level " + std::to_string(l) +
                                  " lies half a cube outside its cell); build with larger cubes (--cube-cells)");

@@ -28,6 +28,10 @@ uint64_t TerrainLevel::triangle_count() const {
     return count;
 }
 
+uint64_t preimage_cell(const TerrainLevel& finer, const TerrainLevel& coarse, size_t column, size_t row) {
+    return finer.cell(finer.columns.finer(column + 1, coarse.columns) - 1, finer.rows.finer(row + 1, coarse.rows) - 1);
+}
+
 namespace {
 
 // Vertices: each coarse vertex is the finer vertex at the same sample; a needed coarse vertex whose
@@ -62,9 +66,9 @@ void coarse_triangles(const TerrainLevel& finer, TerrainLevel& coarse) {
     coarse.cube.assign(2 * (w - 1) * (h - 1), kNoTriangle);
     for (size_t r = 0; r + 1 < h; ++r)
         for (size_t c = 0; c + 1 < w; ++c) {
-            const size_t fc = finer.columns.finer(c + 1, coarse.columns) - 1, fr = finer.rows.finer(r + 1, coarse.rows) - 1;
+            const uint64_t preimage = preimage_cell(finer, coarse, c, r);
             for (int t = 0; t < 2; ++t) {
-                const build::CubeKey key = finer.cube[2 * finer.cell(fc, fr) + t];
+                const build::CubeKey key = finer.cube[2 * preimage + t];
                 if (key == kNoTriangle) continue;
                 coarse.cube[2 * coarse.cell(c, r) + t] = build::parent_key(key);
                 for (uint64_t v : coarse.corners(c, r, t)) {

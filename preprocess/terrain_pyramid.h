@@ -78,6 +78,10 @@ struct TerrainLevel {
     uint64_t triangle_count() const;
 };
 
+// The cell of `finer` that maps whole onto cell (column, row) of `coarse`, the next coarser level: the
+// one at its maximum corner (see the top of this file). Its triangle t makes the coarse cell's.
+uint64_t preimage_cell(const TerrainLevel& finer, const TerrainLevel& coarse, size_t column, size_t row);
+
 // The next coarser level of `finer` (see the top of this file).
 TerrainLevel coarser_level(const TerrainLevel& finer);
 
