@@ -57,11 +57,12 @@ struct Grid {
     TerrainFrame frame;
     double unit = 1;             // metres per elevation unit
     std::optional<float> fill;   // the height of nodata samples, if filled
-    bool rows_run_north = false;
     float low = 0, high = 0;     // valid heights' range
     std::array<double, 3> lo{}, hi{};  // the valid samples' box in the model
     uint64_t nodata = 0;         // samples left without a height
 
+    // The raster stores its southern row first.
+    bool rows_run_north() const { return info.geotransform[5] > 0; }
     // A window's heights in metres, NaN where nodata stays a hole.
     void read(uint64_t column, uint64_t row, uint64_t columns, uint64_t rows, std::vector<float>& out) const {
         raster->read(column, row, columns, rows, out);
@@ -78,7 +79,6 @@ Grid scan_grid(const ElevationRaster& raster, const TerrainSettings& settings, c
     grid.frame = TerrainFrame::for_raster(info, settings.frame);
     grid.unit = vertical_unit(info, settings.elevation_unit);
     grid.fill = settings.fill;
-    grid.rows_run_north = info.geotransform[5] > 0;
     grid.low = INFINITY, grid.high = -INFINITY;
     grid.lo.fill(INFINITY), grid.hi.fill(-INFINITY);
     std::vector<float> band;
@@ -110,7 +110,7 @@ build::Frame octree_frame(const Grid& grid, uint32_t cube_cells) {
     const bool projected = grid.frame.kind() == TerrainFrameKind::projected;
     std::array<double, 3> low = grid.lo, high = grid.hi;
     if (projected) {
-        const std::array<double, 3> corner = grid.frame.position(grid.info.width - 1, grid.rows_run_north ? grid.info.height - 1 : 0, 0);
+        const std::array<double, 3> corner = grid.frame.position(grid.info.width - 1, grid.rows_run_north() ? grid.info.height - 1 : 0, 0);
         low = {0, 0, grid.low}, high = {corner[0], corner[1], grid.high};
     }
     for (int a = 0; a < 3; ++a) f.origin[a] = low[size_t(a)];
@@ -132,12 +132,14 @@ struct TilePlan {
     uint32_t level = 0;       // T
     uint32_t tile_cubes = 1;  // level-T cubes per tile side
     uint64_t margin = 0;      // level-L samples read beyond a tile's own on each side
+    unsigned at_once = 1;     // tiles built side by side, sharing the tiles' half of the memory
 };
 
-TilePlan plan_tiles(const Grid& grid, const build::Frame& f, uint32_t cube_cells, uint64_t memory, unsigned threads) {
+// The plan for `at_once` tiles side by side, if their share of the memory holds a tile.
+std::optional<TilePlan> plan_for(const Grid& grid, const build::Frame& f, uint32_t cube_cells, uint64_t memory, unsigned at_once) {
     const double samples = double(grid.info.width) * double(grid.info.height);
-    if (samples <= double(memory) / 2 / kTileBytesPerSample) return {0, 1, 0};
-    const double tile_budget = double(memory) / 2 / kTileBytesPerSample / threads;  // tiles run side by side
+    if (samples <= double(memory) / 2 / kTileBytesPerSample) return TilePlan{0, 1, 0, at_once};
+    const double tile_budget = double(memory) / 2 / kTileBytesPerSample / at_once;
     for (uint32_t depth = 1; depth <= f.max_level; ++depth) {
         const double scale = double(uint64_t(1) << depth);
         if (samples / (scale * scale) * kCoarseBytesPerSample > double(memory) / 4) continue;
@@ -145,9 +147,19 @@ TilePlan plan_tiles(const Grid& grid, const build::Frame& f, uint32_t cube_cells
         const double cubes = std::floor((side - 2.0 * kMarginCells) / cube_cells);
         if (cubes < 1) break;
         const uint32_t level = f.max_level - depth;
-        return {level, uint32_t(std::min(cubes, double(uint64_t(1) << level))), kMarginCells << depth};
+        return TilePlan{level, uint32_t(std::min(cubes, double(uint64_t(1) << level))), kMarginCells << depth, at_once};
     }
-    throw InputError(grid.info.name + ": " + describe_bytes(memory) + " of memory cannot hold a tile of this raster's terrain; give more (--memory)");
+    return std::nullopt;
+}
+
+// As many tiles side by side as there are threads, or as fit.
+TilePlan plan_tiles(const Grid& grid, const build::Frame& f, uint32_t cube_cells, uint64_t memory, unsigned threads) {
+    for (unsigned at_once = threads;; at_once /= 2) {
+        if (const std::optional<TilePlan> plan = plan_for(grid, f, cube_cells, memory, at_once)) return *plan;
+        if (at_once == 1)
+            throw InputError(grid.info.name + ": " + describe_bytes(memory) +
+                             " of memory cannot hold a tile of this raster's terrain; give more (--memory)");
+    }
 }
 
 // Which tile owns each level-T sample: the one whose cubes its position (at height 0) falls in. A tile
@@ -195,7 +207,7 @@ Window tile_window(const std::array<uint64_t, 4>& box, const TilePlan& plan, con
 TerrainLevel finest_level(const Grid& grid, const Window& w, const build::Frame& f) {
     TerrainLevel level;
     level.level = f.max_level;
-    level.rows_run_north = grid.rows_run_north;
+    level.rows_run_north = grid.rows_run_north();
     level.columns.index.resize(w.columns), level.rows.index.resize(w.rows);
     std::iota(level.columns.index.begin(), level.columns.index.end(), w.column);
     std::iota(level.rows.index.begin(), level.rows.index.end(), w.row);
@@ -233,7 +245,7 @@ TerrainLevel finest_level(const Grid& grid, const Window& w, const build::Frame&
 TerrainLevel empty_level(const Grid& grid, uint32_t max_level, uint32_t level) {
     TerrainLevel out;
     out.level = level;
-    out.rows_run_north = grid.rows_run_north;
+    out.rows_run_north = grid.rows_run_north();
     out.columns.index.resize(grid.info.width), out.rows.index.resize(grid.info.height);
     std::iota(out.columns.index.begin(), out.columns.index.end(), 0);
     std::iota(out.rows.index.begin(), out.rows.index.end(), 0);
@@ -269,55 +281,83 @@ struct Assembly {
     terrain::CubeEncoder encoder(unsigned threads) { return terrain::CubeEncoder(f, name, writer, errors, levels, lock, threads); }
 };
 
+// Levels from a finest one down to level `last`, and the bounds between consecutive ones.
+struct Pyramid {
+    std::vector<TerrainLevel> levels;                    // finest first
+    std::vector<terrain::StepBound> steps;               // steps[l − last]: from level l + 1 to level l
+    const terrain::CubeDistances* finest_forward = nullptr;  // F of the finest level's cubes
+
+    uint32_t top() const { return levels.front().level; }
+    uint32_t last() const { return levels.back().level; }
+    const TerrainLevel& level(uint32_t l) const { return levels[top() - l]; }
+    // F and D of level l's cubes (D: null at the pyramid's last level, whose parents it does not hold).
+    const terrain::CubeDistances& forward(uint32_t l) const { return l == top() ? *finest_forward : steps[l - last()].forward; }
+    const terrain::CubeDistances* coverage(uint32_t l) const { return l > last() ? &steps[l - 1 - last()].finer_coverage : nullptr; }
+};
+
+Pyramid make_pyramid(TerrainLevel finest, uint32_t last, const terrain::CubeDistances& finest_forward, const build::Frame& f) {
+    Pyramid p;
+    p.finest_forward = &finest_forward;
+    p.levels.push_back(std::move(finest));
+    while (p.levels.back().level > last) p.levels.push_back(terrain::coarser_level(p.levels.back()));
+    p.steps.resize(p.top() - last);
+    const double far = std::sqrt(3.0) * f.root_size;  // the model's diagonal
+    for (uint32_t l = p.top(); l-- > last;) p.steps[l - last] = terrain::bound_step(p.level(l + 1), p.level(l), p.forward(l + 1), far);
+    return p;
+}
+
+// Which cubes of a level a step keeps.
+using Owned = std::function<bool(CubeKey, uint32_t level)>;
+
+// Encodes the pyramid's levels from the top down to last + 1, starting from the top level's cubes,
+// parent by parent; returns level last's cubes, which the step does not encode. `number`: as for
+// terrain::level_cubes, over the top level.
+std::vector<Cube> encode_levels(const Pyramid& p, std::vector<Cube> cubes, const Owned& owned, std::vector<uint32_t>& number,
+                                terrain::CubeEncoder& encoder, const Progress& progress) {
+    for (uint32_t l = p.top(); l > p.last(); --l) {
+        progress.check();
+        std::vector<Cube> parents =
+            terrain::level_cubes(p.level(l - 1), &p.level(l), cubes, number, [&](CubeKey key) { return owned(key, l - 1); });
+        encoder.start_level(p.level(l), &p.forward(l), p.coverage(l));
+        terrain::encode_children(parents, cubes, p.level(l), p.level(l - 1), number, encoder);
+        cubes.swap(parents);
+    }
+    return cubes;
+}
+
 // One tile: levels L … T of its window, its own cubes of levels L … T + 1 encoded, its level-T cubes
 // and its part of level T's grid handed to the coarse levels.
 void build_tile(const Grid& grid, const Window& window, const std::array<uint32_t, 4>& owned_cubes, const TilePlan& plan,
-                const TileOwners& owners, uint32_t tile, unsigned threads, Assembly& out) {
+                const TileOwners& owners, uint32_t tile, unsigned threads, Assembly& out, const Progress& progress) {
     const build::Frame& f = out.f;
     const uint32_t L = f.max_level, T = plan.level;
     // A cube of level l is the tile's when its level-T ancestor is one of the tile's cubes.
-    auto owned_at = [&](uint32_t l) {
-        return [&, l](CubeKey key) {
-            const uint32_t i = build::key_i(key) >> (l - T), j = build::key_j(key) >> (l - T);
-            return i >= owned_cubes[0] && i < owned_cubes[1] && j >= owned_cubes[2] && j < owned_cubes[3];
-        };
+    const Owned owned = [&](CubeKey key, uint32_t l) {
+        const uint32_t i = build::key_i(key) >> (l - T), j = build::key_j(key) >> (l - T);
+        return i >= owned_cubes[0] && i < owned_cubes[1] && j >= owned_cubes[2] && j < owned_cubes[3];
     };
-    std::vector<TerrainLevel> levels;  // L … T
-    levels.push_back(finest_level(grid, window, f));
-    while (levels.back().level > T) levels.push_back(terrain::coarser_level(levels.back()));
-    std::vector<terrain::StepBound> steps(L - T);  // steps[l − T]: level l + 1 to level l
-    for (uint32_t l = L; l-- > T;) {
-        const terrain::CubeDistances none;
-        steps[l - T] = terrain::bound_step(levels[L - l - 1], levels[L - l], l + 1 < L ? steps[l + 1 - T].forward : none,
-                                           std::sqrt(3.0) * f.root_size);
-    }
+    const terrain::CubeDistances none;  // F at level L
+    const Pyramid p = make_pyramid(finest_level(grid, window, f), T, none, f);
 
     terrain::CubeEncoder encoder = out.encoder(threads);
-    std::vector<uint32_t> number(levels[0].flags.size(), terrain::kUnnumbered);
-    std::vector<Cube> cubes = terrain::level_cubes(levels[0], nullptr, {}, number, owned_at(L));
+    std::vector<uint32_t> number(p.level(L).flags.size(), terrain::kUnnumbered);
+    std::vector<Cube> cubes = terrain::level_cubes(p.level(L), nullptr, {}, number, [&](CubeKey key) { return owned(key, L); });
     uint64_t triangles = 0;
     for (const Cube& cube : cubes) triangles += cube.triangles.size() / 3;
-    for (uint32_t l = L; l > T; --l) {
-        const TerrainLevel &level = levels[L - l], &coarse = levels[L - l + 1];
-        std::vector<Cube> parents = terrain::level_cubes(coarse, &level, cubes, number, owned_at(l - 1));
-        encoder.start_level(level, l < L ? &steps[l - T].forward : nullptr, &steps[l - 1 - T].finer_coverage);
-        terrain::encode_children(parents, cubes, level, coarse, number, encoder);
-        cubes.swap(parents);
-    }
+    cubes = encode_levels(p, std::move(cubes), owned, number, encoder, progress);
 
-    // Level T: the tile's cubes (their F), and its samples and cells of the level's grid.
-    const TerrainLevel& mine = levels.back();
+    // Level T: the tile's cubes (their F), and its samples and cells of the level's grid, whose axes
+    // continue the window's from its first sample.
+    const TerrainLevel& mine = p.level(T);
     TerrainLevel& whole = out.coarse;
-    auto global_vertex = [&](uint64_t v) {
-        return whole.vertex(position_of(whole.columns, mine.columns[v % mine.width()]), position_of(whole.rows, mine.rows[v / mine.width()]));
-    };
+    const size_t column0 = position_of(whole.columns, mine.columns[0]), row0 = position_of(whole.rows, mine.rows[0]);
     for (Cube& cube : cubes)
-        for (uint64_t& v : cube.vertices) v = global_vertex(v);
+        for (uint64_t& v : cube.vertices) v = whole.vertex(column0 + v % mine.width(), row0 + v / mine.width());
     {
         std::lock_guard lock(out.lock);
+        const terrain::CubeDistances& forward = p.forward(T);
         for (Cube& cube : cubes) {
-            if (T < L)
-                if (auto it = steps[0].forward.find(cube.key); it != steps[0].forward.end()) out.coarse_forward[cube.key] = it->second;
+            if (auto it = forward.find(cube.key); it != forward.end()) out.coarse_forward[cube.key] = it->second;
             out.coarse_cubes.push_back(std::move(cube));
         }
         out.input_triangles += triangles;
@@ -325,40 +365,26 @@ void build_tile(const Grid& grid, const Window& window, const std::array<uint32_
     }
     for (size_t r = 0; r < mine.height(); ++r)
         for (size_t c = 0; c < mine.width(); ++c) {
-            const uint64_t from = mine.vertex(c, r), to = global_vertex(from);
+            const uint64_t from = mine.vertex(c, r), to = whole.vertex(column0 + c, row0 + r);
             if (owners.tile_of[to] != tile) continue;
             whole.flags[to] = mine.flags[from];
             for (int a = 0; a < 3; ++a) whole.position[3 * to + a] = mine.position[3 * from + a];
             if (c + 1 == mine.width() || r + 1 == mine.height()) continue;
-            const uint64_t cell = whole.cell(position_of(whole.columns, mine.columns[c]), position_of(whole.rows, mine.rows[r]));
+            const uint64_t cell = whole.cell(column0 + c, row0 + r);
             for (int t = 0; t < 2; ++t) whole.cube[2 * cell + t] = mine.cube[2 * mine.cell(c, r) + t];
         }
 }
 
 // Levels T … 0 from level T's grid and cubes; encodes level T's cubes and every coarser one.
-void build_coarse_levels(const build::Frame& f, uint32_t T, unsigned threads, Assembly& out, const Progress& progress) {
+void build_coarse_levels(const build::Frame& f, unsigned threads, Assembly& out, const Progress& progress) {
     terrain::CubeEncoder encoder = out.encoder(threads);
-    std::vector<TerrainLevel> levels;  // T … 0
-    levels.push_back(std::move(out.coarse));
-    while (levels.back().level > 0) levels.push_back(terrain::coarser_level(levels.back()));
-    std::vector<terrain::StepBound> steps(T);  // steps[l]: level l + 1 to level l
-    for (uint32_t l = T; l-- > 0;)
-        steps[l] = terrain::bound_step(levels[T - l - 1], levels[T - l], l + 1 < T ? steps[l + 1].forward : out.coarse_forward,
-                                       std::sqrt(3.0) * f.root_size);
-    auto everything = [](CubeKey) { return true; };
-    std::vector<uint32_t> number(levels[0].flags.size(), terrain::kUnnumbered);
+    const Pyramid p = make_pyramid(std::move(out.coarse), 0, out.coarse_forward, f);
+    std::vector<uint32_t> number(p.levels.front().flags.size(), terrain::kUnnumbered);
     std::vector<Cube> cubes = std::move(out.coarse_cubes);
     std::sort(cubes.begin(), cubes.end(), [](const Cube& a, const Cube& b) { return a.key < b.key; });
-    for (uint32_t l = T; l > 0; --l) {
-        progress.check();
-        const TerrainLevel &level = levels[T - l], &coarse = levels[T - l + 1];
-        std::vector<Cube> parents = terrain::level_cubes(coarse, &level, cubes, number, everything);
-        encoder.start_level(level, l < T ? &steps[l].forward : &out.coarse_forward, &steps[l - 1].finer_coverage);
-        terrain::encode_children(parents, cubes, level, coarse, number, encoder);
-        cubes.swap(parents);
-    }
-    encoder.start_level(levels.back(), T > 0 ? &steps[0].forward : &out.coarse_forward, nullptr);
-    std::vector<CubeData> root{encoder.cube_data(cubes.front(), levels.back(), nullptr, nullptr)};
+    cubes = encode_levels(p, std::move(cubes), [](CubeKey, uint32_t) { return true; }, number, encoder, progress);
+    encoder.start_level(p.level(0), &p.forward(0), nullptr);
+    std::vector<CubeData> root{encoder.cube_data(cubes.front(), p.level(0), nullptr, nullptr)};
     encoder.write({&cubes.front()}, root, 0);
     out.sigma0_needed = std::max(out.sigma0_needed, encoder.sigma0_needed());
 }
@@ -385,7 +411,7 @@ HlodHeader terrain_header(const Grid& grid, const build::Frame& f, uint32_t cube
                                  .spacing = {std::abs(info.geotransform[1]), std::abs(info.geotransform[5])},
                                  .nodata_samples = grid.nodata,
                                  .cube_cells = cube_cells,
-                                 .rows_run_north = grid.rows_run_north,
+                                 .rows_run_north = grid.rows_run_north(),
                                  .frame = uint32_t(grid.frame.kind())};
     return header;
 }
@@ -411,9 +437,10 @@ BuildReport build_terrain(const std::vector<std::filesystem::path>& files, const
     const Grid grid = scan_grid(raster, settings, progress);
     const build::Frame f = octree_frame(grid, settings.cube_cells);
     const unsigned threads = resolve_thread_count(settings.threads);
-    const TilePlan plan = settings.tiles ? TilePlan{(*settings.tiles)[0], (*settings.tiles)[1], kMarginCells << (f.max_level - (*settings.tiles)[0])}
+    if (settings.tiles && ((*settings.tiles)[0] > f.max_level || (*settings.tiles)[1] == 0))
+        throw std::invalid_argument("build_terrain: tiles outside the model's levels");
+    const TilePlan plan = settings.tiles ? TilePlan{(*settings.tiles)[0], (*settings.tiles)[1], kMarginCells << (f.max_level - (*settings.tiles)[0]), threads}
                                          : plan_tiles(grid, f, settings.cube_cells, memory - memory / 16, threads);
-    if (plan.level > f.max_level || plan.tile_cubes == 0) throw std::invalid_argument("build_terrain: tiles outside the model's levels");
     BuildReport report;
     report.max_level = f.max_level;
     report.read_seconds = since(start);
@@ -424,14 +451,14 @@ BuildReport build_terrain(const std::vector<std::filesystem::path>& files, const
     const TileOwners owners(grid, out.coarse, f, plan.tile_cubes);
     // Tiles side by side, each compressing its cubes on its share of the threads.
     const uint32_t tiles = uint32_t(owners.tiles * owners.tiles);
-    const unsigned concurrent = std::min<unsigned>(threads, tiles), inner = std::max(1u, threads / concurrent);
+    const unsigned concurrent = std::min<unsigned>(plan.at_once, tiles), inner = std::max(1u, threads / concurrent);
     uint32_t done = 0;
     parallel_for(tiles, concurrent, [&](size_t tile, unsigned) {
         progress.check();
         if (owners.owns_samples(uint32_t(tile))) {
             const uint32_t ti = uint32_t(tile % owners.tiles), tj = uint32_t(tile / owners.tiles), b = plan.tile_cubes;
             build_tile(grid, tile_window(owners.box[tile], plan, grid, f.max_level), {ti * b, (ti + 1) * b, tj * b, (tj + 1) * b}, plan,
-                       owners, uint32_t(tile), inner, out);
+                       owners, uint32_t(tile), inner, out, progress);
         }
         std::lock_guard lock(out.lock);
         progress("tiles", double(++done), double(tiles), "tiles");
@@ -440,7 +467,7 @@ BuildReport build_terrain(const std::vector<std::filesystem::path>& files, const
     if (report.input_triangles == 0) throw InputError(grid.info.name + ": no cell has three valid corners: no ground to build");
     report.partition_seconds = since(start);
     start = Clock::now();
-    build_coarse_levels(f, plan.level, threads, out, progress);
+    build_coarse_levels(f, threads, out, progress);
     report.simplify_seconds = since(start);
     start = Clock::now();
 
