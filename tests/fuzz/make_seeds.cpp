@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <sstream>
 #include <string>
 
@@ -119,12 +120,17 @@ void mesh_seeds(const fs::path& dir) {
     write_text(dir / "stl/sphere_binary.stl", stl_binary(sphere));
 }
 
-// `from` again with a GEOR section (the builder writes none yet).
-void georeferenced_copy(const fs::path& from, const fs::path& to) {
+// `from` again with a GEOR section (the mesh builder writes none), and with `terrain` a TERR section in
+// that frame (required unless the frame is the CRS's plane), as a terrain build writes them.
+void georeferenced_copy(const fs::path& from, const fs::path& to, std::optional<uint32_t> terrain_frame = {}) {
     strata::HlodFile file(from);
     strata::HlodHeader header = file.header();
     header.crs = "EPSG:32633";
     header.geo_origin[0] = 500000, header.geo_origin[1] = 5400000, header.geo_origin[2] = 300;
+    if (terrain_frame)
+        header.terrain = strata::TerrainGrid{.columns = 7, .rows = 5, .spacing = {30, 30}, .nodata_samples = 3, .cube_cells = 8,
+                                             .rows_run_north = false,
+                                             .frame = *terrain_frame};
     strata::HlodWriter writer(to);
     for (const strata::HlodNode& node : file.nodes()) writer.add_cube(node, file.read_payload(node));
     writer.finish(header);
@@ -140,6 +146,8 @@ void hlod_seeds(const fs::path& dir) {
     grid.texture = "grid.png";
     strata::build_hlod(std::move(grid), dir / "hlod/grid", settings, "grid.obj");
     georeferenced_copy(dir / "hlod/sphere", dir / "hlod/sphere_georeferenced");
+    georeferenced_copy(dir / "hlod/grid", dir / "hlod/grid_terrain", 0);
+    georeferenced_copy(dir / "hlod/grid", dir / "hlod/grid_terrain_enu", 1);
 }
 
 void path_seeds(const fs::path& dir) {
