@@ -4,6 +4,7 @@
 #include "editor/commands.h"
 #include "preprocess/elevation_raster.h"
 #include "preprocess/hlod_format.h"
+#include "preprocess/terrain_heights.h"
 
 #include <cstdio>
 #include <memory>
@@ -11,8 +12,9 @@
 namespace strata::cli {
 namespace {
 
-// A terrain's raster: its grid, holes and the ground it covers (FORMAT.md §4.7).
-void print_terrain(const HlodHeader& h) {
+// A terrain's raster: its grid, holes and the ground it covers (FORMAT.md §4.7), and its heights (§4.8).
+void print_terrain(const std::shared_ptr<const HlodFile>& file) {
+    const HlodHeader& h = file->header();
     const TerrainGrid& t = *h.terrain;
     const double samples = double(t.columns) * double(t.rows);
     const char* unit = t.frame ? "°" : " m";
@@ -28,10 +30,19 @@ void print_terrain(const HlodHeader& h) {
     if (h.has_bounds)
         std::printf("extent      %.10g × %.10g m, heights %.10g to %.10g m\n", h.bounds_hi[0] - h.bounds_lo[0],
                     h.bounds_hi[1] - h.bounds_lo[1], h.bounds_lo[2], h.bounds_hi[2]);
+    const HlodSection* section = file->find_section(kHeightsTag);
+    if (!section) {
+        std::printf("heights     not kept (built before 2026-12-07: rebuild for model:height_at)\n");
+        return;
+    }
+    const HeightStep step = TerrainHeights(file, *section).step();
+    std::printf("heights     to %.6g m%s, %.2f MB, %.3g bytes a sample\n", step.step, step.step == 0.001 ? "" : " (the raster's own step: exact)",
+                double(section->size) / 1e6, double(section->size) / samples);
 }
 
 int run_info(const std::string& path) {
-    HlodFile file(path);
+    const auto shared_file = std::make_shared<const HlodFile>(path);
+    const HlodFile& file = *shared_file;
     const HlodHeader& h = file.header();
     std::printf("file        %s (%.2f MB)\n", path.c_str(), file.file_size() / 1e6);
     std::printf("source      %s: %llu vertices, %llu triangles\n", h.source.c_str(),
@@ -42,7 +53,7 @@ int run_info(const std::string& path) {
     if (!h.crs.empty())
         std::printf("georef      %s, %s (%.17g, %.17g, %.17g)\n", describe_crs(h.crs).c_str(),
                     h.terrain && h.terrain->frame ? "tangent point" : "model origin at", h.geo_origin[0], h.geo_origin[1], h.geo_origin[2]);
-    if (h.terrain) print_terrain(h);
+    if (h.terrain) print_terrain(shared_file);
     std::printf("levels      %u (0 … %u), block %u³, σ0 %.4g, ε_q %.4g\n", h.max_level + 1, h.max_level, h.block_size,
                 h.sigma0, h.error_q);
     std::printf("errors      %s\n", h.flags & kErrorsAreBounds ? "bounds (FORMAT.md §13)"

@@ -10,6 +10,8 @@
 #include <glm/gtc/matrix_transform.hpp>
 
 #include "engine/scene/cull_visitor.h"
+#include "preprocess/georeference.h"
+#include "preprocess/terrain_heights.h"
 
 namespace strata {
 
@@ -97,10 +99,39 @@ void HlodModel::adopt(std::shared_ptr<Tree> tree, const std::filesystem::path& p
     fade_.assign(tree_->cubes.size(), 1.0f);
 }
 
+void HlodModel::read_geography(Tree& tree, const std::shared_ptr<const HlodFile>& file) {
+    if (!tree.header.crs.empty()) tree.georeference = std::make_shared<Georeference>(tree.header, file->path().string());
+    if (const HlodSection* heights = file->find_section(kHeightsTag); heights && tree.header.terrain)
+        tree.heights = std::make_shared<TerrainHeights>(file, *heights);
+}
+
+std::optional<double> HlodModel::height_at(double x, double y) const {
+    const Georeference* geo = georeference();
+    if (!tree_->heights || !geo)
+        throw std::runtime_error(path_.string() + (header().terrain ? ": a terrain built before Strata kept heights; rebuild it from its raster"
+                                                                      : ": not a terrain built from an elevation raster, so it has no ground heights"));
+    if (!std::isfinite(x) || !std::isfinite(y)) return std::nullopt;
+    // In the ecef frame the ground point under (x, y) depends on its height: a few rounds settle it,
+    // each estimating the height from the grid's nearest part.
+    const TerrainHeights& heights = *tree_->heights;
+    double estimate = 0;
+    const int rounds = header().terrain->frame == uint32_t(TerrainFrameKind::ecef) ? 4 : 1;
+    for (int round = 1; round < rounds; ++round) {
+        const std::array<double, 2> at = *geo->raster_position(x, y, estimate);
+        const double column = std::clamp(at[0], 0.0, double(heights.columns() - 1)), row = std::clamp(at[1], 0.0, double(heights.rows() - 1));
+        estimate = heights.at(column, row).value_or(estimate);
+    }
+    const std::array<double, 2> at = *geo->raster_position(x, y, estimate);
+    return heights.at(at[0], at[1]);
+}
+
 std::shared_ptr<HlodModel> HlodModel::load(const std::filesystem::path& path) {
-    HlodFile file(path);
+    const auto shared_file = std::make_shared<HlodFile>(path);
+    HlodFile& file = *shared_file;
     std::shared_ptr<HlodModel> model(new HlodModel());
-    model->adopt(read_octree(file), file.path());
+    std::shared_ptr<Tree> octree = read_octree(file);
+    read_geography(*octree, shared_file);
+    model->adopt(std::move(octree), file.path());
     Tree& tree = *model->tree_;
     // Coarse to fine, so each cube finds its parents' vertices already decoded.
     for (auto c = tree.finest_first.rbegin(); c != tree.finest_first.rend(); ++c) {
@@ -254,7 +285,11 @@ uint64_t HlodModel::cube_bytes_bound(const HlodHeader& header, const HlodNode& n
 std::shared_ptr<HlodModel> HlodModel::open(const std::filesystem::path& path, std::shared_ptr<StreamCache> cache) {
     auto file = std::make_shared<HlodFile>(path);
     std::shared_ptr<const SharedSource> shared = SharedSource::find(*cache, file->identity());
-    if (!shared) shared = SharedSource::add(cache, file, read_octree(*file));  // nothing resident yet
+    if (!shared) {  // nothing resident yet
+        std::shared_ptr<Tree> tree = read_octree(*file);
+        read_geography(*tree, file);
+        shared = SharedSource::add(cache, file, std::move(tree));
+    }
     std::shared_ptr<HlodModel> model(new HlodModel());
     model->adopt(shared->tree, file->path());
     // The bound, before any cube is read: the input's box (BNDS) grown by the coarsest lattice's

@@ -25,6 +25,8 @@
 namespace strata {
 
 struct Lookahead;  // engine/scene/cull_visitor.h
+class Georeference;     // preprocess/georeference.h
+class TerrainHeights;   // preprocess/terrain_heights.h
 
 // Colour-by-level and the like: what the shader shows instead of (or over) the shaded surface.
 // residency: cubes that stand in for data still loading (and those held back beside them) in orange,
@@ -127,6 +129,9 @@ class HlodModel : public Drawable {
         void take_changes(const StreamCache& cache, uint32_t source, const std::vector<uint32_t>& cubes, uint64_t version);
         // What its per-cube tables hold in CPU memory (the cubes' data aside).
         uint64_t table_bytes() const;
+        // Where the model lies on the Earth, when it has a CRS; a terrain's heights, when it keeps them.
+        std::shared_ptr<const Georeference> georeference;
+        std::shared_ptr<const TerrainHeights> heights;
     };
 
 public:
@@ -169,6 +174,14 @@ public:
     std::shared_ptr<const void> cube_owner() const;
 
     const HlodHeader& header() const { return tree_->header; }
+    // Where the model lies on the Earth (model coordinates to its CRS and to longitude and latitude);
+    // null when it has no CRS.
+    const Georeference* georeference() const { return tree_->georeference.get(); }
+    // A terrain's ground height at model (x, y): the raster's value (exact at sample centres, bilinear
+    // between them in the raster's grid), read from the model's heights whether cubes are resident or
+    // not. Nothing outside the raster or on nodata. Throws std::runtime_error when the model keeps no
+    // heights (not a terrain, or built before they were kept) or their bytes are corrupt.
+    std::optional<double> height_at(double x, double y) const;
     const std::vector<HlodCube>& cubes() const { return tree_->cubes; }
     uint32_t root() const { return tree_->root; }
     const std::filesystem::path& path() const { return path_; }
@@ -348,6 +361,7 @@ private:
     // The octree from the node table (links, neighbours, errors), which it takes from the file; cube
     // data is not read.
     static std::shared_ptr<Tree> read_octree(HlodFile& file);
+    static void read_geography(Tree& tree, const std::shared_ptr<const HlodFile>& file);
     // Takes `tree` as this model's, named after the file.
     void adopt(std::shared_ptr<Tree> tree, const std::filesystem::path& path);
     // Streamed: asks the cache for the children of every cube the selection rests on (`examined`,

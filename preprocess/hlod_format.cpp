@@ -36,7 +36,7 @@ constexpr uint32_t kCrc32cPolynomial = 0x82F63B78u;  // reflected
 constexpr char kModelTag[5] = "MODL", kNodeTag[5] = "NODE", kPayloadTag[5] = "PAYL", kGeoreferenceTag[5] = "GEOR",
                kBoundsTag[5] = "BNDS", kTerrainTag[5] = "TERR";
 constexpr size_t kBoundsBytes = 48;   // BNDS: six f64
-constexpr size_t kTerrainBytes = 56;  // TERR: two u64, two f64, a u64, four u32
+constexpr size_t kTerrainBytes = 88;  // TERR: two u64, two f64, a u64, four u32, four f64
 
 // ---- CRC-32C (Castagnoli): hardware instruction where there is one, table otherwise ------------
 
@@ -144,6 +144,7 @@ void write_georeference(ByteWriter& w, const HlodHeader& h) {
 void write_terrain(ByteWriter& w, const TerrainGrid& t) {
     w.put(t.columns), w.put(t.rows), w.put(t.spacing[0]), w.put(t.spacing[1]), w.put(t.nodata_samples);
     w.put(t.cube_cells), w.put(uint32_t(t.rows_run_north ? 1 : 0)), w.put(t.frame), w.put(uint32_t(0));
+    w.put(t.first_sample[0]), w.put(t.first_sample[1]), w.put(t.semi_major), w.put(t.inverse_flattening);
 }
 
 void write_bounds(ByteWriter& w, const HlodHeader& h) {
@@ -800,17 +801,40 @@ void HlodWriter::remove_temporaries() {
     std::filesystem::remove(temp_path_, ignored);
 }
 
+uint64_t HlodWriter::spool(std::span<const uint8_t> bytes) {
+    if (!spool_) throw std::logic_error("HlodWriter: a write after finish()");
+    errno = 0;
+    if (!bytes.empty() && std::fwrite(bytes.data(), 1, bytes.size(), spool_) != bytes.size())
+        throw std::runtime_error(io_error(path_, "write failed"));
+    spooled_ += bytes.size();
+    return spooled_ - bytes.size();
+}
+
 void HlodWriter::add_cube(HlodNode node, std::span<const uint8_t> payload) {
-    if (!spool_) throw std::logic_error("HlodWriter::add_cube after finish()");
-    node.offset = spooled_;
     node.size = payload.size();
     node.checksum = crc32c(payload.data(), payload.size());
-    errno = 0;
-    if (!payload.empty() && std::fwrite(payload.data(), 1, payload.size(), spool_) != payload.size())
-        throw std::runtime_error(io_error(path_, "write failed"));
-    spooled_ += payload.size();
+    node.offset = spool(payload);
     nodes_.push_back(node);
 }
+
+HlodWriter::SpooledSection& HlodWriter::spooled_section(const char (&tag)[5]) {
+    for (SpooledSection& s : sections_)
+        if (std::memcmp(s.tag.data(), tag, 4) == 0) return s;
+    for (const char* own : {kModelTag, kNodeTag, kPayloadTag, kGeoreferenceTag, kBoundsTag, kTerrainTag})
+        if (std::memcmp(own, tag, 4) == 0) throw std::logic_error(std::string("HlodWriter: section ") + tag + " is the writer's own");
+    SpooledSection& s = sections_.emplace_back();
+    std::memcpy(s.tag.data(), tag, 4);
+    return s;
+}
+
+void HlodWriter::append_to_section(const char (&tag)[5], std::span<const uint8_t> bytes) {
+    SpooledSection& s = spooled_section(tag);
+    s.chunks.emplace_back(spool(bytes), bytes.size());
+    s.chunk_checksum = crc32c_combine(s.chunk_checksum, crc32c(bytes.data(), bytes.size()), bytes.size());
+    s.chunk_bytes += bytes.size();
+}
+
+void HlodWriter::set_section_head(const char (&tag)[5], std::vector<uint8_t> head) { spooled_section(tag).head = std::move(head); }
 
 namespace {
 
@@ -868,7 +892,8 @@ void HlodWriter::finish(HlodHeader header) {
     // Layout (FORMAT.md §1): header, section table, the small sections on 8-byte boundaries, then the
     // payloads from a 4 KiB boundary. Sizes are known before contents: NODE is 48 bytes a cube.
     std::vector<HlodSection> table;
-    std::vector<const std::vector<uint8_t>*> contents;  // per section; null for PAYL, copied from the spool
+    std::vector<const std::vector<uint8_t>*> contents;  // per section: its bytes (a spooled one's head); null for PAYL
+    std::vector<const SpooledSection*> spooled_sections;  // per section: its chunks, when it has some in the spool
     auto add = [&](const char(&tag)[5], uint32_t flags, const std::vector<uint8_t>* bytes, uint64_t size) {
         HlodSection s;
         std::memcpy(s.tag.data(), tag, 4);
@@ -876,6 +901,7 @@ void HlodWriter::finish(HlodHeader header) {
         s.size = size;
         table.push_back(s);
         contents.push_back(bytes);
+        spooled_sections.push_back(nullptr);
     };
     add(kModelTag, kRequiredSection, &model.bytes, model.bytes.size());
     add(kNodeTag, kRequiredSection, &node_table.bytes, kNodeBytes * spooled.size());
@@ -884,6 +910,12 @@ void HlodWriter::finish(HlodHeader header) {
     // A terrain in a frame other than its CRS's plane must not be read by a reader that would take GEOR
     // as an offset in the CRS: its TERR is required.
     if (!terrain.bytes.empty()) add(kTerrainTag, header.terrain->frame ? kRequiredSection : 0, &terrain.bytes, terrain.bytes.size());
+    for (const SpooledSection& spooled : sections_) {
+        char tag[5] = {};
+        std::memcpy(tag, spooled.tag.data(), 4);
+        add(tag, 0, &spooled.head, spooled.head.size() + spooled.chunk_bytes);
+        spooled_sections.back() = &spooled;
+    }
     add(kPayloadTag, kRequiredSection, nullptr, 0);
     uint64_t at = kFixedHeaderBytes + kSectionEntryBytes * table.size();
     for (HlodSection& s : table) {
@@ -896,8 +928,11 @@ void HlodWriter::finish(HlodHeader header) {
     payloads.size = file_size - payloads.offset;
     payloads.checksum = payload_region_checksum(placed, payloads.offset);
     for (const HlodNode& n : placed) write_node(node_table, n);
-    for (size_t s = 0; s < table.size(); ++s)
+    for (size_t s = 0; s < table.size(); ++s) {
         if (contents[s]) table[s].checksum = crc32c(contents[s]->data(), contents[s]->size());
+        if (const SpooledSection* spooled = spooled_sections[s])
+            table[s].checksum = crc32c_combine(table[s].checksum, spooled->chunk_checksum, spooled->chunk_bytes);
+    }
 
     ByteWriter head, entries;
     head.put_bytes(kHlodMagic, sizeof(kHlodMagic));
@@ -928,9 +963,13 @@ void HlodWriter::finish(HlodHeader header) {
     };
     append(head.bytes);
     append(entries.bytes);
-    for (size_t s = 0; s < table.size(); ++s)
-        if (contents[s]) pad_to(table[s].offset), append(*contents[s]);
     const int spool = ::fileno(spool_);
+    for (size_t s = 0; s < table.size(); ++s) {
+        if (!contents[s]) continue;
+        pad_to(table[s].offset), append(*contents[s]);
+        if (const SpooledSection* spooled = spooled_sections[s])
+            for (const auto& [offset, size] : spooled->chunks) copy_bytes(spool, offset, out.get(), size, path_), written += size;
+    }
     for (size_t n = 0; n < placed.size();) {
         pad_to(placed[n].offset);
         // Payloads that lie back to back in both files go in one copy.
@@ -1001,6 +1040,14 @@ HlodFile::HlodFile(const std::filesystem::path& path)
 void HlodFile::read_at(uint64_t offset, void* data, size_t size, const std::string& what) const {
     if (!read_fully(file_.get(), offset, data, size))
         throw std::runtime_error(io_error(path_, "cannot read " + what));
+}
+
+std::vector<uint8_t> HlodFile::read_section_part(const HlodSection& section, uint64_t offset, uint64_t size, const std::string& what) const {
+    if (offset > section.size || size > section.size - offset)
+        throw std::runtime_error(path_.string() + ": " + quoted(section) + ": " + what + " lies outside the section (the file is corrupt)");
+    std::vector<uint8_t> bytes(size);
+    read_at(section.offset + offset, bytes.data(), bytes.size(), quoted(section) + " " + what);
+    return bytes;
 }
 
 const HlodSection* HlodFile::find_section(const char (&tag)[5]) const {
@@ -1180,6 +1227,9 @@ void HlodFile::read_bounds_section(const HlodSection& section) {
 
 void HlodFile::read_terrain_section(const HlodSection& section) {
     const std::string what = path_.string() + ": " + quoted(section);
+    if (section.size == 56)
+        throw std::runtime_error(what + ": a terrain section of 56 bytes, from a development build of 2026-12-06 that kept "
+                                 "too little to find heights; rebuild the model from its raster (strata build DEM -o " + path_.string() + ")");
     const std::vector<uint8_t> bytes = read_section(section, kTerrainBytes);
     ByteReader r(bytes, what);
     TerrainGrid t;
@@ -1190,6 +1240,8 @@ void HlodFile::read_terrain_section(const HlodSection& section) {
     const uint32_t flags = r.get<uint32_t>();
     t.frame = r.get<uint32_t>();
     r.get<uint32_t>();  // reserved
+    t.first_sample[0] = r.get<double>(), t.first_sample[1] = r.get<double>();
+    t.semi_major = r.get<double>(), t.inverse_flattening = r.get<double>();
     if (!r.at_end()) throw std::runtime_error(what + " is longer than its fields");
     if (t.columns < 2 || t.rows < 2 || t.columns > (uint64_t(1) << 32) || t.rows > (uint64_t(1) << 32))
         throw std::runtime_error(what + ": a grid of " + std::to_string(t.columns) + " × " + std::to_string(t.rows) + " samples");
@@ -1199,6 +1251,11 @@ void HlodFile::read_terrain_section(const HlodSection& section) {
     if (t.cube_cells < 8 || t.cube_cells > 256 || t.cube_cells % 2) throw std::runtime_error(what + ": cubes of " + std::to_string(t.cube_cells) + " cells");
     if (flags > 1) throw std::runtime_error(what + ": unknown flags " + std::to_string(flags));
     if (t.frame > 2) throw std::runtime_error(what + ": frame " + std::to_string(t.frame) + ", which this Strata does not know");
+    if (!std::isfinite(t.first_sample[0]) || !std::isfinite(t.first_sample[1])) throw std::runtime_error(what + ": the first sample's position is not finite");
+    if (!(t.semi_major >= 0) || !(t.inverse_flattening >= 0) || !std::isfinite(t.semi_major) || !std::isfinite(t.inverse_flattening) ||
+        (t.frame != 0 && !(t.semi_major > 0)))
+        throw std::runtime_error(what + ": an ellipsoid of semi-major axis " + std::to_string(t.semi_major) + " m and inverse flattening " +
+                                 std::to_string(t.inverse_flattening));
     t.rows_run_north = flags & 1;
     header_.terrain = t;
 }

@@ -48,6 +48,11 @@ struct TerrainGrid {
     // How samples go into the model (preprocess/terrain_frame.h): 0 the projected CRS's plane (GEOR's
     // origin + (x, y) is the CRS position), 1 enu and 2 ecef at GEOR's origin (longitude, latitude, height).
     uint32_t frame = 0;
+    // The CRS position of the sample at column 0, row 0 (degrees of longitude and latitude in frames 1
+    // and 2), and the CRS's ellipsoid (semi-major axis in metres, inverse flattening, 0 for a sphere):
+    // what turns model coordinates back into the raster's grid and the CRS without GDAL.
+    double first_sample[2] = {0, 0};
+    double semi_major = 0, inverse_flattening = 0;
 };
 
 struct HlodHeader {
@@ -193,6 +198,11 @@ public:
     void add_cube(HlodNode node, std::span<const uint8_t> payload);
     // Before finish(): sets the error of the index-th cube added (errors are chained once all are in).
     void set_error(size_t index, float error) { nodes_.at(index).error = error; }
+    // An optional section too large to hold in memory (a terrain's heights): its chunks spool with the
+    // payloads, in call order; finish() writes the section before PAYL, its head first (set last, when
+    // what it indexes is known). The tag must not be one the writer writes itself.
+    void append_to_section(const char (&tag)[5], std::span<const uint8_t> bytes);
+    void set_section_head(const char (&tag)[5], std::vector<uint8_t> head);
     // Writes the file; header.node_count is set from the cubes added. Throws std::runtime_error naming
     // the path when a write fails.
     void finish(HlodHeader header);
@@ -200,7 +210,17 @@ public:
     const std::vector<HlodNode>& nodes() const { return nodes_; }
 
 private:
+    struct SpooledSection {
+        std::array<char, 4> tag{};
+        std::vector<uint8_t> head;
+        std::vector<std::pair<uint64_t, uint64_t>> chunks;  // spool offset and size
+        uint64_t chunk_bytes = 0;
+        uint32_t chunk_checksum = 0;  // CRC-32C of the chunks, back to back
+    };
+    SpooledSection& spooled_section(const char (&tag)[5]);
+    uint64_t spool(std::span<const uint8_t> bytes);  // appends to the spool; returns where
     void remove_temporaries();
+    std::vector<SpooledSection> sections_;
     std::filesystem::path path_, temp_path_, spool_path_;
     std::FILE* spool_ = nullptr;
     uint64_t spooled_ = 0;
@@ -240,6 +260,10 @@ public:
     void check_section(const HlodSection& section) const;
     // The section with this tag, or null.
     const HlodSection* find_section(const char (&tag)[5]) const;
+    // `size` bytes from `offset` within `section` (a section too large to read whole, which checks its
+    // parts itself); throws std::runtime_error naming the file and `what` when they lie outside it or
+    // cannot be read.
+    std::vector<uint8_t> read_section_part(const HlodSection& section, uint64_t offset, uint64_t size, const std::string& what) const;
 
 private:
     void read_section_table(std::span<const uint8_t> fixed_header);

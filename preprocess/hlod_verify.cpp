@@ -8,6 +8,7 @@
 #include <unordered_map>
 
 #include "preprocess/error_bound.h"
+#include "preprocess/terrain_heights.h"
 
 namespace strata {
 namespace {
@@ -331,6 +332,11 @@ VerifyReport Verifier::run() {
             fail("level " + std::to_string(l) + " " + closures[l].what() + ", though the full-resolution level is closed");
     // Payloads were checked one by one; this also covers the padding between levels.
     file_.check_section(*file_.find_section("PAYL"));
+    // A terrain's heights: the whole section's checksum, and every block decodes.
+    if (const HlodSection* heights = file_.find_section(kHeightsTag)) {
+        file_.check_section(*heights);
+        TerrainHeights(std::shared_ptr<const HlodFile>(std::shared_ptr<const void>(), &file_), *heights).check_all();
+    }
     progress_("verify", h_.max_level + 1, h_.max_level + 1, "level");
     return report_;
 }

@@ -22,7 +22,8 @@ public:
 // Checks: checksums and decoding of every payload; the octree (a root, a parent for every cube);
 // every vertex within σ0·s_l of its cell; d∞(v, P(v)) ≤ σ0·s_{l+1}; every parent copy equal to a
 // vertex of the parent cube; a cube's triangles mapped by P equal its parent's matching part up to
-// degenerate triangles and cyclic rotation; each level watertight if level L is; per-cube error and ε_q.
+// degenerate triangles and cyclic rotation; each level watertight if level L is; per-cube error and ε_q;
+// a terrain's heights (section HGHT) whole and decodable.
 VerifyReport verify_hlod(const HlodFile& file, const Progress& progress = {});
 
 }  // namespace strata

@@ -18,6 +18,7 @@
 #include "preprocess/terrain_bounds.h"
 #include "preprocess/terrain_cubes.h"
 #include "preprocess/terrain_frame.h"
+#include "preprocess/terrain_heights.h"
 #include "preprocess/terrain_pyramid.h"
 
 namespace strata {
@@ -70,8 +71,20 @@ struct Grid {
     }
 };
 
-// Checks the raster can be a terrain and reads it once through: its height range, box and nodata.
-Grid scan_grid(const ElevationRaster& raster, const TerrainSettings& settings, const Progress& progress) {
+// The lattice heights keep: an integer raster's own step, so that its heights come back exactly (unless
+// a fill height lies off it); 1 mm for floating-point samples.
+HeightStep height_step(const Grid& grid) {
+    static const std::vector<std::string> integers = {"Byte", "Int8", "UInt16", "Int16", "UInt32", "Int32"};
+    const RasterInfo& info = grid.info;
+    if (std::find(integers.begin(), integers.end(), info.sample_type) == integers.end() || info.scale == 0) return {};
+    const HeightStep step{std::abs(info.scale) * grid.unit, info.offset * grid.unit};
+    if (grid.fill && std::abs(std::remainder(double(*grid.fill) - step.base, step.step)) > 1e-6 * step.step) return {};
+    return step;
+}
+
+// Checks the raster can be a terrain and reads it once through: its height range, box and nodata; and
+// keeps its heights in the model (section HGHT).
+Grid scan_grid(const ElevationRaster& raster, const TerrainSettings& settings, HlodWriter& writer, unsigned threads, const Progress& progress) {
     Grid grid;
     grid.raster = &raster;
     grid.info = raster.info();
@@ -81,11 +94,13 @@ Grid scan_grid(const ElevationRaster& raster, const TerrainSettings& settings, c
     grid.fill = settings.fill;
     grid.low = INFINITY, grid.high = -INFINITY;
     grid.lo.fill(INFINITY), grid.hi.fill(-INFINITY);
+    HeightSectionWriter heights(writer, info.width, info.height, height_step(grid), info.name);
     std::vector<float> band;
-    const uint64_t band_rows = std::max<uint64_t>(1, (uint64_t(1) << 22) / info.width);
-    for (uint64_t row = 0; row < info.height; row += band_rows) {
+    for (uint64_t row = 0; row < info.height; row += kHeightBlock) {
         progress.check();
-        grid.read(0, row, info.width, std::min(band_rows, info.height - row), band);
+        const uint64_t rows = std::min<uint64_t>(kHeightBlock, info.height - row);
+        grid.read(0, row, info.width, rows, band);
+        heights.add_band(band, rows, threads);
         for (size_t s = 0; s < band.size(); ++s) {
             const float h = band[s];
             if (std::isnan(h)) {
@@ -96,9 +111,10 @@ Grid scan_grid(const ElevationRaster& raster, const TerrainSettings& settings, c
             const std::array<double, 3> p = grid.frame.position(s % info.width, row + s / info.width, h);
             for (size_t a = 0; a < 3; ++a) grid.lo[a] = std::min(grid.lo[a], p[a]), grid.hi[a] = std::max(grid.hi[a], p[a]);
         }
-        progress("read", double(std::min(row + band_rows, info.height)), double(info.height), "rows");
+        progress("read", double(row + rows), double(info.height), "rows");
     }
     if (!(grid.low <= grid.high)) throw InputError(info.name + ": nodata everywhere, no elevation to build a terrain from");
+    heights.finish();
     return grid;
 }
 
@@ -266,7 +282,7 @@ size_t position_of(const terrain::Axis& axis, uint64_t index) {
 struct Assembly {
     const build::Frame& f;
     const std::string name;
-    HlodWriter writer;
+    HlodWriter& writer;
     std::vector<build::CubeErrors> errors;
     std::vector<LevelStats> levels;  // by level
     std::mutex lock;
@@ -276,7 +292,7 @@ struct Assembly {
     uint64_t input_triangles = 0;
     double sigma0_needed = 0;
 
-    Assembly(const build::Frame& frame, const std::filesystem::path& output, std::string raster_name)
+    Assembly(const build::Frame& frame, HlodWriter& output, std::string raster_name)
         : f(frame), name(std::move(raster_name)), writer(output), levels(frame.max_level + 1) {}
     terrain::CubeEncoder encoder(unsigned threads) { return terrain::CubeEncoder(f, name, writer, errors, levels, lock, threads); }
 };
@@ -406,13 +422,17 @@ HlodHeader terrain_header(const Grid& grid, const build::Frame& f, uint32_t cube
     header.has_bounds = true;
     std::copy(grid.lo.begin(), grid.lo.end(), header.bounds_lo);
     std::copy(grid.hi.begin(), grid.hi.end(), header.bounds_hi);
+    const std::array<double, 2> first = info.sample_position(0, 0);
     header.terrain = TerrainGrid{.columns = info.width,
                                  .rows = info.height,
                                  .spacing = {std::abs(info.geotransform[1]), std::abs(info.geotransform[5])},
                                  .nodata_samples = grid.nodata,
                                  .cube_cells = cube_cells,
                                  .rows_run_north = grid.rows_run_north(),
-                                 .frame = uint32_t(grid.frame.kind())};
+                                 .frame = uint32_t(grid.frame.kind()),
+                                 .first_sample = {first[0], first[1]},
+                                 .semi_major = info.semi_major,
+                                 .inverse_flattening = info.inverse_flattening};
     return header;
 }
 
@@ -434,9 +454,10 @@ BuildReport build_terrain(const std::vector<std::filesystem::path>& files, const
     const uint64_t memory = settings.memory ? settings.memory : default_memory_limit();
     limit_raster_cache(memory / 16);
     const ElevationRaster raster = ElevationRaster::open(files, settings.crs);
-    const Grid grid = scan_grid(raster, settings, progress);
-    const build::Frame f = octree_frame(grid, settings.cube_cells);
     const unsigned threads = resolve_thread_count(settings.threads);
+    HlodWriter writer(output);
+    const Grid grid = scan_grid(raster, settings, writer, threads, progress);
+    const build::Frame f = octree_frame(grid, settings.cube_cells);
     if (settings.tiles && ((*settings.tiles)[0] > f.max_level || (*settings.tiles)[1] == 0))
         throw std::invalid_argument("build_terrain: tiles outside the model's levels");
     const TilePlan plan = settings.tiles ? TilePlan{(*settings.tiles)[0], (*settings.tiles)[1], kMarginCells << (f.max_level - (*settings.tiles)[0]), threads}
@@ -446,7 +467,7 @@ BuildReport build_terrain(const std::vector<std::filesystem::path>& files, const
     report.read_seconds = since(start);
     start = Clock::now();
 
-    Assembly out(f, output, grid.info.name);
+    Assembly out(f, writer, grid.info.name);
     out.coarse = empty_level(grid, f.max_level, plan.level);
     const TileOwners owners(grid, out.coarse, f, plan.tile_cubes);
     // Tiles side by side, each compressing its cubes on its share of the threads.

@@ -25,6 +25,26 @@ namespace strata {
 
 enum class TerrainFrameKind : uint32_t { projected = 0, enu = 1, ecef = 2 };
 
+// An ellipsoid and a tangent point on it: the enu and ecef frames above, both ways.
+class TangentPlane {
+public:
+    TangentPlane() = default;
+    // a in metres, 1/f (0 for a sphere), the tangent point's longitude and latitude in degrees.
+    TangentPlane(double semi_major, double inverse_flattening, double longitude, double latitude);
+
+    // Geocentric coordinates of (longitude, latitude in degrees, height in metres).
+    std::array<double, 3> geocentric(double longitude, double latitude, double height) const;
+    // The model position of a point: enu (flat) or ecef (curved) as above.
+    std::array<double, 3> local(double longitude, double latitude, double height, TerrainFrameKind kind) const;
+    // Back: the longitude, latitude and height of a model position. enu: the ellipsoid point straight
+    // below (x, y) along the plane's normal, with height z; ecef: the point itself.
+    std::array<double, 3> geodetic(const std::array<double, 3>& position, TerrainFrameKind kind) const;
+
+private:
+    double a_ = 0, e2_ = 0;
+    std::array<double, 3> center_{}, east_{}, north_{}, up_{};
+};
+
 class TerrainFrame {
 public:
     // The frame for the raster's CRS: a projected CRS's own plane, or for a geographic CRS, `geographic`
@@ -45,11 +65,7 @@ private:
     RasterInfo info_;
     std::array<double, 3> geo_origin_{};
     std::array<double, 2> spacing_{};
-    // ENU: the ellipsoid, and the tangent point's geocentric position and east, north, up axes.
-    double a_ = 0, e2_ = 0;
-    std::array<double, 3> center_{}, east_{}, north_{}, up_{};
-
-    std::array<double, 3> geocentric(double longitude, double latitude, double height) const;
+    TangentPlane tangent_;  // enu, ecef
 };
 
 }  // namespace strata

@@ -1,8 +1,11 @@
 // strata.scene / group / transform / load / plane / light / ambient, and the methods of nodes.
 // Nodes are userdata holding a shared pointer (type "strata.Node"): a node lives while Lua or a
 // parent holds it. Methods that only some node types have say so when called on another type.
+#include <array>
 #include <cmath>
 #include <filesystem>
+#include <optional>
+#include <string_view>
 #include <limits>
 #include <string>
 
@@ -13,6 +16,7 @@
 #include "engine/scene/light.h"
 #include "nodes/geometry.h"
 #include "nodes/hlod_model.h"
+#include "preprocess/georeference.h"
 #include "scripting/lua_util.h"
 #include "scripting/runtime.h"
 #include "scripting/wrap_scene.h"
@@ -375,6 +379,90 @@ int hlod_info(lua_State* L) {
     lua_setfield(L, -2, "morph");
     lua_pushstring(L, model.path().c_str());
     lua_setfield(L, -2, "path");
+    if (!h.crs.empty()) {
+        lua_pushstring(L, h.crs.c_str());
+        lua_setfield(L, -2, "crs");
+    }
+    lua_pushboolean(L, h.terrain.has_value());
+    lua_setfield(L, -2, "terrain");
+    return 1;
+}
+
+// ---- georeference ----------------------------------------------------------------------------
+
+// A point given as {a, b[, c][, crs = "..."]} (c: 0 when absent): finite numbers at 1…`most`, at
+// least `least` of them, and a CRS when `with_crs`; anything else is an argument error naming the
+// expected shape.
+struct PointArgument {
+    std::array<double, 3> v{};
+    std::string crs;
+};
+PointArgument check_point(lua_State* L, int index, int least, int most, bool with_crs, const char* shape) {
+    if (!lua_istable(L, index)) luaL_argerror(L, index, lua_pushfstring(L, "%s expected, got %s", shape, luaL_typename(L, index)));
+    PointArgument p;
+    lua_pushnil(L);
+    while (lua_next(L, index)) {
+        lua_pop(L, 1);
+        const bool crs_key = lua_type(L, -1) == LUA_TSTRING && std::string_view(lua_tostring(L, -1)) == "crs";
+        const lua_Integer position = lua_isinteger(L, -1) ? lua_tointeger(L, -1) : 0;
+        if (!(crs_key && with_crs) && !(position >= 1 && position <= most)) luaL_argerror(L, index, lua_pushfstring(L, "%s expected (an unknown key)", shape));
+    }
+    const int count = int(lua_rawlen(L, index));
+    if (count < least) luaL_argerror(L, index, lua_pushfstring(L, "%s expected (%d numbers)", shape, count));
+    for (int i = 0; i < count; ++i) {
+        lua_rawgeti(L, index, i + 1);
+        int is_number = 0;
+        p.v[size_t(i)] = lua_tonumberx(L, -1, &is_number);
+        lua_pop(L, 1);
+        if (!is_number || !std::isfinite(p.v[size_t(i)])) luaL_argerror(L, index, lua_pushfstring(L, "%s expected (entry %d is not a finite number)", shape, i + 1));
+    }
+    if (with_crs) {
+        lua_pushliteral(L, "crs");
+        lua_rawget(L, index);
+        if (!lua_isnil(L, -1) && lua_type(L, -1) != LUA_TSTRING) luaL_argerror(L, index, "option 'crs' must be a string (EPSG:N, WKT or PROJ)");
+        if (!lua_isnil(L, -1)) p.crs = lua_tostring(L, -1);
+        lua_pop(L, 1);
+    }
+    return p;
+}
+
+const Georeference& check_georeference(lua_State* L, const HlodModel& model) {
+    const Georeference* geo = model.georeference();
+    if (!geo) luaL_error(L, "%s: the model has no georeference (it was built from a file without a CRS)", model.path().c_str());
+    return *geo;
+}
+
+void push_triple(lua_State* L, const std::array<double, 3>& v) {
+    lua_createtable(L, 3, 0);
+    for (int i = 0; i < 3; ++i) {
+        lua_pushnumber(L, v[size_t(i)]);
+        lua_rawseti(L, -2, i + 1);
+    }
+}
+
+// model:to_local{lon, lat[, h][, crs = ...]} → {x, y, z}
+int hlod_to_local(lua_State* L) {
+    const HlodModel& model = check_node_as<HlodModel>(L, 1, "HLOD model");
+    const PointArgument p = check_point(L, 2, 2, 3, true, "{lon, lat[, h][, crs = ...]}");
+    push_triple(L, check_georeference(L, model).to_local(p.v, p.crs));
+    return 1;
+}
+
+// model:to_geo{x, y, z[, crs = ...]} → {lon, lat, h}
+int hlod_to_geo(lua_State* L) {
+    const HlodModel& model = check_node_as<HlodModel>(L, 1, "HLOD model");
+    const PointArgument p = check_point(L, 2, 3, 3, true, "{x, y, z[, crs = ...]}");
+    push_triple(L, check_georeference(L, model).to_geo(p.v, p.crs));
+    return 1;
+}
+
+// model:height_at{x, y} → the ground's height, or nil outside the raster or on nodata
+int hlod_height_at(lua_State* L) {
+    const HlodModel& model = check_node_as<HlodModel>(L, 1, "HLOD model");
+    const PointArgument p = check_point(L, 2, 2, 2, false, "{x, y}");
+    const std::optional<double> h = model.height_at(p.v[0], p.v[1]);
+    if (h) lua_pushnumber(L, *h);
+    else lua_pushnil(L);
     return 1;
 }
 
@@ -384,6 +472,7 @@ const luaL_Reg kNodeMethods[] = {
     {"find", node_find},         {"add", group_add},          {"remove", group_remove},
     {"children", group_children}, {"count", group_count},     {"set_transform", transform_set},
     {"matrix", transform_matrix}, {"set_lod", hlod_set},      {"info", hlod_info},
+    {"to_local", hlod_to_local}, {"to_geo", hlod_to_geo},     {"height_at", hlod_height_at},
     {nullptr, nullptr}};
 
 const luaL_Reg kFunctions[] = {{"scene", new_scene}, {"group", new_group},   {"transform", new_transform},

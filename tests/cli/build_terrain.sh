@@ -38,6 +38,41 @@ proj4() { gdalsrsinfo -o proj4 "$1" 2>/dev/null | sed 's/ +towgs84=0,0,0,0,0,0,0
 [ "$(proj4 "$WORK/map.prj")" = "$(proj4 "$dem")" ] && [ -n "$(proj4 "$dem")" ] ||
     fail "render --top: map.prj is not the DEM's CRS: $(cat "$WORK/map.prj")"
 
+# From Lua: at sample centres height_at is what gdallocationinfo reads, to_geo is where gdaltransform
+# puts the sample in longitude and latitude, to_local returns, and off the raster there is no ground.
+samples="3 105
+60 20
+110 0
+0 110
+57 64"
+cat > "$WORK/ground.lua" <<'LUA'
+local strata = require "strata"
+local model = strata.load(arg[1])
+local step, rows = tonumber(arg[2]), tonumber(arg[3])
+for line in io.lines(arg[4]) do
+    local c, r = line:match("(%d+) (%d+)")
+    local x, y = c * step, (rows - 1 - r) * step
+    local geo = model:to_geo{ x, y, 0 }
+    local back = model:to_local{ geo[1], geo[2], 0 }
+    assert(math.abs(back[1] - x) < 1e-6 and math.abs(back[2] - y) < 1e-6, "to_local does not return to_geo's point")
+    print(("%.6f %.9f %.9f"):format(model:height_at{ x, y }, geo[1], geo[2]))
+end
+assert(model:height_at{ -step, 0 } == nil and model:height_at{ 0, rows * step } == nil, "ground off the raster")
+LUA
+echo "$samples" > "$WORK/samples.txt"
+step=$(GDAL_PAM_ENABLED=NO gdalinfo -json "$dem" | tr -d ' \n' | sed -n 's/.*"geoTransform":\[[^,]*,\([^,]*\),.*/\1/p')
+expect_success "heights and coordinates from Lua" "$STRATA" run "$WORK/ground.lua" "$WORK/olinda.hlod" "$step" 111 "$WORK/samples.txt"
+cp "$WORK/out.txt" "$WORK/lua_ground.txt"
+gdal=$(echo "$samples" | GDAL_PAM_ENABLED=NO gdallocationinfo -valonly "$dem")
+where=$(echo "$samples" | awk '{print $1 + 0.5, $2 + 0.5}' | gdaltransform -t_srs EPSG:4326 "$dem")
+checks=$((checks + 1))
+paste -d ' ' "$WORK/lua_ground.txt" <(echo "$gdal") <(echo "$where") | awk '{
+    # Lua: height lon lat; GDAL: height; gdaltransform: lon lat 0. Float32 heights within 1 mm; 1e-8 degrees is 1 mm.
+    if ((($1 - $4)^2 > 1e-6) || (($2 - $5)^2 > 1e-16) || (($3 - $6)^2 > 1e-16)) { print "sample " NR ": " $0; bad = 1 } }
+    END { exit bad }' || fail "Lua's heights or coordinates differ from GDAL's: $(paste -d ' ' "$WORK/lua_ground.txt" <(echo "$gdal") <(echo "$where"))"
+echo "require('strata').load(arg[1]):height_at{0, 0}" > "$WORK/mesh_ground.lua"
+expect_failure "height_at on a mesh" "bunny.hlod: not a terrain" "$STRATA" run "$WORK/mesh_ground.lua" "$2/data/bunny.hlod"
+
 # No georeference: a raster GDAL reads whose samples lie nowhere.
 gdal_translate -q -of AAIGrid "$dem" "$WORK/grid.asc" && rm -f "$WORK/grid.prj"
 sed -i '/^xllcorner/s/.*/xllcorner 0/' "$WORK/grid.asc"

@@ -1,12 +1,12 @@
 // Fuzz target: the .hlod reader (preprocess/hlod_format.cpp) as `strata verify` and the viewer use it:
-// open the file (header, section table, MODL, NODE, GEOR), decode every cube's payload, then check the
-// model as `strata verify` does. Properties: every failure is a std::runtime_error naming the file;
+// open the file (header, section table, MODL, NODE, GEOR, TERR), decode every cube's payload, then check the
+// model as `strata verify` does (a terrain's heights, HGHT, included). Properties: every failure is a std::runtime_error naming the file;
 // nothing crashes or allocates without bound.
 //
 // The input is a .hlod file. A mutated byte would almost always break a CRC-32C (or the file size the
 // header declares) and stop the reader at the first check, so before the file is written those are
-// recomputed wherever its structure lets them be found (payload CRCs in NODE, each section's CRC, the
-// declared size, the header CRC; FORMAT.md §3–4). The reader itself is unchanged, and the same inputs
+// recomputed wherever its structure lets them be found (payload CRCs in NODE, block CRCs in HGHT's index
+// and the index's own, each section's CRC, the declared size, the header CRC; FORMAT.md §3–4). The reader itself is unchanged, and the same inputs
 // replay the same way in the ordinary build.
 #include <cstring>
 #include <stdexcept>
@@ -33,6 +33,20 @@ void repair_node_entries(std::vector<uint8_t>& file, uint64_t offset, uint64_t s
     }
 }
 
+// Fixes a terrain's heights (FORMAT.md §4.8): each block's CRC in the index, then the index's in the head.
+void repair_heights(std::vector<uint8_t>& file, uint64_t offset, uint64_t size) {
+    constexpr uint64_t kHead = 56, kEntry = 16, kCountAt = 40, kIndexCrcAt = 48;
+    if (size < kHead) return;
+    const uint64_t count = get<uint64_t>(file, offset + kCountAt);
+    if (count > (size - kHead) / kEntry) return;
+    for (uint64_t e = 0; e < count; ++e) {
+        const uint64_t entry = offset + kHead + kEntry * e;
+        const uint64_t block = get<uint64_t>(file, entry), bytes = get<uint32_t>(file, entry + 8);
+        if (block <= size && bytes <= size - block) put(file, entry + 12, strata::crc32c(file.data() + offset + block, bytes));
+    }
+    put(file, offset + kIndexCrcAt, strata::crc32c(file.data() + offset + kHead, kEntry * count));
+}
+
 void repair_checksums(std::vector<uint8_t>& file) {
     if (file.size() < kFixedHeaderBytes) return;
     const uint64_t count = get<uint32_t>(file, kSectionCountAt);
@@ -45,6 +59,7 @@ void repair_checksums(std::vector<uint8_t>& file) {
             const uint64_t offset = get<uint64_t>(file, entry + kEntryOffsetAt), size = get<uint64_t>(file, entry + kEntrySizeAt);
             if (!inside(file, offset, size)) continue;
             if (pass == 0 && std::memcmp(&file[entry], "NODE", 4) == 0) repair_node_entries(file, offset, size);
+            if (pass == 0 && std::memcmp(&file[entry], "HGHT", 4) == 0) repair_heights(file, offset, size);
             if (pass == 1) put(file, entry + kEntryCrcAt, strata::crc32c(file.data() + offset, size));
         }
     std::vector<uint8_t> covered(file.begin(), file.begin() + kHeaderCrcAt);

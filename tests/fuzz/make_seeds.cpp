@@ -14,6 +14,7 @@
 #include "preprocess/hlod_builder.h"
 #include "preprocess/hlod_format.h"
 #include "preprocess/mesh_io.h"
+#include "preprocess/terrain_heights.h"
 #include "tests/support/test_meshes.h"
 
 namespace {
@@ -130,9 +131,19 @@ void georeferenced_copy(const fs::path& from, const fs::path& to, std::optional<
     if (terrain_frame)
         header.terrain = strata::TerrainGrid{.columns = 7, .rows = 5, .spacing = {30, 30}, .nodata_samples = 3, .cube_cells = 8,
                                              .rows_run_north = false,
-                                             .frame = *terrain_frame};
+                                             .frame = *terrain_frame,
+                                             .first_sample = {500015, 5400135},
+                                             .semi_major = 6378137,
+                                             .inverse_flattening = 298.257223563};
     strata::HlodWriter writer(to);
     for (const strata::HlodNode& node : file.nodes()) writer.add_cube(node, file.read_payload(node));
+    if (terrain_frame) {  // its heights (section HGHT), three of them nodata
+        std::vector<float> heights(7 * 5);
+        for (size_t s = 0; s < heights.size(); ++s) heights[s] = s % 11 == 4 ? NAN : 300.0f + 0.25f * float(s * s % 17);
+        strata::HeightSectionWriter section(writer, 7, 5, {}, to.string());
+        section.add_band(heights, 5, 1);
+        section.finish();
+    }
     writer.finish(header);
 }
 

@@ -5,8 +5,10 @@
 #include <gdal_priv.h>
 #include <gtest/gtest.h>
 #include <ogr_spatialref.h>
+#include <proj.h>
 
 #include <array>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -74,5 +76,30 @@ inline void write_tiff(const std::filesystem::path& file, const TiffSpec& spec) 
     EXPECT_EQ(band->RasterIO(GF_Write, 0, 0, spec.width, spec.height, values.data(), spec.width, spec.height, GDT_Float64, 0, 0), CE_None);
     GDALClose(d);
 }
+
+// A PROJ pipeline, for the expected positions: geodetic → geocentric → east, north, up at a point.
+class Topocentric {
+public:
+    Topocentric(double longitude, double latitude)
+        : context_(proj_context_create()),
+          pipeline_(proj_create(context_, ("+proj=pipeline +step +proj=cart +ellps=WGS84 +step +proj=topocentric +ellps=WGS84 +lon_0=" +
+                                           exact(longitude) + " +lat_0=" + exact(latitude) + " +h_0=0")
+                                              .c_str())) {}
+    ~Topocentric() { proj_destroy(pipeline_), proj_context_destroy(context_); }
+    std::array<double, 3> operator()(double longitude, double latitude, double height) const {
+        const PJ_COORD c = proj_trans(pipeline_, PJ_FWD, proj_coord(proj_torad(longitude), proj_torad(latitude), height, 0));
+        return {c.xyz.x, c.xyz.y, c.xyz.z};
+    }
+    bool ok() const { return pipeline_ != nullptr; }
+
+private:
+    static std::string exact(double v) {
+        char text[32];
+        std::snprintf(text, sizeof text, "%.17g", v);
+        return text;
+    }
+    PJ_CONTEXT* context_;
+    PJ* pipeline_;
+};
 
 }  // namespace strata::test

@@ -12,7 +12,6 @@
 #include <set>
 
 #include <geodesic.h>
-#include <proj.h>
 
 #include "nodes/hlod_model.h"
 #include "preprocess/hlod_verify.h"
@@ -249,26 +248,6 @@ TEST(TerrainBuild, TiledBuildsAreByteIdenticalToTheWholeRastersBuild) {
     }
 }
 
-// A PROJ pipeline, for the expected positions: geodetic → geocentric → east, north, up at a point.
-class Topocentric {
-public:
-    Topocentric(double longitude, double latitude)
-        : context_(proj_context_create()),
-          pipeline_(proj_create(context_, ("+proj=pipeline +step +proj=cart +ellps=WGS84 +step +proj=topocentric +ellps=WGS84 +lon_0=" +
-                                           std::to_string(longitude) + " +lat_0=" + std::to_string(latitude) + " +h_0=0")
-                                              .c_str())) {}
-    ~Topocentric() { proj_destroy(pipeline_), proj_context_destroy(context_); }
-    std::array<double, 3> operator()(double longitude, double latitude, double height) const {
-        const PJ_COORD c = proj_trans(pipeline_, PJ_FWD, proj_coord(proj_torad(longitude), proj_torad(latitude), height, 0));
-        return {c.xyz.x, c.xyz.y, c.xyz.z};
-    }
-    bool ok() const { return pipeline_ != nullptr; }
-
-private:
-    PJ_CONTEXT* context_;
-    PJ* pipeline_;
-};
-
 // A DEM in degrees (EPSG:4326, 0.6° × 0.5° of the Alps at 0.005°): in the enu frame each sample lies
 // where PROJ puts its ellipsoid point in the tangent plane at the centre, at its height; in ecef where
 // PROJ puts the point itself. Horizontal distances differ from the ellipsoid's geodesics (PROJ's
@@ -279,7 +258,7 @@ TEST(TerrainBuild, ADemInDegreesLiesInATangentPlaneAtItsCentre) {
     spec.values = rough_heights(spec.width, spec.height, 8);
     test::write_tiff(dir / "alps.tif", spec);
     const double lon0 = 7.0 + 0.005 * (60 + 0.5), lat0 = 47.0 - 0.005 * (50 + 0.5);  // the centre sample
-    const Topocentric topocentric(lon0, lat0);
+    const test::Topocentric topocentric(lon0, lat0);
     ASSERT_TRUE(topocentric.ok());
     geod_geodesic wgs84;
     geod_init(&wgs84, 6378137, 1 / 298.257223563);

@@ -1,0 +1,106 @@
+#include "preprocess/georeference.h"
+
+#include <proj.h>
+
+#include <cmath>
+#include <stdexcept>
+
+namespace strata {
+
+struct Georeference::Proj {
+    PJ_CONTEXT* context = proj_context_create();
+    PJ* source = nullptr;                   // the model's CRS
+    std::map<std::string, PJ*> transforms;  // by target CRS ("" for the model CRS's geographic one)
+
+    ~Proj() {
+        for (auto& [crs, pj] : transforms) proj_destroy(pj);
+        proj_destroy(source);
+        proj_context_destroy(context);
+    }
+    std::string last_error() const { return proj_context_errno_string(context, proj_context_errno(context)); }
+};
+
+Georeference::Georeference(const HlodHeader& header, std::string name)
+    : name_(std::move(name)), crs_(header.crs), terrain_(header.terrain), proj_(std::make_unique<Proj>()) {
+    if (crs_.empty()) throw std::runtime_error(name_ + ": the model has no georeference (it was built from a file without a CRS)");
+    std::copy(std::begin(header.geo_origin), std::end(header.geo_origin), geo_origin_.begin());
+    if (terrain_ && terrain_->frame != 0) tangent_ = TangentPlane(terrain_->semi_major, terrain_->inverse_flattening, geo_origin_[0], geo_origin_[1]);
+    proj_log_level(proj_->context, PJ_LOG_NONE);
+}
+
+Georeference::~Georeference() = default;
+
+std::array<double, 3> Georeference::model_to_crs(const std::array<double, 3>& model) const {
+    if (terrain_ && terrain_->frame != 0) return tangent_.geodetic(model, TerrainFrameKind(terrain_->frame));
+    return {geo_origin_[0] + model[0], geo_origin_[1] + model[1], geo_origin_[2] + model[2]};
+}
+
+std::array<double, 3> Georeference::crs_to_model(const std::array<double, 3>& crs) const {
+    if (terrain_ && terrain_->frame != 0) return tangent_.local(crs[0], crs[1], crs[2], TerrainFrameKind(terrain_->frame));
+    return {crs[0] - geo_origin_[0], crs[1] - geo_origin_[1], crs[2] - geo_origin_[2]};
+}
+
+void* Georeference::transformation(const std::string& crs) const {
+    Proj& p = *proj_;
+    if (auto found = p.transforms.find(crs); found != p.transforms.end()) return found->second;
+    if (!p.source) {
+        p.source = proj_create(p.context, crs_.c_str());
+        if (!p.source) throw std::runtime_error(name_ + ": PROJ cannot read the model's CRS (" + p.last_error() + ")");
+    }
+    PJ* target = crs.empty() ? proj_crs_get_geodetic_crs(p.context, p.source) : proj_create(p.context, crs.c_str());
+    if (!target) throw std::runtime_error(crs.empty() ? name_ + ": the model's CRS has no geographic CRS" : "PROJ cannot read the CRS '" + crs + "' (" + p.last_error() + ")");
+    PJ* raw = proj_create_crs_to_crs_from_pj(p.context, p.source, target, nullptr, nullptr);
+    proj_destroy(target);
+    PJ* normalised = raw ? proj_normalize_for_visualization(p.context, raw) : nullptr;
+    proj_destroy(raw);
+    if (!normalised) throw std::runtime_error("PROJ finds no way from " + name_ + "'s CRS to '" + (crs.empty() ? "its geographic CRS" : crs) + "' (" + p.last_error() + ")");
+    p.transforms.emplace(crs, normalised);
+    return normalised;
+}
+
+std::array<double, 3> Georeference::transform(const std::array<double, 3>& point, const std::string& crs, bool forward) const {
+    std::lock_guard lock(mutex_);
+    PJ* pj = static_cast<PJ*>(transformation(crs));
+    proj_errno_reset(pj);
+    const PJ_COORD out = proj_trans(pj, forward ? PJ_FWD : PJ_INV, proj_coord(point[0], point[1], point[2], 0));
+    if (!std::isfinite(out.xyz.x) || !std::isfinite(out.xyz.y) || out.xyz.x == HUGE_VAL)
+        throw std::runtime_error("(" + std::to_string(point[0]) + ", " + std::to_string(point[1]) + ") lies outside what PROJ maps between " + name_ +
+                                 "'s CRS and " + (crs.empty() ? "its geographic CRS" : "'" + crs + "'"));
+    return {out.xyz.x, out.xyz.y, point[2]};
+}
+
+std::array<double, 3> Georeference::to_geo(const std::array<double, 3>& model, const std::string& crs) const {
+    for (double v : model)
+        if (!std::isfinite(v)) throw std::runtime_error("a position that is not finite");
+    const std::array<double, 3> c = model_to_crs(model);
+    if (!std::isfinite(c[0]) || !std::isfinite(c[1])) throw std::runtime_error("a position beyond the ellipsoid's outline in " + name_ + "'s tangent plane");
+    return transform(c, crs, true);
+}
+
+std::array<double, 3> Georeference::to_local(const std::array<double, 3>& geo, const std::string& crs) const {
+    for (double v : geo)
+        if (!std::isfinite(v)) throw std::runtime_error("coordinates that are not finite");
+    return crs_to_model(transform(geo, crs, false));
+}
+
+std::optional<std::array<double, 2>> Georeference::raster_position(double x, double y, double height) const {
+    if (!terrain_) return std::nullopt;
+    const TerrainGrid& t = *terrain_;
+    double cx = geo_origin_[0] + x, cy = geo_origin_[1] + y;
+    if (t.frame != 0) {
+        // The ellipsoid point with these x, y; in ecef, moved until the point `height` above it has them
+        // (each step shifts by the tilt of the normal: a few steps reach a micrometre).
+        std::array<double, 3> g = tangent_.geodetic({x, y, 0}, TerrainFrameKind::enu);
+        for (int i = 0; t.frame == uint32_t(TerrainFrameKind::ecef) && height != 0 && i < 6; ++i) {
+            const std::array<double, 3> at_height = tangent_.local(g[0], g[1], height, TerrainFrameKind::ecef);
+            const std::array<double, 3> at_ground = tangent_.local(g[0], g[1], 0, TerrainFrameKind::enu);
+            g = tangent_.geodetic({at_ground[0] + x - at_height[0], at_ground[1] + y - at_height[1], 0}, TerrainFrameKind::enu);
+        }
+        cx = g[0], cy = g[1];
+    }
+    const double column = (cx - t.first_sample[0]) / t.spacing[0];
+    const double row = (t.rows_run_north ? cy - t.first_sample[1] : t.first_sample[1] - cy) / t.spacing[1];
+    return std::array{column, row};
+}
+
+}  // namespace strata
