@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Set-up, build, then the main job on the bundled sample: build its .hlod, check it, describe it,
-# render it headless to PNG and OpenEXR, and run the museum flythrough script (EXR frames and an MP4).
+# render it headless to PNG and OpenEXR, and run the museum flythrough script (EXR frames and an MP4);
+# then the same for the bundled terrain and its flythrough.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh
@@ -12,5 +13,12 @@ mkdir -p data
 "$strata" render data/bunny.hlod -o data/bunny.png --size 1280x720
 "$strata" render data/bunny.hlod -o data/bunny.exr --size 1280x720 --channels RGBA,Z,N,level,id
 "$strata" run scripts/museum_flythrough.lua data/bunny.hlod data/bunny.hlod data/flythrough 6 960x540 30
+# A real terrain (southern Colorado, 3 arc-seconds, elevations in feet, no CRS in the file) and a flight
+# over it at a height above its ground.
+"$strata" build data/trinidad.nc --crs EPSG:4326 --elevation-unit ft -o data/trinidad.hlod
+"$strata" verify data/trinidad.hlod
+"$strata" info data/trinidad.hlod
+"$strata" run scripts/terrain_flythrough.lua data/trinidad.hlod data/terrain_flythrough 4 960x540 24
 echo "demo: wrote data/bunny.hlod, data/bunny.png, data/bunny.exr;" \
-     "the flythrough's EXR frames (RGBA + Z) are in data/flythrough/, its video is data/flythrough/flythrough.mp4"
+     "the flythrough's EXR frames (RGBA + Z) are in data/flythrough/, its video is data/flythrough/flythrough.mp4;" \
+     "the terrain's are in data/terrain_flythrough/"

@@ -25,4 +25,24 @@ if command -v exrheader >/dev/null; then  # the frames hold exactly RGBA and Z
     channels=$(exrheader "$WORK/museum/frame00000.exr" | grep -E "^ +[A-Z]+, " | awk -F, '{print $1}' | tr -d ' ' | sort | tr '\n' ' ')
     [ "$channels" = "A B G R Z " ] || fail "museum frame channels: '$channels'"
 fi
+# The terrain flythrough over a real DEM: frames, video and flight, and every second of the flight at
+# least the clearance asked above the ground under it, as the model's heights give it.
+dem=$root/data/olinda_dem.tif
+[ -s "$dem" ] || { echo "data/olinda_dem.tif missing: run scripts/setup.sh"; exit 1; }
+expect_success "build the terrain" "$STRATA" build "$dem" -o "$WORK/olinda.hlod" -q
+expect_success "terrain_flythrough" "$STRATA" run "$root/scripts/terrain_flythrough.lua" "$WORK/olinda.hlod" "$WORK/terrain" 3 96x54 4 120
+checks=$((checks + 1)); [ -s "$WORK/terrain/frame00011.exr" ] && [ -s "$WORK/terrain/flythrough.mp4" ] && [ -s "$WORK/terrain/flight.json" ] \
+    || fail "terrain_flythrough wrote no frames, video or flight"
+checks=$((checks + 1)); grep -qE "a loop from longitude, latitude -34\.(8|9)[0-9]*°, -(7\.9|8\.0)[0-9]*° round and back" "$WORK/out.txt" ||
+    fail "terrain_flythrough: not over Olinda: $(cat "$WORK/out.txt")"
+cat > "$WORK/clearance.lua" <<'LUA'
+local strata = require "strata"
+local model, flight = strata.load(arg[1]), strata.load_path(arg[2])
+for k = 1, 3 do
+    local p = flight:sample(flight:key_time(k)).position
+    local ground = model:height_at{ p[1], p[2] }
+    assert(ground and p[3] - ground >= 120 - 1e-6, ("key %d at %.1f m over ground at %s"):format(k, p[3], tostring(ground)))
+end
+LUA
+expect_success "the flight keeps its clearance" "$STRATA" run "$WORK/clearance.lua" "$WORK/olinda.hlod" "$WORK/terrain/flight.json"
 finish
