@@ -291,7 +291,14 @@ bool Editor::frame() {
     if (const std::optional<ImVec2> at = view_click()) {
         click(at->x, at->y);
         picking_ms = timings_.pick_ms;
+    } else if (geo_.active()) {
+        const ImGuiIO& io = ImGui::GetIO();
+        if (!io.WantCaptureMouse && !ImGui::IsAnyMouseDown() && (io.MouseDelta.x != 0 || io.MouseDelta.y != 0) && ImGui::IsMousePosValid()) {
+            hover(io.MousePos.x * io.DisplayFramebufferScale.x, io.MousePos.y * io.DisplayFramebufferScale.y);
+            picking_ms = timings_.pick_ms;
+        }
     }
+    geo_.update(*scene_, selected().get());
     draw_panels();
     navigator_.follow_if_moved();  // by the path playing, or the panels (a bookmark, the timeline, the console)
     ImGui::Render();
@@ -371,7 +378,26 @@ std::optional<PickHit> Editor::click(double x, double y) {
     timings_.pick_ms = milliseconds_since(start);
     if (hit) selected_ = find_node(NodePtr(scene_), hit->node);
     else selected_.reset();
+    cursor_point_ = hit ? std::optional(hit->point) : std::nullopt;
     return hit;
+}
+
+// The surface under the pointer, for the geographic read-out: picked when the pointer has moved over
+// the view, at most ten times a second (a pick of a large terrain takes milliseconds).
+void Editor::hover(double x, double y) {
+    const auto now = std::chrono::steady_clock::now();
+    if (now - last_hover_ < std::chrono::milliseconds(100)) return;
+    last_hover_ = now;
+    const std::optional<PickHit> hit = pick(*scene_, camera(), x, y);
+    timings_.pick_ms = milliseconds_since(now);
+    cursor_point_ = hit ? std::optional(hit->point) : std::nullopt;
+}
+
+std::optional<Editor::GeoView> Editor::geo_view() {
+    geo_.update(*scene_, selected().get());
+    if (!geo_.active()) return std::nullopt;
+    return GeoView{geo_.model_name(), geo_.crs_label(), geo_.read(camera().position),
+                   cursor_point_ ? geo_.read(*cursor_point_) : std::nullopt};
 }
 
 void Editor::sync_path() {
@@ -581,6 +607,21 @@ void Editor::draw_camera_panel() {
         ImGui::PopID();
     }
     if (removed) std::erase_if(state_.bookmarks, [&](const Bookmark& b) { return b.name == *removed; });
+    if (geo_.active()) {
+        ImGui::Separator();
+        ImGui::TextDisabled("on the Earth (%s, %s)", geo_.model_name().c_str(), geo_.crs_label().c_str());
+        draw_geo_lines(false);
+    }
+}
+
+// The camera's and the cursor's places, one line each (compact: both on one line, for the overlay).
+void Editor::draw_geo_lines(bool compact) {
+    const std::optional<GeoView> view = geo_view();
+    if (!view) return;
+    const std::string camera_text = view->camera ? GeoReadout::describe(*view->camera) : "outside the CRS";
+    const std::string cursor_text = view->cursor ? GeoReadout::describe(*view->cursor) : "-";
+    if (compact) ImGui::Text("camera %s  |  cursor %s", camera_text.c_str(), cursor_text.c_str());
+    else ImGui::TextWrapped("camera: %s\ncursor: %s", camera_text.c_str(), cursor_text.c_str());
 }
 
 void Editor::draw_stats_overlay() {
@@ -589,7 +630,7 @@ void Editor::draw_stats_overlay() {
     ImGui::SetNextWindowBgAlpha(0.5f);
     const ImGuiWindowFlags flags = ImGuiWindowFlags_NoDecoration | ImGuiWindowFlags_AlwaysAutoResize | ImGuiWindowFlags_NoSavedSettings |
                                    ImGuiWindowFlags_NoFocusOnAppearing | ImGuiWindowFlags_NoNav | ImGuiWindowFlags_NoInputs;
-    if (ImGui::Begin("stats", nullptr, flags))
+    if (ImGui::Begin("stats", nullptr, flags)) {
         ImGui::Text("%.0f fps  %.1f ms  |  %.2f M triangles  %llu cubes  |  streamed %s + tables %s, %llu loading, %llu stand-ins, %s  |  ui %.2f ms",
                     fps_, 1000.0 / std::max(fps_, 1e-6), stats_.triangles / 1e6, (unsigned long long)stats_.cubes,
                     describe_bytes(stats_.memory_resident).c_str(), describe_bytes(stats_.memory_tables).c_str(),
@@ -597,6 +638,8 @@ void Editor::draw_stats_overlay() {
                     (unsigned long long)stats_.stand_ins,
                     stats_.frames_unconverged == 0 ? "converged" : ("converging for " + std::to_string(stats_.frames_unconverged) + " frames").c_str(),
                     timings_.ui_ms);
+        if (geo_.active()) draw_geo_lines(true);
+    }
     ImGui::End();
 }
 

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "editor/console.h"
+#include "editor/geo_readout.h"
 #include "editor/navigator.h"
 #include "editor/path_editor.h"
 #include "engine/gl/framebuffer.h"
@@ -87,8 +88,16 @@ public:
     NodePtr add_file(const std::filesystem::path& file);
 
     // Selects the node drawn at pixel (x, y) of the window's framebuffer (none on the background) and
-    // returns the hit; what a click in the view does.
+    // returns the hit; what a click in the view does. The hit is the cursor's point of the geographic
+    // read-out until the pointer moves on.
     std::optional<PickHit> click(double x, double y);
+    // The geographic read-out (a scene with a georeferenced model): the camera's place and the cursor's
+    // (the surface under the pointer, or last clicked), as the Camera panel and the overlay show them.
+    struct GeoView {
+        std::string model, crs;
+        std::optional<GeoReading> camera, cursor;
+    };
+    std::optional<GeoView> geo_view();
 
     // Saves the scene, camera, bookmarks and paths as a scene script (temp file + rename). Throws
     // std::runtime_error naming the file or the node that cannot be written.
@@ -112,6 +121,8 @@ private:
     void draw_camera_panel();
     void draw_overlays();  // over the view, panels shown or not: the stats and the path
     void draw_stats_overlay();
+    void draw_geo_lines(bool compact);
+    void hover(double x, double y);
     void handle_navigation(double seconds);
     void capture_back_buffer(int width, int height);
 
@@ -127,6 +138,9 @@ private:
     Console console_;
     std::unique_ptr<gl::Framebuffer> target_;
     std::weak_ptr<Node> selected_;
+    GeoReadout geo_;
+    std::optional<glm::dvec3> cursor_point_;  // world frame: under the pointer, or clicked
+    std::chrono::steady_clock::time_point last_hover_{};
     FrameStats stats_;
     EditorTimings timings_;
     bool capture_ = false;

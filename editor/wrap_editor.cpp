@@ -305,6 +305,35 @@ int editor_click(lua_State* L) {
     return 3;
 }
 
+void push_reading(lua_State* L, const std::optional<GeoReading>& reading, const char* field) {
+    if (!reading) return;
+    lua_createtable(L, 3, 1);
+    for (int i = 0; i < 3; ++i) {
+        lua_pushnumber(L, reading->geo[size_t(i)]);
+        lua_rawseti(L, -2, i + 1);
+    }
+    if (reading->above_ground) {
+        lua_pushnumber(L, *reading->above_ground);
+        lua_setfield(L, -2, "above_ground");
+    }
+    lua_setfield(L, -2, field);
+}
+
+// ed:geo() → {model=, crs=, camera={lon, lat, h, above_ground=}, cursor={...}}, or nil when no model in
+// the scene is georeferenced: the Camera panel's read-out.
+int editor_geo(lua_State* L) {
+    const std::optional<Editor::GeoView> view = check_editor(L).geo_view();
+    if (!view) return 0;
+    lua_createtable(L, 0, 4);
+    lua_pushstring(L, view->model.c_str());
+    lua_setfield(L, -2, "model");
+    lua_pushstring(L, view->crs.c_str());
+    lua_setfield(L, -2, "crs");
+    push_reading(L, view->camera, "camera");
+    push_reading(L, view->cursor, "cursor");
+    return 1;
+}
+
 int editor_measure(lua_State* L) {  // ed:measure(on): exact split of the scene's and the panels' time
     check_editor(L).set_measure(lua_toboolean(L, 2));
     return 0;
@@ -328,7 +357,7 @@ const luaL_Reg kEditorMethods[] = {
     {"bookmark", editor_bookmark}, {"go", editor_go},                 {"bookmarks", editor_bookmarks},
     {"console", editor_console},   {"screenshot", editor_screenshot}, {"stats", editor_stats},
     {"measure", editor_measure},   {"save", editor_save},             {"click", editor_click},
-    {"panels", editor_panels},
+    {"panels", editor_panels},     {"geo", editor_geo},
     {nullptr, nullptr}};
 
 // strata.view([scene [, camera]]): without arguments, the scene script's globals (scene, camera,

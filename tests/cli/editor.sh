@@ -63,4 +63,13 @@ printf 'editor:close()\n' >"$WORK/closing.lua"
 expect_failure "screenshot of a closed window" "shot.png: not written, the window was closed" xvfb "$STRATA" view "$WORK/scene.lua" --script "$WORK/closing.lua" --frames 1 --screenshot "$WORK/shot.png"
 printf 'editor:select("missing")\n' >"$WORK/baddrive.lua"
 expect_failure "failing drive script" "no node named 'missing'" xvfb "$STRATA" view "$WORK/scene.lua" --script "$WORK/baddrive.lua"
+# The geographic read-out over a real DEM: the camera above a sample reads where GDAL puts it.
+dem=$root/data/olinda_dem.tif
+if [ -s "$dem" ]; then
+    "$STRATA" build "$dem" -o "$WORK/olinda.hlod" -q || fail "terrain build failed"
+    place=$(echo "60.5 20.5" | gdaltransform -t_srs EPSG:4326 "$dem" | awk '{printf "%.12f %.12f", $1, $2}')
+    GEO_SAMPLE="$place $(echo "60 20" | GDAL_PAM_ENABLED=NO gdallocationinfo -valonly "$dem")" \
+        expect_success "geographic read-out" xvfb "$STRATA" view "$WORK/olinda.hlod" --size 800x600 --script "$root/tests/editor/drive_geo.lua"
+    checks=$((checks + 1)); grep -q "editor geo: ok" "$WORK/out.txt" || { fail "the geo script did not finish"; cat "$WORK/out.txt" "$WORK/err.txt"; }
+fi
 finish

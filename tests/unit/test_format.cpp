@@ -12,6 +12,7 @@
 #include <cmath>
 #include <cstring>
 #include <fstream>
+#include <limits>
 #include <iterator>
 #include <numbers>
 #include <random>
@@ -944,12 +945,13 @@ TEST_F(BadFile, TheResealedGoodOneOpens) {
 // FORMAT.md §4.7: a terrain's grid, at the offsets the format gives, and refused when it cannot be one.
 TEST_F(BadFile, TerrainGridComesBackFromItsOffsetsAndABadOneIsRefused) {
     SmallModel model;
-    model.header.terrain = TerrainGrid{.columns = 1201, .rows = 2401, .spacing = {30, 25}, .nodata_samples = 77, .cube_cells = 64, .rows_run_north = true, .frame = 0};
+    model.header.terrain = TerrainGrid{.columns = 1201, .rows = 2401, .spacing = {30, 25}, .nodata_samples = 77, .cube_cells = 64, .rows_run_north = true, .frame = 0,
+                                       .first_sample = {452015, 5169987.5}, .semi_major = 6378137, .inverse_flattening = 298.257223563};
     model.write(dir / "terrain.hlod");
     const std::vector<uint8_t> bytes = test::file_bytes(dir / "terrain.hlod");
     const uint64_t at = section_offset(bytes, "TERR");
     ASSERT_NE(entry_of(bytes, "TERR"), 0u);
-    EXPECT_EQ(section_size(bytes, "TERR"), 56u);
+    EXPECT_EQ(section_size(bytes, "TERR"), 88u);
     EXPECT_EQ(get<uint32_t>(bytes, entry_of(bytes, "TERR") + 4), 0u) << "optional in the CRS's own plane";
     EXPECT_EQ(get<uint64_t>(bytes, at + 0), 1201u);
     EXPECT_EQ(get<uint64_t>(bytes, at + 8), 2401u);
@@ -959,11 +961,17 @@ TEST_F(BadFile, TerrainGridComesBackFromItsOffsetsAndABadOneIsRefused) {
     EXPECT_EQ(get<uint32_t>(bytes, at + 40), 64u);
     EXPECT_EQ(get<uint32_t>(bytes, at + 44), 1u);
     EXPECT_EQ(get<uint32_t>(bytes, at + 48), 0u);
+    EXPECT_EQ(get<double>(bytes, at + 56), 452015.0);
+    EXPECT_EQ(get<double>(bytes, at + 64), 5169987.5);
+    EXPECT_EQ(get<double>(bytes, at + 72), 6378137.0);
+    EXPECT_EQ(get<double>(bytes, at + 80), 298.257223563);
     const HlodFile file(dir / "terrain.hlod");
     ASSERT_TRUE(file.header().terrain);
     EXPECT_EQ(file.header().terrain->rows, 2401u);
     EXPECT_EQ(file.header().terrain->spacing[1], 25.0);
     EXPECT_TRUE(file.header().terrain->rows_run_north);
+    EXPECT_EQ(file.header().terrain->first_sample[1], 5169987.5);
+    EXPECT_EQ(file.header().terrain->inverse_flattening, 298.257223563);
     EXPECT_FALSE(HlodFile(dir / "good.hlod").header().terrain);
 
     auto with = [&](size_t offset, auto value) {
@@ -978,10 +986,23 @@ TEST_F(BadFile, TerrainGridComesBackFromItsOffsetsAndABadOneIsRefused) {
     expect_rejected(with(40, uint32_t(7)), "cubes of 7 cells");
     expect_rejected(with(44, uint32_t(2)), "unknown flags");
     expect_rejected(with(48, uint32_t(3)), "frame 3, which this Strata does not know");
+    expect_rejected(with(56, std::numeric_limits<double>::quiet_NaN()), "the first sample's position is not finite");
+    expect_rejected(with(72, -1.0), "an ellipsoid of semi-major axis -1");
+    // A section of the development build that kept 56 bytes: refused with how to rebuild.
+    std::vector<uint8_t> short_section = bytes;
+    put<uint64_t>(short_section, entry_of(short_section, "TERR") + kEntrySizeAt, 56);
+    reseal_section(short_section, "TERR");
+    expect_rejected(short_section, "rebuild the model from its raster");
 
     // In a tangent plane, GEOR's origin is a longitude and latitude: a reader must know TERR to place it.
     model.header.terrain->frame = 1;
     model.write(dir / "enu.hlod");
+    {  // an enu frame needs its ellipsoid
+        std::vector<uint8_t> flat = test::file_bytes(dir / "enu.hlod");
+        put(flat, section_offset(flat, "TERR") + 72, 0.0);
+        reseal_section(flat, "TERR");
+        expect_rejected(flat, "an ellipsoid of semi-major axis 0");
+    }
     const std::vector<uint8_t> enu = test::file_bytes(dir / "enu.hlod");
     EXPECT_EQ(get<uint32_t>(enu, entry_of(enu, "TERR") + 4), 1u) << "required";
     EXPECT_EQ(HlodFile(dir / "enu.hlod").header().terrain->frame, 1u);
