@@ -71,7 +71,8 @@ paste -d ' ' "$WORK/lua_ground.txt" <(echo "$gdal") <(echo "$where") | awk '{
     if ((($1 - $4)^2 > 1e-6) || (($2 - $5)^2 > 1e-16) || (($3 - $6)^2 > 1e-16)) { print "sample " NR ": " $0; bad = 1 } }
     END { exit bad }' || fail "Lua's heights or coordinates differ from GDAL's: $(paste -d ' ' "$WORK/lua_ground.txt" <(echo "$gdal") <(echo "$where"))"
 echo "require('strata').load(arg[1]):height_at{0, 0}" > "$WORK/mesh_ground.lua"
-expect_failure "height_at on a mesh" "bunny.hlod: not a terrain" "$STRATA" run "$WORK/mesh_ground.lua" "$2/data/bunny.hlod"
+write_octahedron "$WORK/octa.off" && "$STRATA" build "$WORK/octa.off" -o "$WORK/octa.hlod" -q
+expect_failure "height_at on a mesh" "octa.hlod: not a terrain" "$STRATA" run "$WORK/mesh_ground.lua" "$WORK/octa.hlod"
 
 # No georeference: a raster GDAL reads whose samples lie nowhere.
 gdal_translate -q -of AAIGrid "$dem" "$WORK/grid.asc" && rm -f "$WORK/grid.prj"

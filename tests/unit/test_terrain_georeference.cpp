@@ -12,10 +12,12 @@
 
 #include "nodes/hlod_model.h"
 #include "preprocess/georeference.h"
+#include "preprocess/hlod_builder.h"
 #include "preprocess/hlod_verify.h"
 #include "preprocess/terrain_build.h"
 #include "preprocess/terrain_heights.h"
 #include "tests/support/geotiff.h"
+#include "tests/support/test_meshes.h"
 
 #pragma GCC diagnostic ignored "-Wmissing-field-initializers"
 
@@ -213,11 +215,13 @@ TEST(TerrainGeoreference, CorruptHeightsFailNamingTheFile) {
     }
     EXPECT_THROW(verify_hlod(HlodFile(dir / "dem.hlod")), std::runtime_error);
 
-    const fs::path mesh = fs::path(STRATA_SOURCE_DIR) / "data" / "bunny.hlod";
-    const auto bunny = HlodModel::open(mesh);
-    EXPECT_EQ(bunny->georeference(), nullptr);
+    BuildSettings settings;
+    settings.threads = 1;
+    build_hlod(test::icosphere(2), dir / "sphere.hlod", settings, "sphere.ply");
+    const auto sphere = HlodModel::open(dir / "sphere.hlod");
+    EXPECT_EQ(sphere->georeference(), nullptr);
     try {
-        bunny->height_at(0, 0);
+        sphere->height_at(0, 0);
         ADD_FAILURE() << "heights of a mesh";
     } catch (const std::runtime_error& e) {
         EXPECT_NE(std::string(e.what()).find("not a terrain"), std::string::npos) << e.what();
