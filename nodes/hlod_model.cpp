@@ -705,26 +705,54 @@ float HlodModel::morph_lambda(uint32_t c, const glm::ivec3& q, float d, const Cu
     return std::clamp((band.end - d) * std::ldexp(1.0f, 1 - exponent), 0.0f, 1.0f) * band.fade;  // as the shader
 }
 
-void HlodModel::morphed_positions(uint32_t c, const glm::vec3& eye, const CubeKappas& kappa, std::vector<glm::vec3>& out) const {
+glm::ivec3 HlodModel::parent_lattice_steps(const HlodCube& cube, uint32_t p) const {
+    const uint16_t* q = &cube.data->parents.positions[3 * size_t(p)];
+    const HlodNode& n = cube.node;
+    return glm::ivec3(q[0], q[1], q[2]) +
+           glm::ivec3(int32_t((n.i / 2) << kLatticeBits), int32_t((n.j / 2) << kLatticeBits), int32_t((n.k / 2) << kLatticeBits)) - kLatticeBias;
+}
+
+HlodModel::LatticeAnchor HlodModel::anchor_at(const glm::dvec3& eye, const glm::dvec3& origin) const {
+    LatticeAnchor a;
+    a.origin = origin;
+    a.eye = glm::vec3(eye - origin);
+    const double step = double(header().lattice_step(0));
+    // Within the root cube's steps and a cube beyond, so that q − 2^l·A cannot overflow at any level
+    // (q lies in [−2^14, 2^30 + 2^15)): an eye farther out draws the model off by what it is beyond,
+    // where the model is far away and tiny.
+    const glm::dvec3 steps = glm::clamp(glm::round(origin / step), glm::dvec3(-(1 << 14)), glm::dvec3(1 << 15));
+    a.steps = glm::ivec3(steps);
+    a.rest = glm::vec3(steps * step - origin);
+    return a;
+}
+
+HlodModel::LatticeAnchor HlodModel::anchor_for(const glm::dmat4& world_from_node, const glm::dvec3& eye_world) const {
+    return anchor_at(glm::dvec3(glm::inverse(world_from_node * lattice_to_node()) * glm::dvec4(eye_world, 1.0)));
+}
+
+glm::vec3 HlodModel::anchored_position(uint32_t level, const glm::ivec3& q, const LatticeAnchor& anchor) const {
+    const glm::vec3 steps(q - anchor.steps * (1 << level));         // exact below 2^24 steps
+    const glm::vec3 scaled = steps * header().lattice_step(level);  // two statements: no fused multiply-add
+    return scaled + anchor.rest;
+}
+
+void HlodModel::morphed_positions(uint32_t c, const LatticeAnchor& anchor, const CubeKappas& kappa, std::vector<glm::vec3>& out) const {
     const HlodCube& cube = tree_->cubes[c];
+    const uint32_t level = cube.node.level, parent_level = level == 0 ? 0 : level - 1;
     out.resize(cube.data->vertex_count());
     for (uint32_t v = 0; v < out.size(); ++v) {
-        const glm::vec3 w = vertex_position(cube, v);
+        const glm::vec3 w = anchored_position(level, lattice_steps(cube, v), anchor);
         if (!morph_) {
             out[v] = w;
             continue;
         }
-        const glm::vec3 parent = parent_position(cube, cube.data->parent_of[v]);
-        const glm::vec3 offset = glm::abs(w - eye);
+        const glm::vec3 parent = anchored_position(parent_level, parent_lattice_steps(cube, cube.data->parent_of[v]), anchor);
+        const glm::vec3 offset = glm::abs(w - anchor.eye);
         const float d = std::max(std::max(offset.x, offset.y), offset.z);
         const float lambda = morph_lambda(c, lattice_steps(cube, v), d, kappa);
         // The ends exactly (Lemma 2 needs λ = 0 to give P(w) and λ = 1 to give w), GLSL's mix between.
         out[v] = lambda >= 1.0f ? w : lambda <= 0.0f ? parent : parent * (1.0f - lambda) + w * lambda;
     }
-}
-
-glm::vec3 HlodModel::shader_eye(const glm::dmat4& world_from_node, const glm::dvec3& eye_world) const {
-    return glm::vec3(glm::inverse(world_from_node * lattice_to_node()) * glm::dvec4(eye_world, 1.0));
 }
 
 bool HlodModel::morphs_for(const Camera& camera) const {

@@ -249,14 +249,37 @@ public:
     // vertices' overhang plus the morph's travel). Selection culls against it; picking tests rays on it.
     Box cull_box(const HlodNode& node) const;
 
+    // Where drawn positions are measured from (issue 17: no float32 jitter on a terrain 1 000 km wide):
+    // a point E at the eye, in the lattice frame. A is E in whole steps of level 0's lattice, and
+    // rest = A·h_0 − E (at most half of h_0 = 2^-15·s_0); a vertex at steps q of level l is drawn at
+    // (q − 2^l·A)·h_l + rest from E, exact in float within 2^24 steps of the eye however far the eye is
+    // from the model's origin. One A for all levels (h_l = 2^-l·h_0 exactly) keeps a vertex that two
+    // levels share at the same bits in both, so that levels still meet without cracks. The shader and
+    // the CPU twin both compute so; the transform to the screen adds E back in double.
+    struct LatticeAnchor {
+        glm::dvec3 origin{0.0};  // E, lattice frame
+        glm::vec3 eye{0.0f};     // the eye, from E
+        glm::ivec3 steps{0};     // A, level 0's steps
+        glm::vec3 rest{0.0f};
+    };
+    // The anchor for an eye at `eye` in the lattice frame (E there too, as the renderer has it; or E at
+    // `origin`, so that views from two eyes can be compared in one frame), or at `eye_world` seen through
+    // `world_from_node`.
+    LatticeAnchor anchor_at(const glm::dvec3& eye) const { return anchor_at(eye, eye); }
+    LatticeAnchor anchor_at(const glm::dvec3& eye, const glm::dvec3& origin) const;
+    LatticeAnchor anchor_for(const glm::dmat4& world_from_node, const glm::dvec3& eye_world) const;
+    // A point at lattice steps `q` of `level`, from the anchor's E, as the shader computes it.
+    glm::vec3 anchored_position(uint32_t level, const glm::ivec3& q, const LatticeAnchor& anchor) const;
     // The CPU twin of the morph shader: the positions a cube's vertices are drawn at in a perspective
-    // view, for shader_eye() and kappas_for(), bit-identical to the shader's arithmetic.
-    void morphed_positions(uint32_t cube, const glm::vec3& eye, const CubeKappas& kappa, std::vector<glm::vec3>& out) const;
+    // view, from the anchor's E (anchor_for(), kappas_for()), bit-identical to the shader's arithmetic.
+    void morphed_positions(uint32_t cube, const LatticeAnchor& anchor, const CubeKappas& kappa, std::vector<glm::vec3>& out) const;
     // Decoded, unmorphed lattice-frame positions of a cube's vertices, and of its parent table.
     glm::vec3 vertex_position(const HlodCube& cube, uint32_t v) const;
     glm::vec3 parent_position(const HlodCube& cube, uint32_t p) const;
-    // A vertex's coordinates on its level's lattice, counted from O in steps h_l (DESIGN.md §2).
+    // A vertex's coordinates on its level's lattice, counted from O in steps h_l (DESIGN.md §2), and
+    // an entry of its parent table's on the parent level's (the root's own at level 0).
     glm::ivec3 lattice_steps(const HlodCube& cube, uint32_t v) const;
+    glm::ivec3 parent_lattice_steps(const HlodCube& cube, uint32_t p) const;
     // The morph band of a vertex of `cube` at lattice steps `q` (nodes/README.md, "Selection"): from the
     // largest start of the cubes of its level whose cell, grown by σ0·s_l, holds it, to the smallest end
     // of such cubes of the parent level. A function of the vertex's position alone, so that every cube
@@ -278,10 +301,7 @@ public:
     float morph_span_limit(uint32_t level) const { return float(kMorphCubes * header().cube_size(level)); }
     // ⌈σ0·2^15⌉: how far a vertex may lie outside its cell, in steps of its level's lattice.
     int32_t overhang_steps() const;
-    // What the shader gets for a view, so that the CPU twin can be fed exactly the same: the eye in
-    // the lattice frame as a float (the bands come from morph_band), and whether it morphs at all (an
-    // orthographic view draws one level everywhere: nothing to morph).
-    glm::vec3 shader_eye(const glm::dmat4& world_from_node, const glm::dvec3& eye_world) const;
+    // Whether a view morphs at all (an orthographic view draws one level everywhere: nothing to morph).
     bool morphs_for(const Camera& camera) const;
     // The selection's view for `camera` with the eye at `eye` in the node's frame, without culling:
     // cull(), intersect() and measurements (tests/support/fidelity.h) select alike through it.
@@ -289,7 +309,7 @@ public:
     // What the shader gets for a view, gathered once, and the positions a cube's vertices are drawn at
     // for it (the CPU twin when it morphs, the decoded positions when not): the drawn triangles.
     struct MorphInputs {
-        glm::vec3 eye;
+        LatticeAnchor anchor;
         Kappas kappa;
         bool morph;
     };

@@ -10,6 +10,8 @@
 #include <string>
 #include <utility>
 
+#include <glm/gtc/matrix_transform.hpp>
+
 #include "engine/gl/buffer.h"
 #include "engine/gl/buffer_pool.h"
 #include "engine/gl/framebuffer.h"
@@ -51,9 +53,11 @@ layout(std430, binding = 9) readonly buffer BandEnds { vec2 band_ends[]; };
 // Per cube: how far its children's vertices near it have faded in (CubeKappas::fade_of).
 layout(std430, binding = 11) readonly buffer Fades { float fades[]; };
 
-uniform mat4 clip_from_lattice;
+uniform mat4 clip_from_anchor;  // HlodModel::LatticeAnchor: positions are drawn from E, near the eye
 uniform mat3 world_from_lattice_normal;
-uniform vec3 eye;  // lattice frame
+uniform vec3 eye;  // from E
+uniform ivec3 anchor_steps;  // A, on level 0's lattice
+uniform vec3 anchor_rest;
 uniform float lattice_step[16];
 uniform float parent_step[16];
 uniform int overhang;  // HlodModel::overhang_steps
@@ -131,14 +135,15 @@ void main() {
     uvec4 own = vertices[gl_VertexID];
     uvec4 parent = parents[own.w];
     ivec3 q = lattice_steps(own, cube.yzw);
-    precise vec3 w = vec3(q) * lattice_step[level];
-    precise vec3 p = vec3(lattice_steps(parent, cube.yzw >> 1)) * parent_step[level];
+    int parent_level = level == 0u ? 0 : int(level) - 1;
+    precise vec3 w = vec3(q - (anchor_steps << int(level))) * lattice_step[level] + anchor_rest;
+    precise vec3 p = vec3(lattice_steps(parent, cube.yzw >> 1) - (anchor_steps << parent_level)) * parent_step[level] + anchor_rest;
     vec3 offset = abs(w - eye);
     float d = max(max(offset.x, offset.y), offset.z);
     precise float lambda = morph ? morph_lambda(index, level, cube.yzw, q, d) : 1.0;
     // The ends exactly (Lemma 2), the mix in between without fused multiply-adds, as on the CPU.
     precise vec3 position = lambda >= 1.0 ? w : lambda <= 0.0 ? p : p * (1.0 - lambda) + w * lambda;
-    gl_Position = clip_from_lattice * vec4(position, 1.0);
+    gl_Position = clip_from_anchor * vec4(position, 1.0);
     if (capture) captured[gl_VertexID] = vec4(position, lambda);
 
     vec3 n = mix(octahedral_normal(parent.z), octahedral_normal(own.z), lambda);
@@ -442,10 +447,14 @@ void upload_kappas(HlodGpu& gpu, Kappas kappas) {
 void set_view_uniforms(const HlodModel& model, const gl::Program& program, HlodGpu& gpu, const DrawContext& context,
                        const DrawItem& item) {
     const glm::dmat4 world_from_lattice = item.model * model.lattice_to_node();
-    // Composed in double, then rounded once: survey-scale translations cancel before going to float.
-    program.set("clip_from_lattice", glm::mat4(context.projection * context.view * world_from_lattice));
+    const HlodModel::LatticeAnchor anchor = model.anchor_for(item.model, context.eye);
+    // Composed in double, then rounded once: the distance from the model's origin to the eye cancels
+    // before going to float, and the positions are small (measured from E, at the eye).
+    program.set("clip_from_anchor", glm::mat4(context.projection * context.view * world_from_lattice * glm::translate(glm::dmat4(1.0), anchor.origin)));
     program.set("world_from_lattice_normal", glm::mat3(glm::transpose(glm::inverse(glm::dmat3(world_from_lattice)))));
-    program.set("eye", model.shader_eye(item.model, context.eye));
+    program.set("eye", anchor.eye);
+    program.set("anchor_steps", anchor.steps);
+    program.set("anchor_rest", anchor.rest);
     // The κ the selection morphs with (capped band ends while cubes are missing); a new one for a new
     // image size, field of view, target or capping.
     if (Kappas kappas = std::static_pointer_cast<const CubeKappas>(item.state); kappas != gpu.kappas) {

@@ -26,26 +26,29 @@ HlodModel::MorphInputs HlodModel::morph_inputs(const PickContext& view) const {
     Kappas kappa;
     std::vector<uint32_t> drawn;
     select(view_for(view.camera, view.local_eye()), drawn, &kappa);
-    return {shader_eye(view.world_from_node, view.eye_world), std::move(kappa), morphs_for(view.camera)};
+    return {anchor_for(view.world_from_node, view.eye_world), std::move(kappa), morphs_for(view.camera)};
 }
 
 void HlodModel::drawn_positions(uint32_t c, const MorphInputs& inputs, std::vector<glm::vec3>& out) const {
     if (inputs.morph) {
-        morphed_positions(c, inputs.eye, *inputs.kappa, out);
+        morphed_positions(c, inputs.anchor, *inputs.kappa, out);
         return;
     }
     const HlodCube& cube = tree_->cubes[c];
     out.resize(cube.data->vertex_count());
-    for (uint32_t v = 0; v < out.size(); ++v) out[v] = vertex_position(cube, v);
+    for (uint32_t v = 0; v < out.size(); ++v) out[v] = anchored_position(cube.node.level, lattice_steps(cube, v), inputs.anchor);
 }
 
 std::optional<SurfaceHit> HlodModel::intersect(const Ray& ray, const PickContext& context) const {
     const Camera& camera = context.camera;
     const HlodView view = view_for(camera, context.local_eye());
     const MorphInputs inputs = morph_inputs(context);
-    // The lattice frame is the node's frame shifted by −O: the same parameter t names the same point.
+    // The lattice frame is the node's frame shifted by −O, the drawn positions' by −O − E: the same
+    // parameter t names the same point in all three.
     Ray lattice_ray = ray;
     lattice_ray.origin -= origin();
+    Ray anchored_ray = lattice_ray;
+    anchored_ray.origin -= inputs.anchor.origin;
 
     std::priority_queue<Candidate, std::vector<Candidate>, std::greater<>> queue;
     auto enqueue = [&](uint32_t c) {
@@ -59,7 +62,7 @@ std::optional<SurfaceHit> HlodModel::intersect(const Ray& ray, const PickContext
         const Candidate next = queue.top();
         queue.pop();
         // A cube's box holds its children's boxes, so nothing still queued or below it starts nearer.
-        if (next.entry > lattice_ray.t_max) break;
+        if (next.entry > anchored_ray.t_max) break;
         const HlodCube& cube = tree_->cubes[next.cube];
         if (!tree_->resident[next.cube]) continue;  // only a streamed model's root, before it arrives
         if (!drawn_here(next.cube, view, capping)) {
@@ -68,11 +71,11 @@ std::optional<SurfaceHit> HlodModel::intersect(const Ray& ray, const PickContext
             continue;
         }
         drawn_positions(next.cube, inputs, positions);
-        const auto hit = nearest_triangle(lattice_ray, cube.data->indices, [&](uint32_t v) { return glm::dvec3(positions[v]); });
+        const auto hit = nearest_triangle(anchored_ray, cube.data->indices, [&](uint32_t v) { return glm::dvec3(positions[v]); });
         if (!hit) continue;
         // Drawn here without being suitable: a stand-in, or capped beside one.
         nearest = SurfaceHit{hit->t, hit->normal, next.cube, !suitable(next.cube, view)};
-        lattice_ray.t_max = hit->t;
+        anchored_ray.t_max = lattice_ray.t_max = hit->t;
     }
     return nearest;
 }

@@ -99,4 +99,6 @@ void Program::set(GLint location, std::span<const float> values) const {
     glProgramUniform1fv(id(), location, GLsizei(values.size()), values.data());
 }
 
+void Program::set(GLint location, const glm::ivec3& value) const { glProgramUniform3i(id(), location, value.x, value.y, value.z); }
+
 }  // namespace strata::gl

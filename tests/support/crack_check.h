@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <array>
 #include <cstring>
+#include <optional>
 #include <utility>
 #include <vector>
 
@@ -22,13 +23,16 @@ inline Position bits(const glm::vec3& p) {
     return out;
 }
 
-// The drawn triangles of a view as morphed positions, degenerate ones dropped.
+// The drawn triangles of a view from `eye` (lattice frame) as morphed positions, measured from the
+// eye as the renderer measures them, or from `frame` to compare two views; degenerate ones dropped.
 inline std::vector<std::array<Position, 3>> drawn_triangles(const HlodModel& model, const std::vector<uint32_t>& cubes,
-                                                     const glm::dvec3& eye, const CubeKappas& kappa) {
+                                                     const glm::dvec3& eye, const CubeKappas& kappa,
+                                                     const std::optional<glm::dvec3>& frame = std::nullopt) {
     std::vector<std::array<Position, 3>> triangles;
     std::vector<glm::vec3> positions;
+    const HlodModel::LatticeAnchor anchor = model.anchor_at(eye, frame.value_or(eye));
     for (uint32_t c : cubes) {
-        model.morphed_positions(c, glm::vec3(eye), kappa, positions);
+        model.morphed_positions(c, anchor, kappa, positions);
         const auto& indices = model.cubes()[c].data->indices;
         for (size_t t = 0; t < indices.size(); t += 3) {
             std::array<Position, 3> tri{bits(positions[indices[t]]), bits(positions[indices[t + 1]]),

@@ -168,7 +168,8 @@ MeasuredSurface FidelityMeter::drawn_surface(const Camera& camera) const {
         for (const glm::vec3& x : drawn) positions.insert(positions.end(), {x.x, x.y, x.z});
         for (const uint32_t i : model_->cubes()[c].data->indices) indices.push_back(base + i);
     }
-    return MeasuredSurface(std::move(positions), std::move(indices), glm::dvec3(0.0));
+    // Drawn positions are measured from the anchor, E in the lattice frame.
+    return MeasuredSurface(std::move(positions), std::move(indices), inputs.anchor.origin);
 }
 
 std::vector<uint32_t> FidelityMeter::cubes_per_level(const Camera& camera) const {

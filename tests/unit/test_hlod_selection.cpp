@@ -109,8 +109,9 @@ void expect_no_pop(const HlodModel& model, const CubeKappas& kappa, int wanted) 
             std::sort(tris.begin(), tris.end());
             return tris;
         };
-        const auto drawn_before = canonical(drawn_triangles(model, parent, before, kappa));
-        const auto drawn_after = canonical(drawn_triangles(model, children, after, kappa));
+        // Both measured from one point, so that their bits can be compared.
+        const auto drawn_before = canonical(drawn_triangles(model, parent, before, kappa, before));
+        const auto drawn_after = canonical(drawn_triangles(model, children, after, kappa, before));
         EXPECT_EQ(drawn_before, drawn_after) << describe_cube(cube.node) << ", κ " << kappa[c];
         ++checked;
     }
@@ -387,11 +388,13 @@ std::vector<uint64_t> expect_pixel_error_kept(HlodModel& model, const std::vecto
                     worst = std::max(worst, projected);
                 }
                 if (level == 0) continue;
-                model.morphed_positions(c, glm::vec3(eye), *kappa, morphed);
+                const HlodModel::LatticeAnchor anchor = model.anchor_at(eye);
+                model.morphed_positions(c, anchor, *kappa, morphed);
                 double nearest_morphing = INFINITY;
                 for (uint32_t v = 0; v < cube.data->vertex_count(); ++v) {
                     const glm::vec3 own = model.vertex_position(cube, v);
-                    if (morphed[v] != own) nearest_morphing = std::min(nearest_morphing, glm::length(eye - glm::dvec3(own)));
+                    if (morphed[v] != model.anchored_position(cube.node.level, model.lattice_steps(cube, v), anchor))
+                        nearest_morphing = std::min(nearest_morphing, glm::length(eye - glm::dvec3(own)));
                 }
                 const double parent_error = model.cubes()[model.parent(c)].node.error;
                 EXPECT_LE(parent_error * magnification / (nearest_morphing - parent_error), pixels)

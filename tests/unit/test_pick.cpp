@@ -195,7 +195,7 @@ TEST_F(PickHlod, TheSearchAlongTheRayFindsWhatTheWholeSelectionGives) {
             camera.ortho_height = distance * bound.radius();
             const auto [near, far] = camera.clip_planes_for(bound);
             const glm::dvec3 eye_world(glm::inverse(camera.view_matrix())[3]);
-            const glm::vec3 eye = model->shader_eye(world_from_node, eye_world);
+            const HlodModel::LatticeAnchor anchor = model->anchor_for(world_from_node, eye_world);
             const glm::dvec3 local_eye(glm::inverse(world_from_node) * glm::dvec4(eye_world, 1.0));
             HlodView view{local_eye - model->origin(), model->kappas_for(camera)};
             if (kind == ProjectionKind::orthographic) view.fixed_level = model->orthographic_level(camera);
@@ -207,10 +207,13 @@ TEST_F(PickHlod, TheSearchAlongTheRayFindsWhatTheWholeSelectionGives) {
                 std::vector<glm::vec3> positions;
                 for (const uint32_t c : selection) {
                     const HlodCube& cube = model->cubes()[c];
-                    model->morphed_positions(c, eye, *model->kappas_for(camera), positions);
+                    model->morphed_positions(c, anchor, *model->kappas_for(camera), positions);
                     if (!morphed)
-                        for (uint32_t v = 0; v < positions.size(); ++v) positions[v] = model->vertex_position(cube, v);
-                    const auto hit = nearest_triangle(lattice_ray, cube.data->indices, [&](uint32_t v) { return glm::dvec3(positions[v]); });
+                        for (uint32_t v = 0; v < positions.size(); ++v)
+                            positions[v] = model->anchored_position(cube.node.level, model->lattice_steps(cube, v), anchor);
+                    Ray anchored_ray = lattice_ray;  // the positions are drawn from the anchor
+                    anchored_ray.origin -= anchor.origin;
+                    const auto hit = nearest_triangle(anchored_ray, cube.data->indices, [&](uint32_t v) { return glm::dvec3(positions[v]); });
                     if (hit && (!nearest || hit->t < nearest->t)) nearest = SurfaceHit{hit->t, hit->normal, c};
                 }
                 return nearest;

@@ -356,7 +356,7 @@ TEST_F(Render, TheShaderMorphsBitForBitLikeTheCpuTwin) {
     Renderer renderer;
     renderer.render(*root, camera, target);
 
-    const glm::vec3 eye = model->shader_eye(world_from_node, camera.position);
+    const HlodModel::LatticeAnchor anchor = model->anchor_for(world_from_node, camera.position);
     const Kappas kappa = model->kappas_for(camera);
     std::vector<glm::vec3> cpu;
     size_t cubes = 0, vertices = 0, mid_morph = 0, mismatches = 0;
@@ -364,7 +364,7 @@ TEST_F(Render, TheShaderMorphsBitForBitLikeTheCpuTwin) {
     for (uint32_t c = 0; c < model->cubes().size(); ++c) {
         const std::vector<glm::vec4>* gpu = model->captured_morph(c);
         if (!gpu) continue;
-        model->morphed_positions(c, eye, *kappa, cpu);
+        model->morphed_positions(c, anchor, *kappa, cpu);
         ASSERT_EQ(gpu->size(), cpu.size());
         // Only vertices a triangle uses go through the shader.
         const auto& indices = model->cubes()[c].data->indices;

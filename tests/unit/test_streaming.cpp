@@ -711,12 +711,12 @@ TEST_F(StreamingRender, EveryFrameOfAFlyInThatLoadsMorphsOnTheGpuBitForBitLikeTh
         overlaid += kappa->base != nullptr;
         changed_over_the_same_base += previous && kappa != previous && &kappa->root() == &previous->root();
         previous = kappa;
-        const glm::vec3 eye = model->shader_eye(glm::dmat4(1.0), camera.position);
+        const HlodModel::LatticeAnchor anchor = model->anchor_for(glm::dmat4(1.0), camera.position);
         std::vector<glm::vec3> cpu;
         for (uint32_t c = 0; c < model->cubes().size(); ++c) {
             const std::vector<glm::vec4>* gpu = model->captured_morph(c);
             if (!gpu) continue;
-            model->morphed_positions(c, eye, *kappa, cpu);
+            model->morphed_positions(c, anchor, *kappa, cpu);
             const auto& indices = model->cubes()[c].data->indices;
             for (const uint32_t v : std::set<uint32_t>(indices.begin(), indices.end())) {
                 const glm::vec3 drawn((*gpu)[v]);

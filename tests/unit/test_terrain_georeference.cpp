@@ -8,8 +8,12 @@
 #include <fstream>
 #include <random>
 
+#include <glm/gtc/matrix_transform.hpp>
 #include <proj.h>
 
+#include "engine/gl/context.h"
+#include "engine/gl/framebuffer.h"
+#include "engine/render/renderer.h"
 #include "nodes/hlod_model.h"
 #include "preprocess/georeference.h"
 #include "preprocess/hlod_builder.h"
@@ -226,6 +230,67 @@ TEST(TerrainGeoreference, CorruptHeightsFailNamingTheFile) {
     } catch (const std::runtime_error& e) {
         EXPECT_NE(std::string(e.what()).find("not a terrain"), std::string::npos) << e.what();
     }
+}
+
+// No float32 jitter on a continental terrain: a camera 1 m above the ground 900 km from the model's
+// origin (a strip of ground 910 km long at 100 m) sees the ground near it as it sees the same samples
+// built into a small model of their own (9 × 9 samples around the spot, placed where they lie). Drawn
+// positions are measured from the eye (HlodModel::LatticeAnchor) and the transform to the screen adds
+// the distance in double, so the two depth images agree to float rounding; measured from the origin,
+// float's step there (6 cm) moves the ground a metre below the eye by per cents.
+TEST(TerrainGeoreference, ACamera900KmFromTheOriginSeesTheGroundAsASmallModelShowsIt) {
+    test::TempDir dir;
+    test::TiffSpec spec{.width = 9100, .height = 16, .type = GDT_Float32, .geotransform = {100000, 100, 0, 5900000, 0, -100}, .crs = "EPSG:3857"};
+    // Level ground: every sample lies exactly on both models' lattices (steps of 100·8/2^15 m from
+    // their south-west samples, at the lowest height), so the two draw the very same triangles and
+    // only the arithmetic of drawing them can differ.
+    auto height = [](int, int) { return 300.0; };
+    for (int r = 0; r < spec.height; ++r)
+        for (int c = 0; c < spec.width; ++c) spec.values.push_back(height(c, r));
+    test::write_tiff(dir / "continent.tif", spec);
+    // Columns 8996…9004 and rows 4…12 (from the north): the spot's cell and four around it each way.
+    test::TiffSpec crop = spec;
+    crop.width = crop.height = 9;
+    crop.geotransform[0] += 8996 * 100, crop.geotransform[3] -= 4 * 100;
+    crop.values.clear();
+    for (int r = 4; r < 13; ++r)
+        for (int c = 8996; c < 9005; ++c) crop.values.push_back(height(c, r));
+    test::write_tiff(dir / "spot.tif", crop);
+    build(dir / "continent.tif", dir / "continent.hlod", {.cube_cells = 8});
+    build(dir / "spot.tif", dir / "spot.hlod", {.cube_cells = 8});
+    const auto context = gl::create_headless_context();
+    const auto continent = HlodModel::load(dir / "continent.hlod"), spot = HlodModel::load(dir / "spot.hlod");
+    continent->set_pixel_error(0.5), spot->set_pixel_error(0.5);
+    const glm::dvec2 at(900000.5, 700.25);  // in the continent's frame: 900 km east of its origin
+    const double ground = *continent->height_at(at.x, at.y), ahead = *continent->height_at(at.x + 12, at.y + 5);
+    Camera camera;
+    camera.width = 160, camera.height = 120;
+    camera.near_clip = 0.05, camera.far_clip = 5000;
+    camera.look_at({at.x, at.y, ground + 1}, {at.x + 12, at.y + 5, ahead}, {0, 0, 1});
+
+    auto depth_seen = [&](const std::shared_ptr<HlodModel>& model, const glm::dvec3& placed_at) {
+        auto scene = std::make_shared<Group>();
+        auto place = std::make_shared<Transform>();
+        place->set_matrix(glm::translate(glm::dmat4(1.0), placed_at));
+        place->add(model);
+        scene->add(place);
+        gl::Framebuffer target({.width = camera.width, .height = camera.height, .samples = 1});
+        Renderer().render(*scene, camera, target);
+        return target.read_depth();
+    };
+    // The crop's south-west sample (column 8996, row 12) lies at x = 8996·100, y = (15 − 12)·100.
+    const std::vector<float> far = depth_seen(continent, glm::dvec3(0.0)), near = depth_seen(spot, {899600.0, 300.0, 0.0});
+    ASSERT_EQ(far.size(), near.size());
+    size_t compared = 0;
+    double worst = 0;
+    for (size_t p = 0; p < far.size(); ++p) {
+        if (near[p] < 0.05f / 200) continue;  // reversed Z (near / depth): ground within 200 m, well inside the crop
+        ++compared;
+        worst = std::max(worst, std::abs(double(far[p]) - double(near[p])) / double(near[p]));
+    }
+    EXPECT_GT(compared, far.size() / 4) << "the near ground fills the lower part of the view";
+    EXPECT_LT(worst, 1e-4) << "the ground 900 km from the origin is not where the small model puts it";
+    std::printf("900 km from the origin: depth within %.2g of the small model's over %zu pixels\n", worst, compared);
 }
 
 }  // namespace
