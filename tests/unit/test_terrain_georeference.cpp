@@ -34,15 +34,16 @@ void build(const fs::path& dem, const fs::path& out, TerrainSettings settings = 
     build_terrain({dem}, out, settings, dem.filename().string());
 }
 
-// Rough ground with every sample distinct, and a few nodata samples (value -9999).
-std::vector<double> ground(int width, int height, double step, uint32_t seed) {
+// Rough ground with every sample distinct, on multiples of `step`, and with `holes` a few nodata
+// samples (value -9999).
+std::vector<double> ground(int width, int height, double step, uint32_t seed, bool holes = true) {
     std::mt19937 rng(seed);
     std::uniform_real_distribution<double> noise(-3, 3);
     std::vector<double> values;
     for (int r = 0; r < height; ++r)
         for (int c = 0; c < width; ++c) {
             const double h = 900 + 60 * std::sin(c * 0.19) * std::cos(r * 0.13) + 1.7 * c + noise(rng);
-            values.push_back(rng() % 23 == 0 ? -9999 : std::round(h / step) * step);
+            values.push_back(holes && rng() % 23 == 0 ? -9999 : std::round(h / step) * step);
         }
     return values;
 }
@@ -157,8 +158,7 @@ TEST(TerrainGeoreference, HeightsAreTheRastersValuesAtSampleCentresAndBilinearBe
 TEST(TerrainGeoreference, GeographicFramesFindTheirSamplesBothWays) {
     test::TempDir dir;
     test::TiffSpec spec{.width = 161, .height = 121, .type = GDT_Float32, .geotransform = {10.0, 0.004, 0, 46.5, 0, -0.004}, .crs = "EPSG:4326"};
-    spec.values = ground(spec.width, spec.height, 0.0001, 9);
-    for (double& v : spec.values) v = v == -9999 ? 1234.5 : v;
+    spec.values = ground(spec.width, spec.height, 0.0001, 9, false);
     test::write_tiff(dir / "alps.tif", spec);
     const double lon0 = 10.0 + 0.004 * (80 + 0.5), lat0 = 46.5 - 0.004 * (60 + 0.5);
     const test::Topocentric topocentric(lon0, lat0);
@@ -192,8 +192,7 @@ TEST(TerrainGeoreference, GeographicFramesFindTheirSamplesBothWays) {
 TEST(TerrainGeoreference, CorruptHeightsFailNamingTheFile) {
     test::TempDir dir;
     test::TiffSpec spec{.width = 40, .height = 30, .type = GDT_Float32, .geotransform = {452000, 25, 0, 5170000, 0, -25}, .crs = "EPSG:32632"};
-    spec.values = ground(spec.width, spec.height, 0.0001, 2);
-    for (double& v : spec.values) v = v == -9999 ? 1000 : v;
+    spec.values = ground(spec.width, spec.height, 0.0001, 2, false);
     test::write_tiff(dir / "dem.tif", spec);
     build(dir / "dem.tif", dir / "dem.hlod", {.cube_cells = 64});
     uint64_t block_at = 0;
