@@ -32,7 +32,7 @@ void print_terrain(const std::shared_ptr<const HlodFile>& file) {
                     h.bounds_hi[1] - h.bounds_lo[1], h.bounds_lo[2], h.bounds_hi[2]);
     const HlodSection* section = file->find_section(kHeightsTag);
     if (!section) {
-        std::printf("heights     not kept (built before 2026-12-07: rebuild for model:height_at)\n");
+        std::printf("heights     not kept (rebuild from the raster for model:height_at)\n");
         return;
     }
     const HeightStep step = TerrainHeights(file, *section).step();
