@@ -58,10 +58,15 @@ std::optional<GeoReading> GeoReadout::read(const glm::dvec3& world) const {
     GeoReading reading;
     try {
         reading.geo = model_->georeference()->to_geo({local.x, local.y, local.z});
-        if (model_->header().terrain)
-            if (const std::optional<double> ground = model_->height_at(local.x, local.y)) reading.above_ground = local.z - *ground;
     } catch (const std::runtime_error&) {
-        return std::nullopt;  // beyond what the CRS maps, or heights the model cannot read: no reading
+        return std::nullopt;  // beyond what the CRS maps: no reading
+    }
+    // The point's own height above the ground's (in the ecef frame model z is not a height).
+    try {
+        if (model_->header().terrain)
+            if (const std::optional<double> ground = model_->height_at(local.x, local.y)) reading.above_ground = reading.geo[2] - *ground;
+    } catch (const std::runtime_error&) {
+        // a terrain without heights (or with corrupt ones): the place without the height above ground
     }
     return reading;
 }

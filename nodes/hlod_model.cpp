@@ -714,15 +714,16 @@ glm::ivec3 HlodModel::parent_lattice_steps(const HlodCube& cube, uint32_t p) con
 
 HlodModel::LatticeAnchor HlodModel::anchor_at(const glm::dvec3& eye, const glm::dvec3& origin) const {
     LatticeAnchor a;
-    a.origin = origin;
-    a.eye = glm::vec3(eye - origin);
+    // A singular transform makes the eye NaN: anchor at the model's origin rather than convert NaN to int.
+    a.origin = glm::any(glm::isnan(origin)) || glm::any(glm::isinf(origin)) ? glm::dvec3(0.0) : origin;
+    a.eye = glm::vec3(eye - a.origin);
     const double step = double(header().lattice_step(0));
     // Within the root cube's steps and a cube beyond, so that q − 2^l·A cannot overflow at any level
     // (q lies in [−2^14, 2^30 + 2^15)): an eye farther out draws the model off by what it is beyond,
     // where the model is far away and tiny.
-    const glm::dvec3 steps = glm::clamp(glm::round(origin / step), glm::dvec3(-(1 << 14)), glm::dvec3(1 << 15));
+    const glm::dvec3 steps = glm::clamp(glm::round(a.origin / step), glm::dvec3(-(1 << 14)), glm::dvec3(1 << 15));
     a.steps = glm::ivec3(steps);
-    a.rest = glm::vec3(steps * step - origin);
+    a.rest = glm::vec3(steps * step - a.origin);
     return a;
 }
 

@@ -98,7 +98,14 @@ std::optional<std::array<double, 2>> Georeference::raster_position(double x, dou
         }
         cx = g[0], cy = g[1];
     }
-    const double column = (cx - t.first_sample[0]) / t.spacing[0];
+    double east = cx - t.first_sample[0];
+    if (t.frame != 0) {
+        // Longitudes come back in (−180°, 180°]; a raster may start anywhere (0 … 360° grids) and span
+        // more than half the globe: east of the first sample by less than a turn.
+        east = std::remainder(east, 360.0);
+        if (east < -0.5 * t.spacing[0] && east + 360 <= double(t.columns - 1) * t.spacing[0] + 0.5 * t.spacing[0]) east += 360;
+    }
+    const double column = east / t.spacing[0];
     const double row = (t.rows_run_north ? cy - t.first_sample[1] : t.first_sample[1] - cy) / t.spacing[1];
     return std::array{column, row};
 }

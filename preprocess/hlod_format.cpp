@@ -1252,7 +1252,8 @@ void HlodFile::read_terrain_section(const HlodSection& section) {
     if (flags > 1) throw std::runtime_error(what + ": unknown flags " + std::to_string(flags));
     if (t.frame > 2) throw std::runtime_error(what + ": frame " + std::to_string(t.frame) + ", which this Strata does not know");
     if (!std::isfinite(t.first_sample[0]) || !std::isfinite(t.first_sample[1])) throw std::runtime_error(what + ": the first sample's position is not finite");
-    if (!(t.semi_major >= 0) || !(t.inverse_flattening >= 0) || !std::isfinite(t.semi_major) || !std::isfinite(t.inverse_flattening) ||
+    if (!(t.semi_major >= 0) || !(t.inverse_flattening == 0 || t.inverse_flattening > 1) || !std::isfinite(t.semi_major) ||
+        !std::isfinite(t.inverse_flattening) ||
         (t.frame != 0 && !(t.semi_major > 0)))
         throw std::runtime_error(what + ": an ellipsoid of semi-major axis " + std::to_string(t.semi_major) + " m and inverse flattening " +
                                  std::to_string(t.inverse_flattening));

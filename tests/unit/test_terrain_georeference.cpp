@@ -187,6 +187,27 @@ TEST(TerrainGeoreference, GeographicFramesFindTheirSamplesBothWays) {
     }
 }
 
+// A grid in degrees that starts at 359.8° and runs past 360° (0 … 360° grids are common in netCDF):
+// every sample is found again from the model position of its longitude, wherever the longitude wraps.
+TEST(TerrainGeoreference, LongitudesPastTheAntimeridianOfTheGridStillFindTheirSamples) {
+    test::TempDir dir;
+    test::TiffSpec spec{.width = 101, .height = 41, .type = GDT_Float32, .geotransform = {359.8, 0.004, 0, 46.5, 0, -0.004}, .crs = "EPSG:4326"};
+    spec.values = ground(spec.width, spec.height, 0.001, 6, false);
+    test::write_tiff(dir / "wrap.tif", spec);
+    build(dir / "wrap.tif", dir / "wrap.hlod", {.cube_cells = 16});
+    const auto model = HlodModel::open(dir / "wrap.hlod");
+    for (int c = 0; c < spec.width; c += 5)
+        for (int r = 0; r < spec.height; r += 8) {
+            const double lon = 359.8 + 0.004 * (c + 0.5), lat = 46.5 - 0.004 * (r + 0.5);
+            for (const double given : {lon, lon - 360}) {  // 360.1° and 0.1° are one meridian
+                const std::array<double, 3> at = model->georeference()->to_local({given, lat, 0});
+                const std::optional<double> h = model->height_at(at[0], at[1]);
+                ASSERT_TRUE(h) << "sample " << c << ", " << r << " at longitude " << given;
+                EXPECT_NEAR(*h, spec.values[size_t(r * spec.width + c)], 0.001) << "sample " << c << ", " << r;
+            }
+        }
+}
+
 // A byte changed in a block of heights: reading a height there, and `strata verify`, fail naming the
 // file; a model without a CRS has no georeference and says so when asked for heights.
 TEST(TerrainGeoreference, CorruptHeightsFailNamingTheFile) {
