@@ -13,6 +13,7 @@
 // (default: its units attribute; trinidad.nc's feet are not marked), written as binary PLY once.
 #include "preprocess/atomic_file.h"
 #include "preprocess/mesh_io.h"
+#include "tests/bench/bench_stats.h"
 #include "tests/support/dem_grid.h"
 
 #include <meshoptimizer.h>
@@ -39,10 +40,7 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double seconds_since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
 
-double median(std::vector<double> v) {
-    std::sort(v.begin(), v.end());
-    return v.empty() ? 0 : v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
-}
+using strata::bench::median;
 
 uint32_t hash32(uint64_t x) {
     x ^= x >> 33, x *= 0xff51afd7ed558ccdull, x ^= x >> 33, x *= 0xc4ceb9fe1a85ec53ull, x ^= x >> 33;

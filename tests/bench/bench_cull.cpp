@@ -33,6 +33,7 @@
 // iteration, so machine noise falls on both alike.
 #include "engine/scene/cull_visitor.h"
 #include "engine/scene/drawable.h"
+#include "tests/bench/bench_stats.h"
 
 #include <osg/Geode>
 #include <osg/Geometry>
@@ -62,10 +63,7 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double ms_since(Clock::time_point start) { return std::chrono::duration<double, std::milli>(Clock::now() - start).count(); }
 
-double median(std::vector<double> v) {
-    std::sort(v.begin(), v.end());
-    return v.empty() ? 0 : v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
-}
+using strata::bench::median;
 
 // The twelve triangles of a box over corners numbered by bits (x: 1, y: 2, z: 4), outward facing.
 constexpr std::array<uint8_t, 36> kBoxIndices = {0, 2, 3, 0, 3, 1,  4, 5, 7, 4, 7, 6,  0, 1, 5, 0, 5, 4,

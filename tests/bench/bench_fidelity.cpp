@@ -18,6 +18,7 @@
 
 #include "engine/gl/context.h"
 #include "preprocess/mesh_io.h"
+#include "tests/bench/bench_stats.h"
 #include "tests/support/bunny_model.h"
 #include "tests/support/fidelity.h"
 
@@ -26,10 +27,7 @@ namespace {
 using strata::test::FidelityReport;
 using strata::test::PixelErrors;
 
-double median(std::vector<double> v) {
-    std::sort(v.begin(), v.end());
-    return v.empty() ? 0 : v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
-}
+using strata::bench::median;
 
 template <class Field>
 double median_of(const std::vector<FidelityReport>& reports, Field field) {

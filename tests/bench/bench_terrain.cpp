@@ -27,15 +27,13 @@
 #include "engine/render/renderer.h"
 #include "nodes/hlod_model.h"
 #include "preprocess/byte_size.h"
+#include "tests/bench/bench_stats.h"
 
 namespace {
 
 using Clock = std::chrono::steady_clock;
 
-double median(std::vector<double> v) {
-    std::sort(v.begin(), v.end());
-    return v.empty() ? 0 : v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
-}
+using strata::bench::median;
 
 struct Options {
     std::string model;
