@@ -19,13 +19,6 @@ namespace {
 
 uint32_t octant_of(const HlodNode& child) { return (child.i & 1) | (child.j & 1) << 1 | (child.k & 1) << 2; }
 
-// The lattice-frame coordinate of a stored value: q·h_l with q = stored + 2^15·cell − 2^14. The same
-// float operations as decode_coordinate, less the origin (kept in the node's matrix instead).
-float lattice_coordinate(const HlodHeader& h, uint32_t level, uint32_t cell, uint16_t stored) {
-    const int32_t q = int32_t(stored) + int32_t(cell << kLatticeBits) - kLatticeBias;
-    return float(q) * h.lattice_step(level);
-}
-
 // d∞ from a point to a box: 0 inside.
 double box_distance(const glm::dvec3& p, const Box& box) {
     const glm::dvec3 outside = glm::max(glm::max(box.lo - p, p - box.hi), glm::dvec3(0.0));
@@ -640,19 +633,7 @@ glm::ivec3 HlodModel::lattice_steps(const HlodCube& cube, uint32_t v) const {
 }
 
 glm::vec3 HlodModel::vertex_position(const HlodCube& cube, uint32_t v) const {
-    const uint16_t* q = &cube.data->vertices.positions[3 * size_t(v)];
-    const HlodNode& n = cube.node;
-    return {lattice_coordinate(tree_->header, n.level, n.i, q[0]), lattice_coordinate(tree_->header, n.level, n.j, q[1]),
-            lattice_coordinate(tree_->header, n.level, n.k, q[2])};
-}
-
-glm::vec3 HlodModel::parent_position(const HlodCube& cube, uint32_t p) const {
-    const uint16_t* q = &cube.data->parents.positions[3 * size_t(p)];
-    const HlodNode& n = cube.node;
-    // At level 0 the table is the root's own vertices: decode it on the root's lattice (cell 0 / 2 = 0).
-    const uint32_t level = n.level == 0 ? 0 : n.level - 1;
-    return {lattice_coordinate(tree_->header, level, n.i / 2, q[0]), lattice_coordinate(tree_->header, level, n.j / 2, q[1]),
-            lattice_coordinate(tree_->header, level, n.k / 2, q[2])};
+    return glm::vec3(lattice_steps(cube, v)) * tree_->header.lattice_step(cube.node.level);
 }
 
 int32_t HlodModel::overhang_steps() const {

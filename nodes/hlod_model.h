@@ -273,9 +273,9 @@ public:
     // The CPU twin of the morph shader: the positions a cube's vertices are drawn at in a perspective
     // view, from the anchor's E (anchor_for(), kappas_for()), bit-identical to the shader's arithmetic.
     void morphed_positions(uint32_t cube, const LatticeAnchor& anchor, const CubeKappas& kappa, std::vector<glm::vec3>& out) const;
-    // Decoded, unmorphed lattice-frame positions of a cube's vertices, and of its parent table.
+    // A cube's vertex decoded, unmorphed, in the lattice frame: q·h_l, the float operations of
+    // decode_coordinate less the origin (kept in the node's matrix instead).
     glm::vec3 vertex_position(const HlodCube& cube, uint32_t v) const;
-    glm::vec3 parent_position(const HlodCube& cube, uint32_t p) const;
     // A vertex's coordinates on its level's lattice, counted from O in steps h_l (DESIGN.md §2), and
     // an entry of its parent table's on the parent level's (the root's own at level 0).
     glm::ivec3 lattice_steps(const HlodCube& cube, uint32_t v) const;
