@@ -293,12 +293,11 @@ bool Editor::frame() {
         picking_ms = timings_.pick_ms;
     } else if (geo_.active()) {
         const ImGuiIO& io = ImGui::GetIO();
-        if (!io.WantCaptureMouse && !ImGui::IsAnyMouseDown() && (io.MouseDelta.x != 0 || io.MouseDelta.y != 0) && ImGui::IsMousePosValid()) {
-            hover(io.MousePos.x * io.DisplayFramebufferScale.x, io.MousePos.y * io.DisplayFramebufferScale.y);
+        if (!io.WantCaptureMouse && !ImGui::IsAnyMouseDown() && (io.MouseDelta.x != 0 || io.MouseDelta.y != 0) && ImGui::IsMousePosValid() &&
+            hover(io.MousePos.x * io.DisplayFramebufferScale.x, io.MousePos.y * io.DisplayFramebufferScale.y))
             picking_ms = timings_.pick_ms;
-        }
     }
-    geo_.update(*scene_, selected().get());
+    frame_geo_ = geo_view();  // read once, shown by the Camera panel and the stats line
     draw_panels();
     navigator_.follow_if_moved();  // by the path playing, or the panels (a bookmark, the timeline, the console)
     ImGui::Render();
@@ -384,13 +383,14 @@ std::optional<PickHit> Editor::click(double x, double y) {
 
 // The surface under the pointer, for the geographic read-out: picked when the pointer has moved over
 // the view, at most ten times a second (a pick of a large terrain takes milliseconds).
-void Editor::hover(double x, double y) {
+bool Editor::hover(double x, double y) {
     const auto now = std::chrono::steady_clock::now();
-    if (now - last_hover_ < std::chrono::milliseconds(100)) return;
+    if (now - last_hover_ < std::chrono::milliseconds(100)) return false;
     last_hover_ = now;
     const std::optional<PickHit> hit = pick(*scene_, camera(), x, y);
     timings_.pick_ms = milliseconds_since(now);
     cursor_point_ = hit ? std::optional(hit->point) : std::nullopt;
+    return true;
 }
 
 std::optional<Editor::GeoView> Editor::geo_view() {
@@ -607,19 +607,18 @@ void Editor::draw_camera_panel() {
         ImGui::PopID();
     }
     if (removed) std::erase_if(state_.bookmarks, [&](const Bookmark& b) { return b.name == *removed; });
-    if (geo_.active()) {
+    if (frame_geo_) {
         ImGui::Separator();
-        ImGui::TextDisabled("on the Earth (%s, %s)", geo_.model_name().c_str(), geo_.crs_label().c_str());
+        ImGui::TextDisabled("on the Earth (%s, %s)", frame_geo_->model.c_str(), frame_geo_->crs.c_str());
         draw_geo_lines(false);
     }
 }
 
-// The camera's and the cursor's places, one line each (compact: both on one line, for the overlay).
+// This frame's camera and cursor places, one line each (compact: both on one line, for the overlay).
 void Editor::draw_geo_lines(bool compact) {
-    const std::optional<GeoView> view = geo_view();
-    if (!view) return;
-    const std::string camera_text = view->camera ? GeoReadout::describe(*view->camera) : "outside the CRS";
-    const std::string cursor_text = view->cursor ? GeoReadout::describe(*view->cursor) : "-";
+    if (!frame_geo_) return;
+    const std::string camera_text = frame_geo_->camera ? GeoReadout::describe(*frame_geo_->camera) : "outside the CRS";
+    const std::string cursor_text = frame_geo_->cursor ? GeoReadout::describe(*frame_geo_->cursor) : "-";
     if (compact) ImGui::Text("camera %s  |  cursor %s", camera_text.c_str(), cursor_text.c_str());
     else ImGui::TextWrapped("camera: %s\ncursor: %s", camera_text.c_str(), cursor_text.c_str());
 }
@@ -638,7 +637,7 @@ void Editor::draw_stats_overlay() {
                     (unsigned long long)stats_.stand_ins,
                     stats_.frames_unconverged == 0 ? "converged" : ("converging for " + std::to_string(stats_.frames_unconverged) + " frames").c_str(),
                     timings_.ui_ms);
-        if (geo_.active()) draw_geo_lines(true);
+        draw_geo_lines(true);
     }
     ImGui::End();
 }

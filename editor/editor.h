@@ -122,7 +122,8 @@ private:
     void draw_overlays();  // over the view, panels shown or not: the stats and the path
     void draw_stats_overlay();
     void draw_geo_lines(bool compact);
-    void hover(double x, double y);
+    // Picks the surface under the pointer for the read-out, unless it did less than 100 ms ago; whether it picked.
+    bool hover(double x, double y);
     void handle_navigation(double seconds);
     void capture_back_buffer(int width, int height);
 
@@ -140,6 +141,7 @@ private:
     std::weak_ptr<Node> selected_;
     GeoReadout geo_;
     std::optional<glm::dvec3> cursor_point_;  // world frame: under the pointer, or clicked
+    std::optional<GeoView> frame_geo_;        // the read-out this frame shows
     std::chrono::steady_clock::time_point last_hover_{};
     FrameStats stats_;
     EditorTimings timings_;
