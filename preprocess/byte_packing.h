@@ -13,6 +13,11 @@
 
 namespace strata {
 
+// Signed residuals as unsigned values small when the residual is small (0, −1, 1, −2 … → 0, 1, 2, 3 …),
+// what the codecs' byte streams and bit classes pack.
+inline uint32_t zigzag(int32_t v) { return (uint32_t(v) << 1) ^ uint32_t(v >> 31); }
+inline int32_t unzigzag(uint32_t z) { return int32_t(z >> 1) ^ -int32_t(z & 1); }
+
 class ByteWriter {
 public:
     template <class T>

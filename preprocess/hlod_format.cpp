@@ -303,8 +303,6 @@ thread_local ZstdContexts zstd;  // reused: creating a context costs more than d
 
 // ---- residuals: a size class per value, its low bits in a shared bit stream ----------------
 
-uint32_t zigzag(int32_t v) { return (uint32_t(v) << 1) ^ uint32_t(v >> 31); }
-int32_t unzigzag(uint32_t z) { return int32_t(z >> 1) ^ -int32_t(z & 1); }
 // The size class of a zigzagged value: its bit length (0 for 0).
 uint32_t size_class(uint32_t z) { return z ? uint32_t(32 - __builtin_clz(z)) : 0; }
 

@@ -17,11 +17,9 @@ namespace {
 
 constexpr uint32_t kHeightCodec = 1;
 constexpr size_t kHeadBytes = 56, kIndexEntryBytes = 16;
-constexpr int64_t kMostSteps = int64_t(1) << 30;  // |q| below this: residuals fit 32 bits zigzagged
+// |q| below this: a residual against a prediction between two neighbours fits 32 bits, zigzagged too.
+constexpr int64_t kMostSteps = int64_t(1) << 30;
 constexpr int kZstdLevel = 3;
-
-uint32_t zigzag(int64_t v) { return uint32_t((uint64_t(v) << 1) ^ uint64_t(v >> 63)); }
-int64_t unzigzag(uint32_t z) { return int64_t(z >> 1) ^ -int64_t(z & 1); }
 
 // LOCO-I's median edge detector from the left (a), upper (b) and upper-left (c) neighbours; along the
 // block's first row the left one, down its first column the upper one.
@@ -76,7 +74,7 @@ std::vector<uint8_t> encode_block(const float* band, uint64_t columns, uint64_t 
     for (uint32_t y = 0; y < height; ++y)
         for (uint32_t x = 0; x < width; ++x) {
             const size_t s = size_t(y) * width + x;
-            const uint32_t z = zigzag(q[s] - predict(q.data(), width, x, y));
+            const uint32_t z = zigzag(int32_t(q[s] - predict(q.data(), width, x, y)));
             for (size_t b = 0; b < 4; ++b) planes[b * n + s] = uint8_t(z >> (8 * b));
         }
     std::vector<uint8_t> frame(ZSTD_compressBound(raw.size()));
