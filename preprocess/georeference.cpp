@@ -86,7 +86,7 @@ std::array<double, 3> Georeference::to_local(const std::array<double, 3>& geo, c
 std::optional<std::array<double, 2>> Georeference::raster_position(double x, double y, double height) const {
     if (!terrain_) return std::nullopt;
     const TerrainGrid& t = *terrain_;
-    double cx = geo_origin_[0] + x, cy = geo_origin_[1] + y;
+    double east = geo_origin_[0] + x - t.first_sample[0], cy = geo_origin_[1] + y;
     if (t.frame != 0) {
         // The ellipsoid point with these x, y; in ecef, moved until the point `height` above it has them
         // (each step shifts by the tilt of the normal: a few steps reach a micrometre).
@@ -96,14 +96,11 @@ std::optional<std::array<double, 2>> Georeference::raster_position(double x, dou
             const std::array<double, 3> at_ground = tangent_.local(g[0], g[1], 0, TerrainFrameKind::enu);
             g = tangent_.geodetic({at_ground[0] + x - at_height[0], at_ground[1] + y - at_height[1], 0}, TerrainFrameKind::enu);
         }
-        cx = g[0], cy = g[1];
-    }
-    double east = cx - t.first_sample[0];
-    if (t.frame != 0) {
         // Longitudes come back in (−180°, 180°]; a raster may start anywhere (0 … 360° grids) and span
         // more than half the globe: east of the first sample by less than a turn.
-        east = std::remainder(east, 360.0);
+        east = std::remainder(g[0] - t.first_sample[0], 360.0);
         if (east < -0.5 * t.spacing[0] && east + 360 <= double(t.columns - 1) * t.spacing[0] + 0.5 * t.spacing[0]) east += 360;
+        cy = g[1];
     }
     const double column = east / t.spacing[0];
     const double row = (t.rows_run_north ? cy - t.first_sample[1] : t.first_sample[1] - cy) / t.spacing[1];
