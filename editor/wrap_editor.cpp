@@ -307,11 +307,7 @@ int editor_click(lua_State* L) {
 
 void push_reading(lua_State* L, const std::optional<GeoReading>& reading, const char* field) {
     if (!reading) return;
-    lua_createtable(L, 3, 1);
-    for (int i = 0; i < 3; ++i) {
-        lua_pushnumber(L, reading->geo[size_t(i)]);
-        lua_rawseti(L, -2, i + 1);
-    }
+    lua::push_vec3(L, {reading->geo[0], reading->geo[1], reading->geo[2]});
     if (reading->above_ground) {
         lua_pushnumber(L, *reading->above_ground);
         lua_setfield(L, -2, "above_ground");

@@ -432,19 +432,13 @@ const Georeference& check_georeference(lua_State* L, const HlodModel& model) {
     return *geo;
 }
 
-void push_triple(lua_State* L, const std::array<double, 3>& v) {
-    lua_createtable(L, 3, 0);
-    for (int i = 0; i < 3; ++i) {
-        lua_pushnumber(L, v[size_t(i)]);
-        lua_rawseti(L, -2, i + 1);
-    }
-}
+glm::dvec3 as_vec3(const std::array<double, 3>& v) { return {v[0], v[1], v[2]}; }
 
 // model:to_local{lon, lat[, h][, crs = ...]} → {x, y, z}
 int hlod_to_local(lua_State* L) {
     const HlodModel& model = check_node_as<HlodModel>(L, 1, "HLOD model");
     const PointArgument p = check_point(L, 2, 2, 3, true, "{lon, lat[, h][, crs = ...]}");
-    push_triple(L, check_georeference(L, model).to_local(p.v, p.crs));
+    lua::push_vec3(L, as_vec3(check_georeference(L, model).to_local(p.v, p.crs)));
     return 1;
 }
 
@@ -452,7 +446,7 @@ int hlod_to_local(lua_State* L) {
 int hlod_to_geo(lua_State* L) {
     const HlodModel& model = check_node_as<HlodModel>(L, 1, "HLOD model");
     const PointArgument p = check_point(L, 2, 3, 3, true, "{x, y, z[, crs = ...]}");
-    push_triple(L, check_georeference(L, model).to_geo(p.v, p.crs));
+    lua::push_vec3(L, as_vec3(check_georeference(L, model).to_geo(p.v, p.crs)));
     return 1;
 }
 
