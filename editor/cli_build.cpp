@@ -26,6 +26,9 @@ struct BuildOptions {
     TerrainSettings terrain;
     std::string fill_nodata;  // an elevation, or empty: nodata stays a hole
     std::string frame = "enu";
+    std::string texture;  // an image to drape over a terrain
+    std::vector<int> texture_bands;
+    uint32_t texture_size = 0;
     bool quiet = false;
     bool verbose = false;
 };
@@ -126,6 +129,7 @@ int run_terrain(const BuildOptions& o, const std::vector<std::filesystem::path>&
         settings.fill = value;
     }
     settings.memory = memory;
+    if (!o.texture.empty()) settings.texture = TextureSettings{o.texture, o.texture_bands, o.texture_size};
     const std::atomic<bool>* cancel = install_interrupt_flag();
     ProgressBar bar(!o.quiet);
     const auto start = std::chrono::steady_clock::now();
@@ -137,10 +141,15 @@ int run_terrain(const BuildOptions& o, const std::vector<std::filesystem::path>&
             std::printf("%s: terrain, %llu triangles, %u levels, σ0 %.3g, ε_q %.3g, %.1f MB, %.2f s\n", o.output.c_str(),
                         (unsigned long long)report.input_triangles, report.max_level + 1, report.sigma0, report.error_q,
                         report.output_bytes / 1e6, seconds);
+        if (!o.quiet)
+            for (const std::string& note : report.notes) std::fprintf(stderr, "strata build: note: %s\n", note.c_str());
         if (o.verbose) {
             print_levels(report);
-            std::printf("  seconds: read %.2f, tiles %.2f, coarse levels %.2f, write %.2f\n", report.read_seconds,
-                        report.partition_seconds, report.simplify_seconds, report.write_seconds);
+            std::printf("  seconds: read %.2f, tiles %.2f, coarse levels %.2f, write %.2f (textures %.2f)\n", report.read_seconds,
+                        report.partition_seconds, report.simplify_seconds, report.write_seconds, report.texture_seconds);
+            if (report.texture_size)
+                std::printf("  textures: %u × %u texels a cube, %s\n", report.texture_size, report.texture_size,
+                            describe_bytes(report.texture_bytes).c_str());
             std::printf("  memory: %s at most\n", describe_bytes(peak_resident_bytes()).c_str());
         }
         return kOk;
@@ -205,6 +214,10 @@ int run_build(const BuildOptions& o) {
     }
     const std::vector<std::filesystem::path> files = expand_inputs(o.inputs);
     if (std::all_of(files.begin(), files.end(), is_elevation_raster)) return run_terrain(o, files, memory_limit);
+    if (!o.texture.empty() || !o.texture_bands.empty() || o.texture_size) {
+        std::fprintf(stderr, "strata build: --texture, --texture-bands and --texture-size drape imagery over a terrain; a mesh keeps its own texture\n");
+        return kUsage;
+    }
     const MemoryEstimate estimate = estimate_build(files, memory_limit);
     const std::filesystem::path temp = o.plan.empty() ? temp_folder(o.output, o.settings.temp_dir) : std::filesystem::path(o.plan);
     if (o.verbose) {
@@ -334,6 +347,18 @@ Command add_build(CLI::App& app) {
         ->capture_default_str();
     sub->add_option("--fill-nodata", o->fill_nodata,
                     "Terrains: give nodata samples this elevation (metres) instead of leaving holes");
+    sub->add_option("--texture", o->texture,
+                    "Terrains: an image to drape over the ground (an orthophoto GDAL reads, RGB or grey, 8- or 16-bit, "
+                    "in any CRS), stored as per-cube BC1 textures");
+    sub->add_option("--texture-bands", o->texture_bands, "Terrains: the image's bands that give red, green, blue (default 1,2,3; one band: grey)")
+        ->delimiter(',')
+        ->check(CLI::Range(1, 65535));
+    sub->add_option("--texture-size", o->texture_size,
+                    "Terrains: texels along a cube's texture (a power of two, 8 to 4096); default: as fine as the image, at most 1024")
+        ->check([](const std::string& value) {
+            const unsigned long n = std::stoul(value);
+            return n >= 8 && n <= 4096 && (n & (n - 1)) == 0 ? std::string() : std::string("a power of two from 8 to 4096");
+        });
     sub->add_flag("-q,--quiet", o->quiet, "No progress bar and no summary");
     sub->add_flag("-v,--verbose", o->verbose, "Also print the memory, temporary-disk and time estimates, each level's counts, each stage's time, and the peak temporary disk and memory");
     return {sub, [o] { return run_build(*o); }};

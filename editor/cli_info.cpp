@@ -3,6 +3,7 @@
 // checks the payloads).
 #include "editor/commands.h"
 #include "preprocess/elevation_raster.h"
+#include "preprocess/cube_textures.h"
 #include "preprocess/hlod_format.h"
 #include "preprocess/terrain_heights.h"
 
@@ -54,6 +55,12 @@ int run_info(const std::string& path) {
         std::printf("georef      %s, %s (%.17g, %.17g, %.17g)\n", describe_crs(h.crs).c_str(),
                     h.terrain && h.terrain->frame ? "tangent point" : "model origin at", h.geo_origin[0], h.geo_origin[1], h.geo_origin[2]);
     if (h.terrain) print_terrain(shared_file);
+    if (const HlodSection* section = file.find_section(kTexturesTag)) {  // FORMAT.md §4.9
+        const CubeTextures textures(shared_file, *section, file.nodes().size());
+        const uint32_t size = textures.layout().size;
+        std::printf("textures    %u × %u texels a cube, BC1 sRGB with mips, %.2f MB (%.3g bits a texel)\n", size, size,
+                    double(section->size) / 1e6, 8.0 * double(textures.stored_bytes()) / (double(file.nodes().size()) * size * size));
+    }
     std::printf("levels      %u (0 … %u), block %u³, σ0 %.4g, ε_q %.4g\n", h.max_level + 1, h.max_level, h.block_size,
                 h.sigma0, h.error_q);
     std::printf("errors      %s\n", h.flags & kErrorsAreBounds ? "bounds (FORMAT.md §13)"

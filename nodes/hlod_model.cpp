@@ -10,6 +10,7 @@
 #include <glm/gtc/matrix_transform.hpp>
 
 #include "engine/scene/cull_visitor.h"
+#include "preprocess/cube_textures.h"
 #include "preprocess/georeference.h"
 #include "preprocess/terrain_heights.h"
 
@@ -92,11 +93,15 @@ void HlodModel::adopt(std::shared_ptr<Tree> tree, const std::filesystem::path& p
     fade_.assign(tree_->cubes.size(), 1.0f);
 }
 
-void HlodModel::read_geography(Tree& tree, const std::shared_ptr<const HlodFile>& file) {
+void HlodModel::read_optional_sections(Tree& tree, const std::shared_ptr<const HlodFile>& file) {
     if (!tree.header.crs.empty()) tree.georeference = std::make_shared<Georeference>(tree.header, file->path().string());
     if (const HlodSection* heights = file->find_section(kHeightsTag); heights && tree.header.terrain)
         tree.heights = std::make_shared<TerrainHeights>(file, *heights);
+    if (const HlodSection* textures = file->find_section(kTexturesTag))
+        tree.textures = std::make_shared<CubeTextures>(file, *textures, tree.cubes.size());
 }
+
+uint64_t HlodModel::texture_bytes() const { return tree_->textures ? tree_->textures->layout().chain_bytes() : 0; }
 
 std::optional<double> HlodModel::height_at(double x, double y) const {
     const Georeference* geo = georeference();
@@ -123,13 +128,14 @@ std::shared_ptr<HlodModel> HlodModel::load(const std::filesystem::path& path) {
     HlodFile& file = *shared_file;
     std::shared_ptr<HlodModel> model(new HlodModel());
     std::shared_ptr<Tree> octree = read_octree(file);
-    read_geography(*octree, shared_file);
+    read_optional_sections(*octree, shared_file);
     model->adopt(std::move(octree), file.path());
     Tree& tree = *model->tree_;
     // Coarse to fine, so each cube finds its parents' vertices already decoded.
     for (auto c = tree.finest_first.rbegin(); c != tree.finest_first.rend(); ++c) {
         HlodCube& cube = tree.cubes[*c];
         auto data = std::make_shared<CubeData>(file.read_cube(cube.node));
+        if (tree.textures) data->texture = tree.textures->read(*c);
         const uint32_t parent = tree.parent[*c];
         resolve_parents(*data, parent == kNoCube ? data->vertices : tree.cubes[parent].data->vertices,
                         path.string() + ": " + describe_cube(cube.node));
@@ -167,8 +173,10 @@ public:
     }
     uint32_t item_count() const override { return uint32_t(tree_->cubes.size()); }
     uint32_t parent(uint32_t cube) const override { return tree_->parent[cube]; }
-    uint64_t item_bytes(uint32_t cube) const override { return cube_bytes_bound(tree_->header, tree_->cubes[cube].node); }
-    uint64_t item_gpu_bytes(uint32_t cube) const override { return cube_gpu_bytes_bound(tree_->header, tree_->cubes[cube].node); }
+    uint64_t item_bytes(uint32_t cube) const override { return cube_bytes_bound(tree_->header, tree_->cubes[cube].node, texture_bytes()); }
+    uint64_t item_gpu_bytes(uint32_t cube) const override {
+        return cube_gpu_bytes_bound(tree_->header, tree_->cubes[cube].node, texture_bytes());
+    }
     // The coarse levels whose cubes fit in 5 % of the budget together; the root always, since nothing
     // is drawn without it.
     std::vector<uint32_t> pinned_items(uint64_t budget) const override {
@@ -186,6 +194,7 @@ public:
     Loaded load(uint32_t cube, const std::shared_ptr<const void>& parent) override {
         const HlodNode& node = tree_->cubes[cube].node;
         auto data = std::make_shared<CubeData>(file_->read_cube(node));
+        if (tree_->textures) data->texture = tree_->textures->read(cube);
         const auto* parent_data = static_cast<const CubeData*>(parent.get());
         resolve_parents(*data, parent_data ? parent_data->vertices : data->vertices,
                         file_->path().string() + ": " + describe_cube(node));
@@ -208,6 +217,7 @@ public:
     }
 
 private:
+    uint64_t texture_bytes() const { return tree_->textures ? tree_->textures->layout().chain_bytes() : 0; }
     std::shared_ptr<const HlodFile> file_;
     std::shared_ptr<Tree> tree_;
     const StreamCache* cache_ = nullptr;
@@ -255,24 +265,25 @@ struct HlodModel::SharedSource {
 uint64_t HlodModel::cube_bytes(const CubeData& d) {
     auto held = [](const auto& v) { return uint64_t(v.capacity()) * sizeof(v[0]); };
     auto arrays = [&](const VertexArrays& a) { return held(a.positions) + held(a.normals) + held(a.colors) + held(a.uvs); };
-    const uint64_t cpu = arrays(d.vertices) + arrays(d.parents) + held(d.parent_vertex) + held(d.indices) + held(d.parent_of);
+    const uint64_t cpu = arrays(d.vertices) + arrays(d.parents) + held(d.parent_vertex) + held(d.indices) + held(d.parent_of) + held(d.texture);
     return cpu + cube_gpu_bytes(d);
 }
 
 uint64_t HlodModel::cube_gpu_bytes(const CubeData& d) {
-    return gpu_block_bytes(d.vertices.size(), d.parents.size(), d.indices.size(), !d.vertices.colors.empty());
+    // The texture takes a layer of its owner's texture arrays, exactly its BC1 chain's bytes.
+    return gpu_block_bytes(d.vertices.size(), d.parents.size(), d.indices.size(), !d.vertices.colors.empty()) + d.texture.size();
 }
 
-uint64_t HlodModel::cube_gpu_bytes_bound(const HlodHeader& header, const HlodNode& node) {
-    return gpu_block_bytes(node.vertex_count, node.vertex_count, 3 * uint64_t(node.triangle_count), header.has_colors());
+uint64_t HlodModel::cube_gpu_bytes_bound(const HlodHeader& header, const HlodNode& node, uint64_t texture_bytes) {
+    return gpu_block_bytes(node.vertex_count, node.vertex_count, 3 * uint64_t(node.triangle_count), header.has_colors()) + texture_bytes;
 }
 
-uint64_t HlodModel::cube_bytes_bound(const HlodHeader& header, const HlodNode& node) {
+uint64_t HlodModel::cube_bytes_bound(const HlodHeader& header, const HlodNode& node, uint64_t texture_bytes) {
     // Per vertex, for itself and for its parent's copy (at most one per vertex): positions, normals,
     // colours, UVs; then its parent index and entry, the indices, and the GPU block.
     const uint64_t attributes = 3 * 2 + 2 * 2 + (header.has_colors() ? 4 : 0) + (header.has_uvs() ? 8 : 0);
     const uint64_t cpu = (2 * attributes + 4 + 4) * uint64_t(node.vertex_count) + 3 * 4 * uint64_t(node.triangle_count);
-    return cpu + cube_gpu_bytes_bound(header, node);
+    return cpu + texture_bytes + cube_gpu_bytes_bound(header, node, texture_bytes);
 }
 
 std::shared_ptr<HlodModel> HlodModel::open(const std::filesystem::path& path, std::shared_ptr<StreamCache> cache) {
@@ -280,7 +291,7 @@ std::shared_ptr<HlodModel> HlodModel::open(const std::filesystem::path& path, st
     std::shared_ptr<const SharedSource> shared = SharedSource::find(*cache, file->identity());
     if (!shared) {  // nothing resident yet
         std::shared_ptr<Tree> tree = read_octree(*file);
-        read_geography(*tree, file);
+        read_optional_sections(*tree, file);
         shared = SharedSource::add(cache, file, std::move(tree));
     }
     std::shared_ptr<HlodModel> model(new HlodModel());

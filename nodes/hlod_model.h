@@ -27,6 +27,7 @@ namespace strata {
 struct Lookahead;  // engine/scene/cull_visitor.h
 class Georeference;     // preprocess/georeference.h
 class TerrainHeights;   // preprocess/terrain_heights.h
+class CubeTextures;     // preprocess/cube_textures.h
 
 // Colour-by-level and the like: what the shader shows instead of (or over) the shaded surface.
 // residency: cubes that stand in for data still loading (and those held back beside them) in orange,
@@ -132,6 +133,7 @@ class HlodModel : public Drawable {
         // Where the model lies on the Earth, when it has a CRS; a terrain's heights, when it keeps them.
         std::shared_ptr<const Georeference> georeference;
         std::shared_ptr<const TerrainHeights> heights;
+        std::shared_ptr<const CubeTextures> textures;  // section TXTR
     };
 
 public:
@@ -149,12 +151,17 @@ public:
     // set_residency) for every model on the file; cull() calls it. Render thread.
     void sync_residency();
     // What a cube takes once resident, in CPU and GPU memory together: a bound from the node table's
-    // counts, and the exact figure for decoded data. The streaming budget counts these.
-    static uint64_t cube_bytes_bound(const HlodHeader& header, const HlodNode& node);
+    // counts and its texture's bytes (texture_bytes()), and the exact figure for decoded data. The
+    // streaming budget counts these.
+    static uint64_t cube_bytes_bound(const HlodHeader& header, const HlodNode& node, uint64_t texture_bytes);
     static uint64_t cube_bytes(const CubeData& data);
     // Of those, what it takes on the GPU: a bound from the node table, and exactly once decoded.
-    static uint64_t cube_gpu_bytes_bound(const HlodHeader& header, const HlodNode& node);
+    static uint64_t cube_gpu_bytes_bound(const HlodHeader& header, const HlodNode& node, uint64_t texture_bytes);
     static uint64_t cube_gpu_bytes(const CubeData& data);
+    // The textures every cube carries (section TXTR): null for an untextured model.
+    const CubeTextures* textures() const { return tree_->textures.get(); }
+    // The bytes of one cube's texture, decoded (its BC1 mip chain); 0 for an untextured model.
+    uint64_t texture_bytes() const;
     // What the GPU side keeps per cube beside the cubes' blocks (hlod_model_draw.cpp), in CPU and GPU
     // memory together and the GPU's share of that: once for all the models drawing one owner's cubes
     // (cube_owner), and once per model.
@@ -381,7 +388,8 @@ private:
     // The octree from the node table (links, neighbours, errors), which it takes from the file; cube
     // data is not read.
     static std::shared_ptr<Tree> read_octree(HlodFile& file);
-    static void read_geography(Tree& tree, const std::shared_ptr<const HlodFile>& file);
+    // Reads what the optional sections give a model: its georeference, a terrain's heights, its textures.
+    static void read_optional_sections(Tree& tree, const std::shared_ptr<const HlodFile>& file);
     // Takes `tree` as this model's, named after the file.
     void adopt(std::shared_ptr<Tree> tree, const std::filesystem::path& path);
     // Streamed: asks the cache for the children of every cube the selection rests on (`examined`,

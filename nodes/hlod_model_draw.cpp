@@ -16,9 +16,11 @@
 #include "engine/gl/buffer_pool.h"
 #include "engine/gl/framebuffer.h"
 #include "engine/gl/program.h"
+#include "engine/gl/texture_layers.h"
 #include "engine/render/draw_context.h"
 #include "engine/scene/render_list.h"
 #include "nodes/hlod_model.h"
+#include "preprocess/cube_textures.h"
 
 namespace strata {
 
@@ -52,6 +54,8 @@ layout(std430, binding = 8) readonly buffer Links { uint links[]; };
 layout(std430, binding = 9) readonly buffer BandEnds { vec2 band_ends[]; };
 // Per cube: how far its children's vertices near it have faded in (CubeKappas::fade_of).
 layout(std430, binding = 11) readonly buffer Fades { float fades[]; };
+// Per cube: its texture's layer in its page of texture layers (a textured model).
+layout(std430, binding = 12) readonly buffer TextureLayers { uint texture_layers[]; };
 
 uniform mat4 clip_from_anchor;  // HlodModel::LatticeAnchor: positions are drawn from E, near the eye
 uniform mat3 world_from_lattice_normal;
@@ -68,10 +72,18 @@ uniform bool color_by_level;
 uniform bool color_by_residency;
 uniform vec4 base_color;  // linear
 uniform bool capture;
+uniform bool textured;
+uniform float texture_margin;  // planar mapping: a texture covers its cube's cell grown by this (÷ s_l)
 
 out vec3 v_normal;
 out vec4 v_color;
 flat out float v_level;
+// The texture coordinates of the morphed position in the cube's texture and in its parent's, the
+// layers of both, and the morph's λ, which blends them as it blends the positions.
+out vec2 v_own_uv;
+out vec2 v_parent_uv;
+flat out uvec2 v_layers;
+out float v_lambda;
 
 ivec3 lattice_steps(uvec4 record, uvec3 cell) {
     ivec3 stored = ivec3(record.x & 0xffffu, record.x >> 16, record.y & 0xffffu);
@@ -148,7 +160,21 @@ void main() {
 
     vec3 n = mix(octahedral_normal(parent.z), octahedral_normal(own.z), lambda);
     v_normal = world_from_lattice_normal * n;
-    vec4 color = base_color;
+    if (textured) {
+        // In the cube's cell's units from its corner: its own stored steps, and its parent's in the
+        // parent's (twice as long) from the parent cell's corner. Small integers, exact in float.
+        uvec2 half_cell = cube.yz & 1u;
+        vec2 own_at = vec2(ivec2(own.x & 0xffffu, own.x >> 16) - 16384);
+        vec2 parent_at = vec2(ivec2(parent.x & 0xffffu, parent.x >> 16) - 16384) * 2.0 - vec2(half_cell << 15);
+        vec2 at = mix(parent_at, own_at, lambda) / 32768.0;
+        float span = 1.0 + 2.0 * texture_margin;
+        v_own_uv = (at + texture_margin) / span;
+        v_parent_uv = ((at + vec2(half_cell)) * 0.5 + texture_margin) / span;
+        uint parent_cube = links[index * 28u + 27u];
+        v_layers = uvec2(texture_layers[index], texture_layers[parent_cube == no_cube ? index : parent_cube]);
+    }
+    v_lambda = lambda;
+    vec4 color = textured ? vec4(1.0) : base_color;
     if (has_colors) {  // scans store sRGB-encoded 8-bit colours
         ivec2 offsets = color_offsets[index];
         vec4 c = mix(unpackUnorm4x8(parent_colors[int(own.w) + offsets.y]),
@@ -167,11 +193,25 @@ const char* const kFragmentGlsl = R"(
 in vec3 v_normal;
 in vec4 v_color;
 flat in float v_level;
+in vec2 v_own_uv;
+in vec2 v_parent_uv;
+flat in uvec2 v_layers;
+in float v_lambda;
 uniform uint node_id;
+uniform bool textured;
+// The pages holding this draw's cubes' textures and their parents' (sRGB: sampled in linear light).
+layout(binding = 0) uniform sampler2DArray own_textures;
+layout(binding = 1) uniform sampler2DArray parent_textures;
 
 void main() {
     vec3 n = normalize(gl_FrontFacing ? v_normal : -v_normal);
-    out_color = vec4(shade(v_color.rgb, n), v_color.a);
+    vec4 color = v_color;
+    if (textured) {
+        vec3 own = texture(own_textures, vec3(v_own_uv, float(v_layers.x))).rgb;
+        vec3 parent = texture(parent_textures, vec3(v_parent_uv, float(v_layers.y))).rgb;
+        color.rgb *= mix(parent, own, v_lambda);
+    }
+    out_color = vec4(shade(color.rgb, n), color.a);
     out_normal = vec4(n, 0.0);
     out_level = v_level;
     out_node_id = node_id;
@@ -250,6 +290,7 @@ struct PlacedCube {
     const CubeData* data = nullptr;
     std::weak_ptr<const CubeData> alive;
     gl::BufferPool::Block block;
+    gl::TextureLayers::Layer texture;  // a textured model's
     IndexedDrawCommand command{};
 };
 
@@ -276,9 +317,17 @@ struct CubesGpu : GpuCache::Entry {
         for (PlacedCube& cube : placed) pool->free(cube.block);
         std::erase(scene_pool.owners, this);
     }
+    // Frees the cube's block and texture layer.
+    void unplace(PlacedCube& cube) {
+        pool->free(cube.block);
+        if (textures) textures->free(cube.texture);
+        cube = {};
+    }
     ScenePool& scene_pool;  // outlives its owners: the GPU cache drops shared entries last
     std::shared_ptr<gl::BufferPool> pool;
     bool colors;
+    std::unique_ptr<gl::TextureLayers> textures;  // a textured model's
+    gl::Buffer texture_layers;                    // per cube: its layer in its page
     uint64_t synced = ~uint64_t(0);      // the residency version last synced to (HlodModel::residency_version)
     std::vector<PlacedCube> placed;      // per cube
     std::vector<uint32_t> placed_cubes;  // the cubes with a block, in no order
@@ -286,7 +335,9 @@ struct CubesGpu : GpuCache::Entry {
     gl::Buffer links;          // per cube: neighbours and parent
     gl::Buffer color_offsets;  // per cube
     uint64_t counted_frame = ~uint64_t(0);
-    uint64_t fixed_bytes() const { return cubes.size() + links.size() + color_offsets.size(); }
+    uint64_t fixed_bytes() const {
+        return cubes.size() + links.size() + color_offsets.size() + texture_layers.size() + (textures ? textures->capacity_bytes() : 0);
+    }
 };
 
 // What one model draws its view with: the κ and fades of its selection, and this frame's draws.
@@ -297,7 +348,15 @@ struct HlodGpu : GpuCache::Entry {
     // Sized to the frames drawn so far, not to the model (a frame draws a few thousand of its cubes).
     gl::Buffer drawn;     // this frame's cubes, for the boxes view
     gl::Buffer commands;  // this frame's, in the selection's order
-    std::vector<std::pair<uint32_t, uint32_t>> runs;  // this frame's draws: page, commands
+    // This frame's draws: consecutive cubes on one pool page whose textures, and whose parents'
+    // textures, lie on one page of layers each.
+    struct Run {
+        uint32_t page, own_textures, parent_textures, commands;
+        bool same_pages(const Run& other) const {
+            return page == other.page && own_textures == other.own_textures && parent_textures == other.parent_textures;
+        }
+    };
+    std::vector<Run> runs;
     uint64_t fixed_bytes() const { return band_ends.size() + fades.size() + drawn.size() + commands.size(); }
 };
 
@@ -342,6 +401,11 @@ void place_cube(CubesGpu& gpu, const std::shared_ptr<const CubeData>& data, uint
     }
     std::copy(c.indices.begin(), c.indices.end(), words + 4 * layout.indices);
     gpu.pool->upload(placed.block, 0, units.data(), units.size() * gl::BufferPool::kUnitBytes);
+    if (gpu.textures && !placed.texture && !c.texture.empty()) {  // a block moved between pages keeps its layer
+        placed.texture = gpu.textures->allocate();
+        gpu.textures->upload(placed.texture, c.texture);
+        gpu.texture_layers.upload(index * sizeof(uint32_t), &placed.texture.layer, sizeof(uint32_t));
+    }
     gpu.color_offsets.upload(index * sizeof(color_offsets), &color_offsets, sizeof(color_offsets));
     placed.command = {uint32_t(c.indices.size()), 1, uint32_t(4 * (base + layout.indices)), int32_t(base), index};
 }
@@ -357,8 +421,7 @@ void sync_blocks(const HlodModel& model, CubesGpu& gpu) {
     for (uint32_t c = 0; c < cubes.size(); ++c) {
         PlacedCube& placed = gpu.placed[c];
         if (placed.data != cubes[c].data.get()) {
-            gpu.pool->free(placed.block);
-            placed = {};
+            gpu.unplace(placed);
             if (cubes[c].data) place_cube(gpu, cubes[c].data, c);
         }
         if (placed.block) gpu.placed_cubes.push_back(c);
@@ -377,10 +440,16 @@ void sweep_pool(ScenePool& scene) {
             PlacedCube& placed = owner->placed[c];
             const std::shared_ptr<const CubeData> data = placed.alive.lock();
             if (data && placed.block.page != retiring) return false;
+            if (!data) {
+                owner->unplace(placed);
+                return true;
+            }
+            const gl::TextureLayers::Layer texture = placed.texture;  // only the block moves
             scene.pool->free(placed.block);
             placed = {};
-            if (data) place_cube(*owner, data, c);
-            return !data;
+            placed.texture = texture;
+            place_cube(*owner, data, c);
+            return false;
         });
     }
     gl::check_gl("freeing and moving HLOD cubes' blocks");
@@ -394,9 +463,21 @@ uint64_t pool_page_bytes(const HlodModel& model) {
     return 16 * MiB;
 }
 
+// A page of texture layers: an eighth of a streamed model's budget (8 to 256 MiB), so that a frame's
+// cubes lie on few pages and draw in few runs; for a model loaded whole, its cubes' textures (at most 256 MiB).
+uint64_t texture_page_bytes(const HlodModel& model) {
+    constexpr uint64_t MiB = uint64_t(1) << 20;
+    if (const StreamCache* cache = model.stream_cache()) return std::clamp(cache->budget() / 8, 8 * MiB, 256 * MiB);
+    return std::min(model.cubes().size() * model.texture_bytes(), 256 * MiB);
+}
+
 std::unique_ptr<CubesGpu> make_cubes_gpu(const HlodModel& model, ScenePool& pool) {
     auto gpu = std::make_unique<CubesGpu>(pool, model.header().has_colors());
     const auto& cubes = model.cubes();
+    if (const CubeTextures* textures = model.textures()) {
+        gpu->textures = std::make_unique<gl::TextureLayers>(textures->layout().size, texture_page_bytes(model));
+        gpu->texture_layers = gl::Buffer(cubes.size() * sizeof(uint32_t), gl::kDynamicStorage);
+    }
     std::vector<std::array<uint32_t, 4>> records;
     for (const HlodCube& c : cubes) records.push_back({c.node.level, c.node.i, c.node.j, c.node.k});
     gpu->cubes = gl::Buffer(records, gl::kFixedStorage);
@@ -478,6 +559,9 @@ void set_view_uniforms(const HlodModel& model, const gl::Program& program, HlodG
     program.set("base_color", glm::vec4(0.6f, 0.57f, 0.52f, 1.0f));  // linear: a warm stone grey
     program.set("node_id", unsigned(model.id()));
     program.set("capture", int(model.capture_morph()));
+    const bool debug_colours = model.debug_view() == HlodDebugView::levels || model.debug_view() == HlodDebugView::residency;
+    program.set("textured", int(model.textures() && !debug_colours));
+    if (model.textures()) program.set("texture_margin", model.textures()->layout().margin);
 }
 
 void draw_boxes(const HlodModel& model, const gl::Program& p, const CubesGpu& cubes, HlodGpu& gpu, DrawContext& context,
@@ -541,11 +625,15 @@ void HlodModel::draw(DrawContext& context, const DrawItem& item) {
     // a capture gives the same bytes whatever the cache held before.
     std::vector<IndexedDrawCommand> commands;
     commands.reserve(item.count);
-    gpu.runs.clear();  // (page, commands)
+    gpu.runs.clear();
     for (uint32_t k = 0; k < item.count; ++k) {
-        const PlacedCube& placed = cubes.placed[context.list.item_data[item.first + k]];
-        if (gpu.runs.empty() || gpu.runs.back().first != placed.block.page) gpu.runs.push_back({placed.block.page, 0});
-        ++gpu.runs.back().second;
+        const uint32_t c = context.list.item_data[item.first + k];
+        const PlacedCube& placed = cubes.placed[c];
+        const uint32_t parent = this->parent(c);
+        const PlacedCube& parent_placed = parent == kNoCube || !cubes.placed[parent].texture ? placed : cubes.placed[parent];
+        const HlodGpu::Run run{placed.block.page, placed.texture.page, parent_placed.texture.page, 0};
+        if (gpu.runs.empty() || !gpu.runs.back().same_pages(run)) gpu.runs.push_back(run);
+        ++gpu.runs.back().commands;
         commands.push_back(placed.command);
         context.stats.triangles += placed.command.count / 3;
     }
@@ -563,9 +651,15 @@ void HlodModel::draw(DrawContext& context, const DrawItem& item) {
     call.storage[1] = &cubes.cubes, call.storage[8] = &cubes.links, call.storage[10] = &cubes.color_offsets;
     call.storage[9] = &gpu.band_ends, call.storage[11] = &gpu.fades;
     size_t first_command = 0;
-    for (const auto& [p, count] : gpu.runs) {
-        const gl::Buffer& page = pool.pool->page(p);
+    call.storage[12] = &cubes.texture_layers;
+    for (const HlodGpu::Run& run : gpu.runs) {
+        const uint32_t count = run.commands;
+        const gl::Buffer& page = pool.pool->page(run.page);
         call.storage[2] = call.storage[3] = call.storage[4] = call.storage[5] = call.indices = &page;
+        if (cubes.textures && run.own_textures != ~0u) {
+            call.textures[0] = cubes.textures->page(run.own_textures);
+            call.textures[1] = cubes.textures->page(run.parent_textures);
+        }
         gl::Buffer capture;
         if (capture_morph_) {
             capture = gl::Buffer(page.size(), gl::kDynamicStorage);  // a vec4 per 16-byte unit

@@ -12,48 +12,12 @@
 #include <mutex>
 #include <stdexcept>
 
+#include "preprocess/gdal_dataset.h"
 #include "preprocess/mesh.h"
 
 namespace strata {
 
 namespace {
-
-void register_drivers() {
-    static std::once_flag once;
-    std::call_once(once, [] { GDALAllRegister(); });
-}
-
-// GDAL reports errors through a handler (printing by default) and the thread's last error: while one
-// of these lives, nothing is printed, and what GDAL said last is ours to put in a message.
-class QuietGdal {
-public:
-    QuietGdal() {
-        CPLPushErrorHandler(CPLQuietErrorHandler);
-        CPLErrorReset();
-    }
-    ~QuietGdal() { CPLPopErrorHandler(); }
-    QuietGdal(const QuietGdal&) = delete;
-    QuietGdal& operator=(const QuietGdal&) = delete;
-    static std::string last() {
-        const char* message = CPLGetLastErrorMsg();
-        return message && *message ? std::string(" (GDAL: ") + message + ")" : std::string();
-    }
-};
-
-struct DatasetCloser {
-    void operator()(GDALDataset* dataset) const { GDALClose(GDALDataset::ToHandle(dataset)); }
-};
-using DatasetPtr = std::unique_ptr<GDALDataset, DatasetCloser>;
-
-DatasetPtr open_dataset(const std::filesystem::path& file) {
-    QuietGdal quiet;
-    std::error_code error;
-    if (!std::filesystem::is_regular_file(file, error))
-        throw InputError(file.string() + ": " + (std::filesystem::exists(file, error) ? "not a regular file" : "no such file"));
-    DatasetPtr dataset(GDALDataset::Open(file.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY));
-    if (!dataset) throw InputError(file.string() + ": not a raster GDAL reads" + QuietGdal::last());
-    return dataset;
-}
 
 // The CRS's EPSG code, when it has one or PROJ identifies it as one.
 std::optional<int> epsg_code(const OGRSpatialReference& reference) {
@@ -69,7 +33,7 @@ std::optional<int> epsg_code(const OGRSpatialReference& reference) {
 // A CRS given as text (EPSG:N, WKT, a PROJ string), read without GDAL printing; none when PROJ cannot
 // read it (QuietGdal::last() then says why).
 std::optional<OGRSpatialReference> read_crs(const std::string& crs) {
-    register_drivers();
+    register_gdal_drivers();
     OGRSpatialReference reference;
     reference.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
     QuietGdal quiet;
@@ -205,7 +169,7 @@ std::string RasterInfo::describe_crs() const { return crs_label(epsg, crs_name);
 
 ElevationRaster ElevationRaster::open(const std::vector<std::filesystem::path>& files, const std::string& crs) {
     if (files.empty()) throw std::invalid_argument("ElevationRaster::open: no files");
-    register_drivers();
+    register_gdal_drivers();
     std::optional<OGRSpatialReference> given;
     if (!crs.empty()) given = crs_named(crs);
     auto dataset = std::make_unique<Dataset>();

@@ -61,6 +61,11 @@ struct BuildReport {
     // partition (the second pass, and level L's cubes), simplify (each level's
     // blocks, normals and encoding), write (the root and the file's assembly).
     double read_seconds = 0, partition_seconds = 0, simplify_seconds = 0, write_seconds = 0;
+    // A terrain's textures (section TXTR): texels along a cube's texture, their compressed bytes and
+    // the wall seconds spent on them (counted in write_seconds too); 0 without.
+    uint32_t texture_size = 0;
+    uint64_t texture_bytes = 0;
+    double texture_seconds = 0;
 };
 
 // Throws InputError naming the first setting out of range (checked before any input is read, so a

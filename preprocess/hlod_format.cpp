@@ -871,6 +871,12 @@ void sync_directory(const std::filesystem::path& file) {
 
 }  // namespace
 
+std::vector<HlodNode> HlodWriter::nodes_in_file_order() const {
+    std::vector<HlodNode> nodes = nodes_;
+    std::stable_sort(nodes.begin(), nodes.end(), in_file_order);
+    return nodes;
+}
+
 void HlodWriter::finish(HlodHeader header) {
     if (!spool_) throw std::logic_error("HlodWriter::finish twice");
     errno = 0;
@@ -879,8 +885,7 @@ void HlodWriter::finish(HlodHeader header) {
     header.node_count = nodes_.size();
 
     // Payloads arrive finest level first; sorting their entries is all the reordering costs in memory.
-    std::vector<HlodNode> spooled = nodes_;
-    std::stable_sort(spooled.begin(), spooled.end(), in_file_order);
+    std::vector<HlodNode> spooled = nodes_in_file_order();
     ByteWriter model, node_table, georeference, bounds, terrain;
     write_model(model, header);
     if (!header.crs.empty()) write_georeference(georeference, header);

@@ -135,6 +135,8 @@ struct CubeData {
     // per vertex its entry among them.
     VertexArrays parents;
     std::vector<uint32_t> parent_of;
+    // The cube's texture (section TXTR, preprocess/cube_textures.h): its BC1 mip chain; empty without.
+    std::vector<uint8_t> texture;
 
     uint32_t vertex_count() const { return vertices.size(); }
     uint32_t triangle_count() const { return uint32_t(indices.size() / 3); }
@@ -203,6 +205,9 @@ public:
     // what it indexes is known). The tag must not be one the writer writes itself.
     void append_to_section(const char (&tag)[5], std::span<const uint8_t> bytes);
     void set_section_head(const char (&tag)[5], std::vector<uint8_t> head);
+    // Before finish(): the cubes added so far, in the order NODE will list them (a section indexed by
+    // cube, such as a terrain's textures, writes its index in that order).
+    std::vector<HlodNode> nodes_in_file_order() const;
     // Writes the file; header.node_count is set from the cubes added. Throws std::runtime_error naming
     // the path when a write fails.
     void finish(HlodHeader header);

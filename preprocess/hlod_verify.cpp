@@ -8,6 +8,7 @@
 #include <unordered_map>
 
 #include "preprocess/error_bound.h"
+#include "preprocess/cube_textures.h"
 #include "preprocess/terrain_heights.h"
 
 namespace strata {
@@ -107,6 +108,7 @@ private:
     std::vector<const HlodNode*> walk_order(uint32_t level) const;
     const ParentCube& parent_of(const HlodNode& n);
     void check_cube_bounds(const HlodNode& n, const CubeData& cube);
+    void check_textures(const HlodSection& section);
     void check_parent_index(const HlodNode& n, const CubeData& cube, uint32_t v, uint32_t parent_vertices) const;
     void check_root(const HlodNode& n, const CubeData& cube);
     void check_child_groups(const HlodNode& n, const CubeData& cube);
@@ -202,6 +204,29 @@ void Verifier::check_cube_bounds(const HlodNode& n, const CubeData& cube) {
                 fail(describe_cube(n) + ": vertex " + std::to_string(v) + " lies " + fmt(d) +
                      " from its cell, more than σ0·s_l = " + fmt(h_.sigma0 * s));
         }
+}
+
+// A model's textures: the section's checksum, every texture decodes, and (planar mapping) every
+// vertex lies on its cube's texture.
+void Verifier::check_textures(const HlodSection& section) {
+    file_.check_section(section);
+    const CubeTextures textures(std::shared_ptr<const HlodFile>(std::shared_ptr<const void>(), &file_), section, file_.nodes().size());
+    const float margin = textures.layout().margin;
+    for (uint64_t c = 0; c < file_.nodes().size(); ++c) {
+        const HlodNode& n = file_.nodes()[c];
+        textures.read(c);
+        const CubeData cube = file_.read_cube(n);
+        const uint32_t cell[2] = {n.i, n.j};
+        const double s = h_.cube_size(n.level), reach = margin * s + h_.lattice_step(n.level) / 2 + float_slack();
+        for (uint32_t v = 0; v < cube.vertex_count(); ++v)
+            for (int a = 0; a < 2; ++a) {
+                const double x = decode_coordinate(h_, a, n.level, cell[a], cube.vertices.positions[3 * v + size_t(a)]);
+                const double lo = h_.origin[a] + cell[a] * s, d = std::max({0.0, lo - x, x - lo - s});
+                if (d > reach)
+                    fail(describe_cube(n) + ": vertex " + std::to_string(v) + " lies " + fmt(d) + " beyond its cell, off its texture (margin " +
+                         fmt(margin * s) + ")");
+            }
+    }
 }
 
 // P(v) names a vertex of the parent cube (of the cube itself at level 0).
@@ -337,6 +362,7 @@ VerifyReport Verifier::run() {
         file_.check_section(*heights);
         TerrainHeights(std::shared_ptr<const HlodFile>(std::shared_ptr<const void>(), &file_), *heights).check_all();
     }
+    if (const HlodSection* textures = file_.find_section(kTexturesTag)) check_textures(*textures);
     progress_("verify", h_.max_level + 1, h_.max_level + 1, "level");
     return report_;
 }

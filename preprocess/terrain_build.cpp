@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdio>
 #include <cmath>
 #include <functional>
 #include <mutex>
@@ -291,6 +292,7 @@ struct Assembly {
     terrain::CubeDistances coarse_forward;  // F of level T's cubes
     uint64_t input_triangles = 0;
     double sigma0_needed = 0;
+    double texture_margin = 0;  // CubeEncoder::texture_margin_needed over every cube
 
     Assembly(const build::Frame& frame, HlodWriter& output, std::string raster_name)
         : f(frame), name(std::move(raster_name)), writer(output), levels(frame.max_level + 1) {}
@@ -378,6 +380,7 @@ void build_tile(const Grid& grid, const Window& window, const std::array<uint32_
         }
         out.input_triangles += triangles;
         out.sigma0_needed = std::max(out.sigma0_needed, encoder.sigma0_needed());
+        out.texture_margin = std::max(out.texture_margin, encoder.texture_margin_needed());
     }
     for (size_t r = 0; r < mine.height(); ++r)
         for (size_t c = 0; c < mine.width(); ++c) {
@@ -403,6 +406,7 @@ void build_coarse_levels(const build::Frame& f, unsigned threads, Assembly& out,
     std::vector<CubeData> root{encoder.cube_data(cubes.front(), p.level(0), nullptr, nullptr)};
     encoder.write({&cubes.front()}, root, 0);
     out.sigma0_needed = std::max(out.sigma0_needed, encoder.sigma0_needed());
+    out.texture_margin = std::max(out.texture_margin, encoder.texture_margin_needed());
 }
 
 HlodHeader terrain_header(const Grid& grid, const build::Frame& f, uint32_t cube_cells, const std::string& source_name) {
@@ -454,6 +458,7 @@ BuildReport build_terrain(const std::vector<std::filesystem::path>& files, const
     const uint64_t memory = settings.memory ? settings.memory : default_memory_limit();
     limit_raster_cache(memory / 16);
     const ElevationRaster raster = ElevationRaster::open(files, settings.crs);
+    if (settings.texture) check_texture_image(*settings.texture);
     const unsigned threads = resolve_thread_count(settings.threads);
     HlodWriter writer(output);
     const Grid grid = scan_grid(raster, settings, writer, threads, progress);
@@ -507,6 +512,19 @@ BuildReport build_terrain(const std::vector<std::filesystem::path>& files, const
     header.error_q = report.error_q;
     header.input_vertices = out.levels[f.max_level].vertices;
     header.input_triangles = report.input_triangles;
+    if (settings.texture) {
+        // The vertices' overhang, and the lattice's rounding of them (half a step, 2^-16·s_l) to spare.
+        const float margin = float(out.texture_margin + std::ldexp(1.0, -14));
+        const TextureReport textures = build_terrain_textures(*settings.texture, header, margin, out.writer, threads, progress);
+        report.texture_size = textures.layout.size;
+        report.texture_bytes = textures.stored_bytes;
+        report.texture_seconds = textures.seconds;
+        char note[200];
+        std::snprintf(note, sizeof note, "textures: %u × %u texels a cube (%.3g m a texel at level %u; the image's pixels: %.3g m)",
+                      textures.layout.size, textures.layout.size, (1 + 2 * margin) * f.cube_size(f.max_level) / textures.layout.size,
+                      f.max_level, textures.image_metres);
+        report.notes.push_back(note);
+    }
     out.writer.finish(header);
     for (uint32_t l = f.max_level + 1; l-- > 0;) report.levels.push_back(out.levels[l]);
     report.sigma0 = bounded.sigma0;

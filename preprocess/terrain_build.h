@@ -19,6 +19,7 @@
 #include "preprocess/hlod_builder.h"
 #include "preprocess/progress.h"
 #include "preprocess/terrain_frame.h"
+#include "preprocess/terrain_texture.h"
 
 namespace strata {
 
@@ -38,6 +39,8 @@ struct TerrainSettings {
     // The tiles instead of what `memory` allows: level T and level-T cubes per tile side (tests and
     // benchmarks show the output does not depend on them).
     std::optional<std::array<uint32_t, 2>> tiles;
+    // Imagery draped over the ground as per-cube textures (preprocess/terrain_texture.h).
+    std::optional<TextureSettings> texture;
 };
 
 // Builds `output` from the DEM `files` (one raster, or the tiles of one grid). The report's stage

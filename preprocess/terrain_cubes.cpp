@@ -135,7 +135,9 @@ CubeData CubeEncoder::cube_data(const Cube& cube, const TerrainLevel& level, con
         const double* p = level.at(id);
         for (int a = 0; a < 3; ++a) {
             const double low = f_.origin[a] + cell[a] * size;
-            needed_ = std::max(needed_, std::max({0.0, low - p[a], p[a] - low - size}) / size);
+            const double outside = std::max({0.0, low - p[a], p[a] - low - size}) / size;
+            needed_ = std::max(needed_, outside);
+            if (a < 2) overhang_xy_ = std::max(overhang_xy_, outside);
             const int64_t stored = build::lattice_offset(f_, p[a], a, l, cell[a]);
             if (stored < 0 || stored > 0xFFFF)
                 throw InputError(name_ + ": ground too steep for its cubes (a vertex of level " + std::to_string(l) +

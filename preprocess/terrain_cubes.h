@@ -58,6 +58,9 @@ public:
     void write(const std::vector<const Cube*>& cubes, std::vector<CubeData>& data, uint32_t level);
     // The σ0 the vertices need: their distance to their cube's cell (÷ s_l) and to their parent (÷ s_{l+1}).
     double sigma0_needed() const { return needed_; }
+    // How far the vertices lie outside their cube's cell in x and y (÷ s_l): the margin of the cubes'
+    // textures (preprocess/cube_textures.h).
+    double texture_margin_needed() const { return overhang_xy_; }
 
 private:
     const build::Frame& f_;
@@ -69,7 +72,7 @@ private:
     std::vector<float> normals_;
     const CubeDistances *forward_ = nullptr, *coverage_ = nullptr;
     unsigned threads_;
-    double needed_ = 0;
+    double needed_ = 0, overhang_xy_ = 0;
 };
 
 // Gives each parent the vertices its children need and it lacks, then encodes the children, parent by

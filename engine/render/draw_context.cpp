@@ -13,6 +13,8 @@ void DrawContext::apply(const DrawCall& call) {
     call.program.use();
     for (uint32_t binding = 0; binding < kStorageBindings; ++binding)
         if (call.storage[binding]) call.storage[binding]->bind_base(GL_SHADER_STORAGE_BUFFER, binding);
+    for (uint32_t unit = 0; unit < kTextureUnits; ++unit)
+        if (call.textures[unit]) glBindTextureUnit(unit, call.textures[unit]);
     vertex_array.bind();
     if (call.indices) glVertexArrayElementBuffer(vertex_array.id(), call.indices->id());
     if (call.wireframe) glPolygonMode(GL_FRONT_AND_BACK, GL_LINE);

@@ -55,9 +55,11 @@ Renderer::Renderer()
 
 void Renderer::upload_lights(const RenderList& list, const Camera& camera) {
     LightsBlock block{};
-    // A scene without lights gets a headlight from over the viewer's shoulder and some ambient.
+    // A scene without lights gets a headlight from over the viewer's shoulder and some ambient; one
+    // with an ambient light alone is lit by it alone (a draped orthophoto under ambient 1 shows its
+    // own colours).
     block.ambient = glm::vec4(list.has_ambient ? list.ambient : glm::vec3(0.15f), 0.0f);
-    if (list.lights.empty()) {
+    if (list.lights.empty() && !list.has_ambient) {
         const glm::dvec3 from_above = camera.orientation * glm::normalize(glm::dvec3(0.3, -0.5, -1.0));
         block.direction[0] = glm::vec4(glm::vec3(from_above), 0.0f);
         block.radiance[0] = glm::vec4(0.85f, 0.85f, 0.85f, 0.0f);

@@ -234,7 +234,7 @@ struct Museum {
 Museum museum(const Options& o) {
     Museum m;
     const auto probe = strata::HlodModel::open(o.model);
-    for (const strata::HlodCube& cube : probe->cubes()) m.decoded += strata::HlodModel::cube_bytes_bound(probe->header(), cube.node);
+    for (const strata::HlodCube& cube : probe->cubes()) m.decoded += strata::HlodModel::cube_bytes_bound(probe->header(), cube.node, probe->texture_bytes());
     if (!o.shared) m.decoded *= uint64_t(o.instances);
     const strata::Box b = probe->bound();
     const double spacing = 2.5 * b.radius();

@@ -460,7 +460,7 @@ TEST_F(StreamingRender, FullDetailFramesEqualTheWholeModelsFromAnyCacheThatHolds
     uint64_t largest_bound = 0;
     {
         const auto model = HlodModel::open(test::bunny_hlod());
-        for (const HlodCube& cube : model->cubes()) largest_bound = std::max(largest_bound, HlodModel::cube_bytes_bound(model->header(), cube.node));
+        for (const HlodCube& cube : model->cubes()) largest_bound = std::max(largest_bound, HlodModel::cube_bytes_bound(model->header(), cube.node, model->texture_bytes()));
     }
     cache.set_budget(working_set + tables + largest_bound);
     EXPECT_EQ(full_detail_frame(HlodModel::open(test::bunny_hlod())), reference) << "within a budget that just holds it";

@@ -1,0 +1,247 @@
+// A terrain's imagery (issue 17 §2): the BC1 codec and its mips, the texture section read back against
+// the orthophoto's own pixels, a draped orthophoto rendered under ambient light alone as the
+// orthophoto, and no pop where a textured cube switches to its children. The real data: Olinda's DEM
+// and the Landsat 7 image of the same ground (bands 3, 2, 1: red, green, blue), from data/.
+#include <gtest/gtest.h>
+
+#include <gdal_priv.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+#include "engine/gl/context.h"
+#include "engine/gl/framebuffer.h"
+#include "engine/render/renderer.h"
+#include "engine/scene/cull_visitor.h"
+#include "engine/scene/light.h"
+#include "engine/scene/node.h"
+#include "nodes/hlod_model.h"
+#include "preprocess/cube_textures.h"
+#include "preprocess/georeference.h"
+#include "preprocess/hlod_verify.h"
+#include "preprocess/mesh.h"
+#include "preprocess/terrain_build.h"
+#include "tests/support/test_meshes.h"
+
+namespace strata {
+namespace {
+
+const std::filesystem::path kData = std::filesystem::path(STRATA_SOURCE_DIR) / "data";
+
+double linear_to_srgb(double c) { return c <= 0.0031308 ? 12.92 * c : 1.055 * std::pow(c, 1 / 2.4) - 0.055; }
+
+// The Landsat image's red, green and blue (bands 3, 2, 1), read with GDAL, sampled bilinearly at
+// CRS positions (its pixel centres at whole pixels + ½).
+class Orthophoto {
+public:
+    Orthophoto() {
+        GDALAllRegister();
+        std::unique_ptr<GDALDataset> d(GDALDataset::Open((kData / "olinda_l7.tif").c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY));
+        if (!d) return;
+        width_ = d->GetRasterXSize(), height_ = d->GetRasterYSize();
+        d->GetGeoTransform(g_.data());
+        rgb_.resize(size_t(width_) * height_ * 3);
+        const int bands[3] = {3, 2, 1};
+        for (int c = 0; c < 3; ++c)
+            EXPECT_EQ(d->GetRasterBand(bands[c])->RasterIO(GF_Read, 0, 0, width_, height_, rgb_.data() + c, width_, height_, GDT_Float32,
+                                                           3 * sizeof(float), GSpacing(3 * sizeof(float)) * width_, nullptr),
+                      CE_None);
+    }
+    bool loaded() const { return !rgb_.empty(); }
+    // The colour at a CRS position, or nothing outside the image (a pixel's margin inside its edge).
+    std::optional<std::array<double, 3>> at(double x, double y) const {
+        const double u = (x - g_[0]) / g_[1] - 0.5, v = (y - g_[3]) / g_[5] - 0.5;
+        if (!(u >= 0.5 && v >= 0.5 && u <= width_ - 1.5 && v <= height_ - 1.5)) return std::nullopt;
+        const int a = int(u), b = int(v);
+        const double fu = u - a, fv = v - b;
+        std::array<double, 3> out{};
+        for (int c = 0; c < 3; ++c) {
+            auto px = [&](int dx, int dy) { return double(rgb_[(size_t(b + dy) * width_ + size_t(a + dx)) * 3 + size_t(c)]); };
+            out[size_t(c)] = (px(0, 0) * (1 - fu) + px(1, 0) * fu) * (1 - fv) + (px(0, 1) * (1 - fu) + px(1, 1) * fu) * fv;
+        }
+        return out;
+    }
+
+private:
+    int width_ = 0, height_ = 0;
+    std::array<double, 6> g_{};
+    std::vector<float> rgb_;
+};
+
+class TerrainTexture : public ::testing::Test {
+protected:
+    void SetUp() override {
+        if (!std::filesystem::exists(kData / "olinda_dem.tif") || !std::filesystem::exists(kData / "olinda_l7.tif"))
+            GTEST_SKIP() << "data/olinda_dem.tif or olinda_l7.tif missing: run scripts/setup.sh";
+    }
+    // Olinda's terrain, cubes of 16 cells (4 levels), with the image draped.
+    std::filesystem::path textured(uint32_t size = 0) {
+        const std::filesystem::path out = dir_ / ("olinda_" + std::to_string(size) + ".hlod");
+        if (!std::filesystem::exists(out)) {
+            TerrainSettings settings;
+            settings.cube_cells = 16;
+            settings.texture = TextureSettings{kData / "olinda_l7.tif", {3, 2, 1}, size};
+            build_terrain({kData / "olinda_dem.tif"}, out, settings, "olinda_dem.tif");
+        }
+        return out;
+    }
+    test::TempDir dir_;
+};
+
+TEST(Bc1, MipsAverageInLinearLightNotInSrgbBytes) {
+    // A checkerboard of black and white texels: its half-size mip is the linear mean, 0.5, which sRGB
+    // stores as 188 (averaging the bytes would give 128, visibly darker from afar).
+    std::vector<uint8_t> rgb(8 * 8 * 3);
+    for (uint32_t t = 0; t < 64; ++t) std::fill_n(&rgb[3 * t], 3, uint8_t((t % 8 + t / 8) % 2 ? 255 : 0));
+    const std::vector<uint8_t> chain = encode_bc1_chain(rgb, 8);
+    ASSERT_EQ(chain.size(), TextureLayout{.size = 8}.chain_bytes());
+    ASSERT_EQ(TextureLayout{.size = 8}.mip_count(), 2u);
+    const std::vector<uint8_t> mip1 = decode_bc1(std::span(chain).subspan(TextureLayout::bc1_bytes(8)), 4);
+    for (uint8_t v : mip1) EXPECT_NEAR(int(v), 188, 3);
+    // Mip 0 keeps the checkerboard: two colours, each exact in 5:6:5.
+    const std::vector<uint8_t> mip0 = decode_bc1(std::span(chain).first(TextureLayout::bc1_bytes(8)), 8);
+    for (size_t i = 0; i < mip0.size(); ++i) EXPECT_EQ(mip0[i], rgb[i]) << "byte " << i;
+}
+
+TEST_F(TerrainTexture, EveryCubesTextureIsTheOrthophotoOverItsFootprint) {
+    const Orthophoto image;
+    ASSERT_TRUE(image.loaded());
+    auto model = HlodModel::load(textured());
+    ASSERT_NE(model->textures(), nullptr);
+    const TextureLayout& layout = model->textures()->layout();
+    EXPECT_GE(layout.size, 32u);
+    EXPECT_GT(layout.margin, 0.0f);  // the grid's cells overhang the octree's cells
+    EXPECT_LT(layout.margin, 0.2f);
+    const HlodHeader& h = model->header();
+    const Georeference& geo = *model->georeference();
+    // Mean absolute difference, in 8-bit steps, between each cube's mip 0 and the image under its
+    // texels; and the same with the texture upside down, which must be far worse.
+    double sum = 0, flipped = 0;
+    uint64_t texels = 0;
+    for (const HlodCube& cube : model->cubes()) {
+        ASSERT_EQ(cube.data->texture.size(), layout.chain_bytes());
+        const std::vector<uint8_t> rgb = decode_bc1(std::span(cube.data->texture).first(TextureLayout::bc1_bytes(layout.size)), layout.size);
+        const double s = h.cube_size(cube.node.level), span = 1 + 2 * double(layout.margin);
+        for (uint32_t r = 0; r < layout.size; ++r)
+            for (uint32_t c = 0; c < layout.size; ++c) {
+                const double x = h.origin[0] + (cube.node.i - layout.margin + span * (c + 0.5) / layout.size) * s;
+                const double y = h.origin[1] + (cube.node.j - layout.margin + span * (r + 0.5) / layout.size) * s;
+                const std::array<double, 3> crs = geo.model_to_crs({x, y, 0});
+                const auto expected = image.at(crs[0], crs[1]);
+                if (!expected) continue;
+                for (int ch = 0; ch < 3; ++ch) {
+                    sum += std::abs(rgb[(size_t(r) * layout.size + c) * 3 + size_t(ch)] - (*expected)[size_t(ch)]);
+                    flipped += std::abs(rgb[(size_t(layout.size - 1 - r) * layout.size + c) * 3 + size_t(ch)] - (*expected)[size_t(ch)]);
+                }
+                ++texels;
+            }
+    }
+    ASSERT_GT(texels, 100000u);
+    const double mean = sum / (3.0 * texels), mean_flipped = flipped / (3.0 * texels);
+    EXPECT_LT(mean, 4.0) << "BC1 and resampling cost a few steps, no more";
+    EXPECT_GT(mean_flipped, 2.5 * mean) << "the control: the image upside down";
+    EXPECT_NO_THROW(verify_hlod(HlodFile(textured())));
+}
+
+TEST_F(TerrainTexture, ACorruptTextureIsNamedWhenItsCubeLoads) {
+    const std::filesystem::path file = textured();
+    const std::filesystem::path bad = dir_ / "bad.hlod";
+    std::filesystem::copy_file(file, bad);
+    HlodFile probe(bad);
+    const HlodSection* section = probe.find_section(kTexturesTag);
+    ASSERT_NE(section, nullptr);
+    {
+        std::fstream f(bad, std::ios::in | std::ios::out | std::ios::binary);
+        f.seekp(std::streamoff(section->offset + section->size - 10));  // inside the last texture
+        f.put(char(0x5a));
+    }
+    try {
+        HlodModel::load(bad);
+        FAIL() << "a corrupt texture loaded";
+    } catch (const std::runtime_error& e) {
+        EXPECT_NE(std::string(e.what()).find("bad.hlod: the texture of cube"), std::string::npos) << e.what();
+    }
+    EXPECT_THROW(verify_hlod(HlodFile(bad)), std::runtime_error);
+}
+
+TEST_F(TerrainTexture, AnImageThatIsNotAnImageOfTheGroundIsRefusedByName) {
+    TerrainSettings settings;
+    settings.cube_cells = 16;
+    auto expect_error = [&](const TextureSettings& texture, const std::string& words) {
+        settings.texture = texture;
+        try {
+            build_terrain({kData / "olinda_dem.tif"}, dir_ / "out.hlod", settings, "olinda_dem.tif");
+            ADD_FAILURE() << "built with " << texture.image;
+        } catch (const InputError& e) {
+            EXPECT_NE(std::string(e.what()).find(words), std::string::npos) << e.what();
+        }
+        EXPECT_FALSE(std::filesystem::exists(dir_ / "out.hlod"));
+    };
+    expect_error({dir_ / "missing.tif", {}, 0}, "missing.tif: no such file");
+    expect_error({kData / "olinda_l7.tif", {7, 2, 1}, 0}, "olinda_l7.tif: has 6 bands, no band 7");
+    expect_error({kData / "olinda_dem.tif", {}, 0}, "olinda_dem.tif: its samples are Float32");
+    // The image of somewhere else: Trinidad's DEM, as bytes, lies an ocean away.
+    const std::filesystem::path elsewhere = dir_ / "elsewhere.tif";
+    test::run_and_capture("gdal_translate -q -ot Byte -scale -a_srs EPSG:4326 '" + (kData / "trinidad.nc").string() + "' '" + elsewhere.string() + "'");
+    ASSERT_TRUE(std::filesystem::exists(elsewhere));
+    expect_error({elsewhere, {}, 0}, "elsewhere.tif: the image does not overlap the terrain");
+}
+
+class TexturedRender : public TerrainTexture {
+protected:
+    static void SetUpTestSuite() { context_ = gl::create_headless_context(); }
+    static void TearDownTestSuite() { context_.reset(); }
+    static std::vector<float> render(Node& root, const Camera& camera) {
+        gl::Framebuffer target({.width = camera.width, .height = camera.height, .samples = 1});
+        Renderer renderer;
+        renderer.render(root, camera, target);
+        return target.read_color();
+    }
+    static inline std::unique_ptr<gl::Context> context_;
+};
+
+TEST_F(TexturedRender, UnderAmbientLightAloneTheDrapedImageRendersAsTheImage) {
+    const Orthophoto image;
+    ASSERT_TRUE(image.loaded());
+    auto model = HlodModel::load(textured());
+    auto root = std::make_shared<Group>();
+    root->add(model);
+    auto ambient = std::make_shared<AmbientLight>();
+    ambient->color = {1, 1, 1};
+    root->add(ambient);
+    // Straight down on the middle half of the ground, north up.
+    const Box box = model->bound();
+    const glm::dvec3 centre = box.center();
+    Camera camera;
+    camera.width = camera.height = 256;
+    camera.projection = ProjectionKind::orthographic;
+    camera.ortho_height = 0.5 * (box.hi.y - box.lo.y);
+    camera.look_at({centre.x, centre.y, box.hi.z + 1000}, {centre.x, centre.y, centre.z});
+    const std::vector<float> pixels = render(*root, camera);
+    const Georeference& geo = *model->georeference();
+    double sum = 0, shifted = 0;
+    uint64_t counted = 0;
+    const double metres = camera.ortho_height / camera.height;
+    for (int row = 0; row < camera.height; ++row)
+        for (int column = 0; column < camera.width; ++column) {
+            // Rows top (north) to bottom, as Framebuffer reads them.
+            const double x = centre.x + (column + 0.5 - camera.width / 2.0) * metres, y = centre.y - (row + 0.5 - camera.height / 2.0) * metres;
+            const std::array<double, 3> crs = geo.model_to_crs({x, y, 0});  // the node's frame is the model's
+            const auto expected = image.at(crs[0], crs[1]);
+            const auto away = image.at(crs[0] + 200, crs[1]);
+            if (!expected || !away) continue;
+            for (int c = 0; c < 3; ++c) {
+                const double got = 255 * linear_to_srgb(std::clamp(double(pixels[(size_t(row) * camera.width + column) * 4 + size_t(c)]), 0.0, 1.0));
+                sum += std::abs(got - (*expected)[size_t(c)]);
+                shifted += std::abs(got - (*away)[size_t(c)]);
+            }
+            ++counted;
+        }
+    ASSERT_GT(counted, 30000u);
+    EXPECT_LT(sum / (3.0 * counted), 4.0) << "the image's own colours, to BC1's and the resampling's few steps";
+    EXPECT_GT(shifted, 2.5 * sum) << "the control: the image 200 m (7 pixels) east";
+}
+
+}  // namespace
+}  // namespace strata
