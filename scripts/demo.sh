@@ -19,6 +19,9 @@ mkdir -p data
 "$strata" verify data/trinidad.hlod
 "$strata" info data/trinidad.hlod
 "$strata" run scripts/terrain_flythrough.lua data/trinidad.hlod data/terrain_flythrough 4 960x540 24
+# Olinda's DEM with the Landsat 7 image of the same ground draped over it (bands 3, 2, 1), as a map.
+"$strata" build data/olinda_dem.tif --texture data/olinda_l7.tif --texture-bands 3,2,1 -o data/olinda.hlod
+"$strata" render data/olinda.hlod --top --size 800x800 -o data/olinda_map.png
 echo "demo: wrote data/bunny.hlod, data/bunny.png, data/bunny.exr;" \
      "the flythrough's EXR frames (RGBA + Z) are in data/flythrough/, its video is data/flythrough/flythrough.mp4;" \
-     "the terrain's are in data/terrain_flythrough/"
+     "the terrain's are in data/terrain_flythrough/; Olinda's textured terrain is data/olinda.hlod, its map data/olinda_map.png"

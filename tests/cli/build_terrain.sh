@@ -106,4 +106,18 @@ if [ -s "$trinidad" ]; then
     checks=$((checks + 1)); cmp -s "$WORK/trinidad.hlod" "$WORK/tiled.hlod" || fail "a tiled build differs from the whole raster's"
     expect_status "an unknown elevation unit" 2 "elevation-unit" "$STRATA" build "$trinidad" --crs EPSG:4326 --elevation-unit furlong -o "$WORK/x.hlod"
 fi
+
+# Imagery draped (issue 17 §2): the Landsat 7 image of the same ground, bands 3, 2, 1.
+image=$2/data/olinda_l7.tif
+expect_success "build textured" "$STRATA" build "$dem" --texture "$image" --texture-bands 3,2,1 --cube-cells 16 -o "$WORK/textured.hlod" -q
+expect_success "verify textured" "$STRATA" verify "$WORK/textured.hlod"
+expect_success "info textured" "$STRATA" info "$WORK/textured.hlod"
+checks=$((checks + 1)); grep -q "^textures .* texels a cube, BC1 sRGB with mips" "$WORK/out.txt" || fail "info: no textures: $(cat "$WORK/out.txt")"
+expect_failure "a texture that is not there" "nowhere.tif: no such file" "$STRATA" build "$dem" --texture "$WORK/nowhere.tif" -o "$WORK/x.hlod"
+expect_failure "a band the image lacks" "olinda_l7.tif: has 6 bands, no band 9" "$STRATA" build "$dem" --texture "$image" --texture-bands 9,2,1 -o "$WORK/x.hlod"
+GDAL_PAM_ENABLED=NO gdal_translate -q -co PROFILE=BASELINE "$image" "$WORK/plain.tif"
+expect_failure "an image without georeference" "plain.tif: no georeference" "$STRATA" build "$dem" --texture "$WORK/plain.tif" -o "$WORK/x.hlod"
+expect_usage "a texture for a mesh" "drape imagery over a terrain" "$STRATA" build "$WORK/octa.off" --texture "$image" -o "$WORK/x.hlod"
+expect_usage "a texture size that is not a power of two" "power of two" "$STRATA" build "$dem" --texture "$image" --texture-size 100 -o "$WORK/x.hlod"
+checks=$((checks + 1)); [ ! -e "$WORK/x.hlod" ] || fail "a refused texture left $WORK/x.hlod behind"
 finish

@@ -1,12 +1,12 @@
 // Fuzz target: the .hlod reader (preprocess/hlod_format.cpp) as `strata verify` and the viewer use it:
 // open the file (header, section table, MODL, NODE, GEOR, TERR), decode every cube's payload, then check the
-// model as `strata verify` does (a terrain's heights, HGHT, included). Properties: every failure is a std::runtime_error naming the file;
+// model as `strata verify` does (a terrain's heights, HGHT, and textures, TXTR, included). Properties: every failure is a std::runtime_error naming the file;
 // nothing crashes or allocates without bound.
 //
 // The input is a .hlod file. A mutated byte would almost always break a CRC-32C (or the file size the
 // header declares) and stop the reader at the first check, so before the file is written those are
 // recomputed wherever its structure lets them be found (payload CRCs in NODE, block CRCs in HGHT's index
-// and the index's own, each section's CRC, the declared size, the header CRC; FORMAT.md §3–4). The reader itself is unchanged, and the same inputs
+// and texture CRCs in TXTR's, and those indexes' own, each section's CRC, the declared size, the header CRC; FORMAT.md §3–4). The reader itself is unchanged, and the same inputs
 // replay the same way in the ordinary build.
 #include <cstring>
 #include <stdexcept>
@@ -33,9 +33,12 @@ void repair_node_entries(std::vector<uint8_t>& file, uint64_t offset, uint64_t s
     }
 }
 
-// Fixes a terrain's heights (FORMAT.md §4.8): each block's CRC in the index, then the index's in the head.
-void repair_heights(std::vector<uint8_t>& file, uint64_t offset, uint64_t size) {
-    constexpr uint64_t kHead = 56, kEntry = 16, kCountAt = 40, kIndexCrcAt = 48;
+// Fixes a section indexed by 16-byte entries (u64 offset from the section, u32 size, u32 CRC) after a
+// head of `kHead` bytes holding their count and the index's CRC: a terrain's heights (FORMAT.md §4.8,
+// its blocks) and a model's textures (§4.9, one a cube). Each entry's CRC, then the index's.
+template <uint64_t kHead, uint64_t kCountAt, uint64_t kIndexCrcAt>
+void repair_index(std::vector<uint8_t>& file, uint64_t offset, uint64_t size) {
+    constexpr uint64_t kEntry = 16;
     if (size < kHead) return;
     const uint64_t count = get<uint64_t>(file, offset + kCountAt);
     if (count > (size - kHead) / kEntry) return;
@@ -59,7 +62,8 @@ void repair_checksums(std::vector<uint8_t>& file) {
             const uint64_t offset = get<uint64_t>(file, entry + kEntryOffsetAt), size = get<uint64_t>(file, entry + kEntrySizeAt);
             if (!inside(file, offset, size)) continue;
             if (pass == 0 && std::memcmp(&file[entry], "NODE", 4) == 0) repair_node_entries(file, offset, size);
-            if (pass == 0 && std::memcmp(&file[entry], "HGHT", 4) == 0) repair_heights(file, offset, size);
+            if (pass == 0 && std::memcmp(&file[entry], "HGHT", 4) == 0) repair_index<56, 40, 48>(file, offset, size);
+            if (pass == 0 && std::memcmp(&file[entry], "TXTR", 4) == 0) repair_index<32, 16, 24>(file, offset, size);
             if (pass == 1) put(file, entry + kEntryCrcAt, strata::crc32c(file.data() + offset, size));
         }
     std::vector<uint8_t> covered(file.begin(), file.begin() + kHeaderCrcAt);

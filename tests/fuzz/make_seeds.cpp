@@ -11,6 +11,7 @@
 
 #include "engine/path/camera_path.h"
 #include "engine/path/osg_path.h"
+#include "preprocess/cube_textures.h"
 #include "preprocess/hlod_builder.h"
 #include "preprocess/hlod_format.h"
 #include "preprocess/mesh_io.h"
@@ -143,6 +144,12 @@ void georeferenced_copy(const fs::path& from, const fs::path& to, std::optional<
         strata::HeightSectionWriter section(writer, 7, 5, {}, to.string());
         section.add_band(heights, 5, 1);
         section.finish();
+        // And a texture per cube (section TXTR): 8 × 8 texels, a gradient.
+        strata::TextureSectionWriter textures(writer, {.size = 8, .margin = 0.0625f});
+        std::vector<uint8_t> rgb(8 * 8 * 3);
+        for (size_t t = 0; t < rgb.size(); ++t) rgb[t] = uint8_t(t * 5);
+        for (const strata::HlodNode& node : file.nodes()) textures.add(node.level, node.i, node.j, node.k, strata::encode_bc1_chain(rgb, 8));
+        textures.finish();
     }
     writer.finish(header);
 }

@@ -16,6 +16,7 @@
 #include "engine/scene/cull_visitor.h"
 #include "engine/scene/light.h"
 #include "engine/scene/node.h"
+#include "engine/stream/stream_cache.h"
 #include "nodes/hlod_model.h"
 #include "preprocess/cube_textures.h"
 #include "preprocess/georeference.h"
@@ -241,6 +242,114 @@ TEST_F(TexturedRender, UnderAmbientLightAloneTheDrapedImageRendersAsTheImage) {
     ASSERT_GT(counted, 30000u);
     EXPECT_LT(sum / (3.0 * counted), 4.0) << "the image's own colours, to BC1's and the resampling's few steps";
     EXPECT_GT(shifted, 2.5 * sum) << "the control: the image 200 m (7 pixels) east";
+}
+
+// Textures stream with their cubes, in the one budget: a streamed model's full-detail frame is the
+// loaded model's, and what the cache holds counts every resident cube's texture twice (its bytes on
+// the CPU and its layer on the GPU).
+TEST_F(TexturedRender, TexturesStreamWithTheirCubesInTheBudget) {
+    const std::filesystem::path file = textured();
+    auto frame = [](const std::shared_ptr<HlodModel>& model, FrameStats* stats) {
+        model->set_pixel_error(1.0);
+        auto root = std::make_shared<Group>();
+        root->add(model);
+        Camera camera;
+        camera.width = camera.height = 160;
+        const Box box = model->bound();
+        camera.look_at(box.center() + glm::dvec3(0, -0.4, 0.5) * (box.hi.x - box.lo.x), box.center());
+        // Clip planes of its own: the two models' bounds differ (a streamed one's is the input's box).
+        camera.near_clip = 100, camera.far_clip = 1e5;
+        gl::Framebuffer target({.width = camera.width, .height = camera.height, .samples = 1});
+        Renderer renderer;
+        RenderSettings settings;
+        settings.full_detail = true;
+        const FrameStats s = renderer.render(*root, camera, target, settings);
+        if (stats) *stats = s;
+        return target.read_color();
+    };
+    const std::vector<float> reference = frame(HlodModel::load(file), nullptr);
+    auto model = HlodModel::open(file);  // through the renderer's cache, StreamCache::shared()
+    FrameStats stats;
+    const auto got = frame(model, &stats);
+    // Not bit for bit: a streamed terrain's full-detail frame and the loaded one's differ by a few
+    // pixels' rounding even untextured (to be found); the textures must not add more than that.
+    size_t differ = 0;
+    for (size_t p = 0; p < got.size(); p += 4)
+        for (size_t c = 0; c < 3; ++c)
+            if (std::abs(got[p + c] - reference[p + c]) > 4.0f / 255) {
+                ++differ;
+                break;
+            }
+    EXPECT_LT(double(differ) / double(got.size() / 4), 0.005);
+    model->sync_residency();
+    uint64_t resident = 0;
+    for (const HlodCube& cube : model->cubes())
+        if (cube.data) {
+            ++resident;
+            EXPECT_EQ(cube.data->texture.size(), model->texture_bytes());
+        }
+    EXPECT_GT(resident, 0u);
+    EXPECT_GE(stats.memory_resident, resident * 2 * model->texture_bytes());
+    EXPECT_LE(stats.memory_resident, StreamCache::shared()->budget());
+}
+
+// The pop check (DESIGN.md §6) over a textured terrain: just before and just after a cube is replaced
+// by its children the images agree, since the children's texels blend into the parent's with the
+// morph's λ as their positions do; lit by ambient light alone, what shows is the imagery.
+TEST_F(TexturedRender, NoPopWhenATexturedCubeIsReplacedByItsChildren) {
+    auto model = HlodModel::load(textured());
+    const double kappa0 = std::max(2.5, model->min_kappa0());
+    model->set_kappa0(kappa0);
+    const uint32_t level = model->header().max_level - 1;
+    uint32_t chosen = kNoCube;
+    for (uint32_t c = 0; c < model->cubes().size(); ++c) {
+        const HlodCube& cube = model->cubes()[c];
+        if (cube.node.level == level && (chosen == kNoCube || cube.data->triangle_count() > model->cubes()[chosen].data->triangle_count()))
+            chosen = c;
+    }
+    ASSERT_NE(chosen, kNoCube);
+    const Box cell = model->cell(model->cubes()[chosen].node);
+    const double s = model->header().cube_size(level);
+    auto root = std::make_shared<Group>();
+    root->add(model);
+    auto ambient = std::make_shared<AmbientLight>();
+    ambient->color = {1, 1, 1};
+    root->add(ambient);
+    const glm::dvec3 centre = cell.center() + model->origin();
+    auto render_from = [&](double factor, bool morph, bool& selected) {
+        model->set_morph(morph);
+        Camera camera;
+        camera.width = camera.height = 200;
+        camera.fov_y_degrees = 40;
+        camera.look_at({centre.x, centre.y, cell.hi.z + model->origin().z + kappa0 * s * factor}, centre);
+        RenderList list;
+        auto [near, far] = camera.clip_planes_for(root->bound());
+        CullVisitor cull(camera, camera.view_matrix(), camera.projection_matrix(near, far), list);
+        root->accept(cull);
+        selected = false;
+        for (uint32_t c : list.item_data) selected |= c == chosen;
+        return render(*root, camera);
+    };
+    auto differing = [](const std::vector<float>& a, const std::vector<float>& b) {
+        size_t differ = 0;
+        for (size_t p = 0; p < a.size(); p += 4)
+            for (size_t c = 0; c < 3; ++c)
+                if (std::abs(a[p + c] - b[p + c]) > 1.0f / 255) {
+                    ++differ;
+                    break;
+                }
+        return double(differ) / double(a.size() / 4);
+    };
+    bool before_selected = false, after_selected = true;
+    const auto before = render_from(1 + 1e-6, true, before_selected);
+    const auto after = render_from(1 - 1e-6, true, after_selected);
+    ASSERT_TRUE(before_selected) << "just outside the switch distance the cube itself is drawn";
+    ASSERT_FALSE(after_selected) << "just inside it its children are";
+    EXPECT_LE(differing(before, after), 0.001);
+    // The control: without the morph (and its blend) the switch shows.
+    const auto before_plain = render_from(1 + 1e-6, false, before_selected);
+    const auto after_plain = render_from(1 - 1e-6, false, after_selected);
+    EXPECT_GT(differing(before_plain, after_plain), 0.01);
 }
 
 }  // namespace
