@@ -590,9 +590,9 @@ uint64_t bytes_to_count(const HlodGpu& gpu, CubesGpu& cubes, ScenePool& pool, co
 }  // namespace
 
 HlodModel::TableBytes HlodModel::gpu_tables_per_owner(uint64_t cubes) {
-    // Per cube: its record, links and colour offsets on the GPU; its placement and place in
-    // placed_cubes (reserved whole) on the CPU.
-    const uint64_t gpu = cubes * (sizeof(std::array<uint32_t, 4>) + 28 * sizeof(uint32_t) + sizeof(std::array<int32_t, 2>));
+    // Per cube: its record, links, colour offsets and (a textured model's) texture layer on the GPU;
+    // its placement and place in placed_cubes (reserved whole) on the CPU.
+    const uint64_t gpu = cubes * (sizeof(std::array<uint32_t, 4>) + 28 * sizeof(uint32_t) + sizeof(std::array<int32_t, 2>) + sizeof(uint32_t));
     return {gpu + cubes * (sizeof(PlacedCube) + sizeof(uint32_t)), gpu};
 }
 

@@ -10,6 +10,8 @@
 #include <optional>
 #include <unordered_map>
 
+#include <unistd.h>
+
 #include "preprocess/byte_size.h"
 #include "preprocess/elevation_raster.h"
 #include "preprocess/error_bound.h"
@@ -515,7 +517,8 @@ BuildReport build_terrain(const std::vector<std::filesystem::path>& files, const
     if (settings.texture) {
         // The vertices' overhang, and the lattice's rounding of them (half a step, 2^-16·s_l) to spare.
         const float margin = float(out.texture_margin + std::ldexp(1.0, -14));
-        const TextureReport textures = build_terrain_textures(*settings.texture, header, margin, out.writer, threads, progress);
+        const std::filesystem::path scratch = output.string() + std::string(HlodWriter::kTempMarker) + std::to_string(::getpid()) + ".image.vrt";
+        const TextureReport textures = build_terrain_textures(*settings.texture, header, margin, out.writer, scratch, threads, progress);
         report.texture_size = textures.layout.size;
         report.texture_bytes = textures.stored_bytes;
         report.texture_seconds = textures.seconds;

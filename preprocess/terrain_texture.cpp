@@ -11,6 +11,7 @@
 #include <chrono>
 #include <cmath>
 #include <mutex>
+#include <utility>
 
 #include "preprocess/gdal_dataset.h"
 #include "preprocess/georeference.h"
@@ -31,6 +32,11 @@ const std::array<uint8_t, 3> kNoImage{128, 128, 128};  // where the image has no
 class Image {
 public:
     explicit Image(const TextureSettings& settings);
+    // An image larger than a few thousand pixels without overviews would be read whole for every
+    // coarse cube; this reads it once to average its overviews into `scratch` (a VRT over the image,
+    // and its .ovr: a third of the image's pixels), removed with the Image.
+    void add_overviews(const std::filesystem::path& scratch, const Progress& progress);
+    ~Image();
     const std::string& name() const { return name_; }
     const std::string& crs() const { return crs_; }
     int width() const { return width_; }
@@ -44,7 +50,9 @@ public:
     void read(int x, int y, int w, int h, int bw, int bh, std::vector<float>& rgb, std::vector<float>& coverage) const;
 
 private:
-    DatasetPtr dataset_;
+    DatasetPtr source_;   // the image, while the VRT with its overviews reads it
+    DatasetPtr dataset_;  // what the reads read: the image, or that VRT
+    std::filesystem::path scratch_;
     std::string name_, crs_;
     std::array<double, 6> inverse_{};
     std::vector<int> bands_;
@@ -83,6 +91,40 @@ Image::Image(const TextureSettings& settings) : dataset_(open_dataset(settings.i
     crs_ = wkt;
     CPLFree(wkt);
     width_ = d.GetRasterXSize(), height_ = d.GetRasterYSize();
+}
+
+void Image::add_overviews(const std::filesystem::path& scratch, const Progress& progress) {
+    constexpr int kLargest = 4096, kSmallestOverview = 256;
+    if (std::max(width_, height_) <= kLargest || dataset_->GetRasterBand(bands_[0])->GetOverviewCount() > 0) return;
+    QuietGdal quiet;
+    GDALDriver* vrt = GetGDALDriverManager()->GetDriverByName("VRT");
+    DatasetPtr copy(vrt ? vrt->CreateCopy(scratch.c_str(), dataset_.get(), FALSE, nullptr, nullptr, nullptr) : nullptr);
+    if (!copy) throw InputError(name_ + ": cannot make its overviews in " + scratch.string() + QuietGdal::last());
+    scratch_ = scratch;
+    std::vector<int> factors;
+    for (int f = 2; std::max(width_, height_) / f >= kSmallestOverview; f *= 2) factors.push_back(f);
+    struct Report {
+        const Progress* progress;
+        bool cancelled = false;
+    } report{&progress};
+    auto on_progress = [](double done, const char*, void* data) -> int {
+        auto* r = static_cast<Report*>(data);
+        if (r->progress->cancelled()) return r->cancelled = true, FALSE;
+        (*r->progress)("image overviews", done, 1, "");
+        return TRUE;
+    };
+    const CPLErr status = copy->BuildOverviews("AVERAGE", int(factors.size()), factors.data(), 0, nullptr, on_progress, &report, nullptr);
+    if (report.cancelled) throw Cancelled();
+    if (status != CE_None) throw InputError(name_ + ": cannot make its overviews in " + scratch.string() + QuietGdal::last());
+    source_ = std::exchange(dataset_, std::move(copy));
+}
+
+Image::~Image() {
+    dataset_.reset();
+    if (scratch_.empty()) return;
+    std::error_code ignored;
+    std::filesystem::remove(scratch_, ignored);
+    std::filesystem::remove(scratch_.string() + ".ovr", ignored);
 }
 
 void Image::read(int x, int y, int w, int h, int bw, int bh, std::vector<float>& rgb, std::vector<float>& coverage) const {
@@ -208,9 +250,10 @@ double pixels_per_unit(const HlodHeader& header, const Georeference& geo, const 
 void check_texture_image(const TextureSettings& settings) { Image image(settings); }
 
 TextureReport build_terrain_textures(const TextureSettings& settings, const HlodHeader& header, float margin, HlodWriter& writer,
-                                     unsigned threads, const Progress& progress) {
+                                     const std::filesystem::path& scratch, unsigned threads, const Progress& progress) {
     const auto start = std::chrono::steady_clock::now();
-    const Image image(settings);
+    Image image(settings);
+    image.add_overviews(scratch, progress);
     const Georeference geo(header, image.name());
     TextureReport report;
     report.image = image.name();

@@ -37,8 +37,10 @@ void check_texture_image(const TextureSettings& settings);
 
 // Writes the section TXTR for the cubes `writer` holds, of the terrain `header` describes (its
 // georeference places the image), whose vertices lie within `margin`·s_l of their cells in x and y.
-// Throws InputError naming the image when it cannot be read or does not overlap the terrain.
+// `scratch`: where a large image without overviews gets them for the build (a VRT there and its .ovr,
+// removed after). Throws InputError naming the image when it cannot be read or does not overlap the
+// terrain, Cancelled when progress.cancel is raised.
 TextureReport build_terrain_textures(const TextureSettings& settings, const HlodHeader& header, float margin, HlodWriter& writer,
-                                     unsigned threads, const Progress& progress);
+                                     const std::filesystem::path& scratch, unsigned threads, const Progress& progress);
 
 }  // namespace strata

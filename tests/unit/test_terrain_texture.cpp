@@ -189,6 +189,40 @@ TEST_F(TerrainTexture, AnImageThatIsNotAnImageOfTheGroundIsRefusedByName) {
     expect_error({elsewhere, {}, 0}, "elsewhere.tif: the image does not overlap the terrain");
 }
 
+// A large image without overviews gets them for the build, in scratch files beside the output that go
+// with it: the textures are those of the image itself.
+TEST_F(TerrainTexture, ALargeImageIsReadThroughOverviewsMadeForTheBuild) {
+    const std::filesystem::path wide = dir_ / "wide.tif", out_dir = dir_ / "out";
+    std::filesystem::create_directories(out_dir);
+    test::run_and_capture("gdal_translate -q -b 3 -b 2 -b 1 -outsize 5000 400 -r bilinear '" + (kData / "olinda_l7.tif").string() + "' '" + wide.string() + "'");
+    ASSERT_TRUE(std::filesystem::exists(wide));
+    TerrainSettings settings;
+    settings.cube_cells = 16;
+    settings.texture = TextureSettings{wide, {}, 32};
+    std::vector<std::string> stages;
+    Progress progress{.report = [&](std::string_view stage, double, double, std::string_view) {
+        if (stages.empty() || stages.back() != stage) stages.emplace_back(stage);
+    }};
+    build_terrain({kData / "olinda_dem.tif"}, out_dir / "wide.hlod", settings, "olinda_dem.tif", progress);
+    EXPECT_NE(std::find(stages.begin(), stages.end(), "image overviews"), stages.end());
+    std::vector<std::string> left;
+    for (const auto& entry : std::filesystem::directory_iterator(out_dir)) left.push_back(entry.path().filename().string());
+    EXPECT_EQ(left, std::vector<std::string>{"wide.hlod"});
+    EXPECT_NO_THROW(verify_hlod(HlodFile(out_dir / "wide.hlod")));
+    // The root's texture, from the coarsest overview, against the one a build from the small image makes.
+    const auto a = HlodModel::load(out_dir / "wide.hlod"), b = HlodModel::load(textured(32));
+    const std::vector<uint8_t> wide_root = decode_bc1(std::span(a->cubes()[a->root()].data->texture).first(TextureLayout::bc1_bytes(32)), 32);
+    const std::vector<uint8_t> root = decode_bc1(std::span(b->cubes()[b->root()].data->texture).first(TextureLayout::bc1_bytes(32)), 32);
+    double sum = 0, flipped = 0;  // in 8-bit steps; the control: the root upside down
+    for (size_t i = 0; i < root.size(); ++i) {
+        sum += std::abs(int(wide_root[i]) - int(root[i]));
+        const size_t row = i / (3 * 32), rest = i % (3 * 32);
+        flipped += std::abs(int(wide_root[(31 - row) * 3 * 32 + rest]) - int(root[i]));
+    }
+    EXPECT_LT(sum / double(root.size()), 6.0) << "the stretched copy's resampling costs a few steps";
+    EXPECT_GT(flipped, 2.5 * sum);
+}
+
 class TexturedRender : public TerrainTexture {
 protected:
     static void SetUpTestSuite() { context_ = gl::create_headless_context(); }
