@@ -11,7 +11,6 @@
 #include <chrono>
 #include <cmath>
 #include <mutex>
-#include <utility>
 
 #include "preprocess/gdal_dataset.h"
 #include "preprocess/georeference.h"
@@ -50,8 +49,7 @@ public:
     void read(int x, int y, int w, int h, int bw, int bh, std::vector<float>& rgb, std::vector<float>& coverage) const;
 
 private:
-    DatasetPtr source_;   // the image, while the VRT with its overviews reads it
-    DatasetPtr dataset_;  // what the reads read: the image, or that VRT
+    DatasetPtr dataset_;  // what the reads read: the image, or a VRT over it with overviews
     std::filesystem::path scratch_;
     std::string name_, crs_;
     std::array<double, 6> inverse_{};
@@ -116,7 +114,10 @@ void Image::add_overviews(const std::filesystem::path& scratch, const Progress& 
     const CPLErr status = copy->BuildOverviews("AVERAGE", int(factors.size()), factors.data(), 0, nullptr, on_progress, &report, nullptr);
     if (report.cancelled) throw Cancelled();
     if (status != CE_None) throw InputError(name_ + ": cannot make its overviews in " + scratch.string() + QuietGdal::last());
-    source_ = std::exchange(dataset_, std::move(copy));
+    // Read back from its file: reading the VRT CreateCopy returned, after BuildOverviews, crashes
+    // inside GDAL 3.6 (a texture build over a 6k × 4k image did); the one opened anew does not.
+    copy.reset();
+    dataset_ = open_dataset(scratch);
 }
 
 Image::~Image() {

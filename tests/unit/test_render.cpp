@@ -22,6 +22,7 @@
 #include "nodes/geometry.h"
 #include "nodes/hlod_model.h"
 #include "tests/support/bunny_model.h"
+#include "tests/support/pop_check.h"
 
 namespace strata {
 namespace {
@@ -34,18 +35,6 @@ protected:
     static void TearDownTestSuite() { context_.reset(); }
     void SetUp() override {
         if (test::bunny_hlod().empty()) GTEST_SKIP() << "data/bunny.off missing: run scripts/setup.sh";
-    }
-
-    // Share of pixels whose RGBA differ by more than `tolerance` in some channel.
-    static double differing(const std::vector<float>& a, const std::vector<float>& b, float tolerance) {
-        size_t differ = 0;
-        for (size_t p = 0; p < a.size(); p += 4)
-            for (int c = 0; c < 4; ++c)
-                if (std::abs(a[p + c] - b[p + c]) > tolerance) {
-                    ++differ;
-                    break;
-                }
-        return double(differ) / double(a.size() / 4);
     }
 
     static inline std::unique_ptr<gl::Context> context_;
@@ -259,10 +248,10 @@ TEST_F(Render, ChildrenThatArriveLateFadeInWithoutAPop) {
     std::vector<float> stood_in;
     for (int k = 0; k < 3; ++k) stood_in = frame(false);
     const double change = mean_difference(stood_in, reference);
-    ASSERT_GT(differing(stood_in, reference, 1.0f / 255), 0.02) << "the finest level shows: something to fade in";
+    ASSERT_GT(test::differing(stood_in, reference, 1.0f / 255), 0.02) << "the finest level shows: something to fade in";
     model->set_residency(std::vector<uint8_t>(model->cubes().size(), 1));
     std::vector<float> previous = frame(false);
-    EXPECT_LE(differing(stood_in, previous, 1.0f / 255), 0.001) << "the frame the children arrive draws what the stand-ins drew";
+    EXPECT_LE(test::differing(stood_in, previous, 1.0f / 255), 0.001) << "the frame the children arrive draws what the stand-ins drew";
     FrameStats stats;
     double largest_step = 0;
     int frames = 1;
@@ -284,47 +273,17 @@ TEST_F(Render, NoPopWhenACubeIsReplacedByItsChildren) {
     auto model = HlodModel::load(test::bunny_hlod());
     const double kappa0 = std::max(2.5, model->min_kappa0());
     model->set_kappa0(kappa0);
-    // The level-2 cube with the most triangles: a busy piece of surface.
-    uint32_t chosen = kNoCube;
-    for (uint32_t c = 0; c < model->cubes().size(); ++c) {
-        const HlodCube& cube = model->cubes()[c];
-        if (cube.node.level == 2 && (chosen == kNoCube || cube.data->triangle_count() > model->cubes()[chosen].data->triangle_count()))
-            chosen = c;
-    }
+    const uint32_t chosen = test::busiest_cube(*model, 2);
     ASSERT_NE(chosen, kNoCube);
-    const Box cell = model->cell(model->cubes()[chosen].node);
-    const double s = model->header().cube_size(2);
     auto root = std::make_shared<Group>();
-    root->add(model);  // the node's frame is the scan's: the lattice-frame cell sits at O + cell
-    const glm::dvec3 centre = cell.center() + model->origin();
-    auto render_from = [&](double factor, bool morph, bool& selected) {
-        model->set_morph(morph);
-        Camera camera;
-        camera.width = camera.height = 200;
-        camera.fov_y_degrees = 40;
-        const glm::dvec3 eye{centre.x, centre.y, cell.hi.z + model->origin().z + kappa0 * s * factor};
-        camera.look_at(eye, centre);
-        RenderList list;
-        auto [near, far] = camera.clip_planes_for(root->bound());
-        CullVisitor cull(camera, camera.view_matrix(), camera.projection_matrix(near, far), list);
-        root->accept(cull);
-        selected = false;
-        for (uint32_t c : list.item_data) selected |= c == chosen;
-        gl::Framebuffer target({.width = 200, .height = 200, .samples = 1});
-        Renderer renderer;
-        renderer.render(*root, camera, target);
-        return target.read_color();
-    };
-    bool before_selected = false, after_selected = true;
-    const auto before = render_from(1 + 1e-6, true, before_selected);
-    const auto after = render_from(1 - 1e-6, true, after_selected);
-    ASSERT_TRUE(before_selected) << "just outside the switch distance the cube itself is drawn";
-    ASSERT_FALSE(after_selected) << "just inside it its children are";
-    EXPECT_LE(differing(before, after, 1.0f / 255), 0.001);
+    root->add(model);
+    const test::PopFrames morphed = test::pop_frames(*root, *model, chosen, kappa0, true);
+    ASSERT_TRUE(morphed.before_selected) << "just outside the switch distance the cube itself is drawn";
+    ASSERT_FALSE(morphed.after_selected) << "just inside it its children are";
+    EXPECT_LE(test::differing(morphed.before, morphed.after, 1.0f / 255), 0.001);
     // The control: without the morph the switch shows.
-    const auto before_plain = render_from(1 + 1e-6, false, before_selected);
-    const auto after_plain = render_from(1 - 1e-6, false, after_selected);
-    EXPECT_GT(differing(before_plain, after_plain, 1.0f / 255), 0.001);
+    const test::PopFrames plain = test::pop_frames(*root, *model, chosen, kappa0, false);
+    EXPECT_GT(test::differing(plain.before, plain.after, 1.0f / 255), 0.001);
 }
 
 // The GPU draws exactly what the CPU twin computes: every drawn vertex's morphed position, bit for

@@ -23,6 +23,7 @@
 #include "preprocess/hlod_verify.h"
 #include "preprocess/mesh.h"
 #include "preprocess/terrain_build.h"
+#include "tests/support/pop_check.h"
 #include "tests/support/test_meshes.h"
 
 namespace strata {
@@ -334,56 +335,20 @@ TEST_F(TexturedRender, NoPopWhenATexturedCubeIsReplacedByItsChildren) {
     auto model = HlodModel::load(textured());
     const double kappa0 = std::max(2.5, model->min_kappa0());
     model->set_kappa0(kappa0);
-    const uint32_t level = model->header().max_level - 1;
-    uint32_t chosen = kNoCube;
-    for (uint32_t c = 0; c < model->cubes().size(); ++c) {
-        const HlodCube& cube = model->cubes()[c];
-        if (cube.node.level == level && (chosen == kNoCube || cube.data->triangle_count() > model->cubes()[chosen].data->triangle_count()))
-            chosen = c;
-    }
+    const uint32_t chosen = test::busiest_cube(*model, model->header().max_level - 1);
     ASSERT_NE(chosen, kNoCube);
-    const Box cell = model->cell(model->cubes()[chosen].node);
-    const double s = model->header().cube_size(level);
     auto root = std::make_shared<Group>();
     root->add(model);
     auto ambient = std::make_shared<AmbientLight>();
     ambient->color = {1, 1, 1};
     root->add(ambient);
-    const glm::dvec3 centre = cell.center() + model->origin();
-    auto render_from = [&](double factor, bool morph, bool& selected) {
-        model->set_morph(morph);
-        Camera camera;
-        camera.width = camera.height = 200;
-        camera.fov_y_degrees = 40;
-        camera.look_at({centre.x, centre.y, cell.hi.z + model->origin().z + kappa0 * s * factor}, centre);
-        RenderList list;
-        auto [near, far] = camera.clip_planes_for(root->bound());
-        CullVisitor cull(camera, camera.view_matrix(), camera.projection_matrix(near, far), list);
-        root->accept(cull);
-        selected = false;
-        for (uint32_t c : list.item_data) selected |= c == chosen;
-        return render(*root, camera);
-    };
-    auto differing = [](const std::vector<float>& a, const std::vector<float>& b) {
-        size_t differ = 0;
-        for (size_t p = 0; p < a.size(); p += 4)
-            for (size_t c = 0; c < 3; ++c)
-                if (std::abs(a[p + c] - b[p + c]) > 1.0f / 255) {
-                    ++differ;
-                    break;
-                }
-        return double(differ) / double(a.size() / 4);
-    };
-    bool before_selected = false, after_selected = true;
-    const auto before = render_from(1 + 1e-6, true, before_selected);
-    const auto after = render_from(1 - 1e-6, true, after_selected);
-    ASSERT_TRUE(before_selected) << "just outside the switch distance the cube itself is drawn";
-    ASSERT_FALSE(after_selected) << "just inside it its children are";
-    EXPECT_LE(differing(before, after), 0.001);
+    const test::PopFrames morphed = test::pop_frames(*root, *model, chosen, kappa0, true);
+    ASSERT_TRUE(morphed.before_selected) << "just outside the switch distance the cube itself is drawn";
+    ASSERT_FALSE(morphed.after_selected) << "just inside it its children are";
+    EXPECT_LE(test::differing(morphed.before, morphed.after, 1.0f / 255), 0.001);
     // The control: without the morph (and its blend) the switch shows.
-    const auto before_plain = render_from(1 + 1e-6, false, before_selected);
-    const auto after_plain = render_from(1 - 1e-6, false, after_selected);
-    EXPECT_GT(differing(before_plain, after_plain), 0.01);
+    const test::PopFrames plain = test::pop_frames(*root, *model, chosen, kappa0, false);
+    EXPECT_GT(test::differing(plain.before, plain.after, 1.0f / 255), 0.01);
 }
 
 }  // namespace
