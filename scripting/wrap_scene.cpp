@@ -16,6 +16,7 @@
 #include "engine/scene/light.h"
 #include "nodes/geometry.h"
 #include "nodes/hlod_model.h"
+#include "preprocess/cube_textures.h"
 #include "preprocess/georeference.h"
 #include "scripting/lua_util.h"
 #include "scripting/runtime.h"
@@ -362,7 +363,7 @@ int hlod_info(lua_State* L) {
     const HlodHeader& h = model.header();
     uint64_t triangles = 0;
     for (const HlodCube& c : model.cubes()) triangles += c.node.level == h.max_level ? c.node.triangle_count : 0;
-    lua_createtable(L, 0, 8);
+    lua_createtable(L, 0, 11);
     lua_pushinteger(L, h.max_level + 1);
     lua_setfield(L, -2, "levels");
     lua_pushinteger(L, lua_Integer(model.cubes().size()));
@@ -385,6 +386,10 @@ int hlod_info(lua_State* L) {
     }
     lua_pushboolean(L, h.terrain.has_value());
     lua_setfield(L, -2, "terrain");
+    if (const CubeTextures* textures = model.textures()) {
+        lua_pushinteger(L, textures->layout().size);
+        lua_setfield(L, -2, "texture_size");
+    }
     return 1;
 }
 

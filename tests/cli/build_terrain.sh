@@ -113,6 +113,10 @@ expect_success "build textured" "$STRATA" build "$dem" --texture "$image" --text
 expect_success "verify textured" "$STRATA" verify "$WORK/textured.hlod"
 expect_success "info textured" "$STRATA" info "$WORK/textured.hlod"
 checks=$((checks + 1)); grep -q "^textures .* texels a cube, BC1 sRGB with mips" "$WORK/out.txt" || fail "info: no textures: $(cat "$WORK/out.txt")"
+texels=$(sed -n 's/^textures *\([0-9]*\) × .*/\1/p' "$WORK/out.txt")
+echo 'local m = require("strata").load(arg[1]); print(m:info().texture_size, require("strata").load(arg[2]):info().texture_size)' > "$WORK/texels.lua"
+expect_success "texture size from Lua" "$STRATA" run "$WORK/texels.lua" "$WORK/textured.hlod" "$WORK/olinda.hlod"
+checks=$((checks + 1)); grep -q "^$texels	nil$" "$WORK/out.txt" || fail "info().texture_size: not $texels and nil: $(cat "$WORK/out.txt")"
 expect_failure "a texture that is not there" "nowhere.tif: no such file" "$STRATA" build "$dem" --texture "$WORK/nowhere.tif" -o "$WORK/x.hlod"
 expect_failure "a band the image lacks" "olinda_l7.tif: has 6 bands, no band 9" "$STRATA" build "$dem" --texture "$image" --texture-bands 9,2,1 -o "$WORK/x.hlod"
 GDAL_PAM_ENABLED=NO gdal_translate -q -co PROFILE=BASELINE "$image" "$WORK/plain.tif"
