@@ -119,6 +119,15 @@ int run_terrain(const BuildOptions& o, const std::vector<std::filesystem::path>&
     TerrainSettings settings = o.terrain;
     settings.threads = o.settings.threads;
     settings.frame = o.frame == "ecef" ? TerrainFrameKind::ecef : TerrainFrameKind::enu;
+    if (o.frame != "enu" && o.frame != "ecef") {
+        try {
+            TerrainFrame::check_crs(o.frame);
+        } catch (const InputError& e) {
+            std::fprintf(stderr, "strata build: %s\n", e.what());
+            return kUsage;
+        }
+        settings.frame_crs = o.frame;
+    }
     if (!o.fill_nodata.empty()) {
         char* end = nullptr;
         const float value = std::strtof(o.fill_nodata.c_str(), &end);
@@ -337,8 +346,8 @@ Command add_build(CLI::App& app) {
                     "Terrains: the unit of elevations when the raster does not say: m, ft or us-ft (default m)")
         ->check(CLI::IsMember({"m", "ft", "us-ft"}));
     sub->add_option("--frame", o->frame,
-                    "Terrains in degrees: enu (a flat tangent plane at the centre, heights up) or ecef (the Earth's curvature kept)")
-        ->check(CLI::IsMember({"enu", "ecef"}))
+                    "Terrains in degrees: enu (a flat tangent plane at the centre, heights up) or ecef (the Earth's curvature kept); "
+                    "or any terrain: a projected CRS in metres (EPSG:N, WKT or PROJ) to reproject it into")
         ->capture_default_str();
     sub->add_option("--cube-cells", o->terrain.cube_cells,
                     "Terrains: cells along a cube's side (even, 8 to 256): larger for very steep ground")

@@ -18,12 +18,15 @@ void print_terrain(const std::shared_ptr<const HlodFile>& file) {
     const HlodHeader& h = file->header();
     const TerrainGrid& t = *h.terrain;
     const double samples = double(t.columns) * double(t.rows);
-    const char* unit = t.frame ? "°" : " m";
+    const char* unit = t.raster_geographic ? "°" : " m";
     std::printf("terrain     %llu × %llu samples, %g × %g%s apart, %llu nodata (%.2g %%), cubes of %u cells\n",
                 (unsigned long long)t.columns, (unsigned long long)t.rows, t.spacing[0], t.spacing[1], unit,
                 (unsigned long long)t.nodata_samples, 100.0 * double(t.nodata_samples) / samples, t.cube_cells);
     if (t.frame == 0)
         std::printf("frame       x east, y north, z up, metres: the CRS's plane from its model origin\n");
+    else if (t.frame == 3)
+        std::printf("frame       x east, y north, z up, metres: reprojected from %s into the CRS's plane, from its model origin\n",
+                    describe_crs(t.raster_crs).c_str());
     else
         std::printf("frame       x east, y north, z up, metres: %s at longitude %.9g°, latitude %.9g°\n",
                     t.frame == 1 ? "enu, the flat tangent plane" : "ecef, the Earth's curvature kept, seen", h.geo_origin[0],
@@ -53,7 +56,7 @@ int run_info(const std::string& path) {
     std::printf("bounds      origin (%g, %g, %g), root cube %g\n", h.origin[0], h.origin[1], h.origin[2], h.root_size);
     if (!h.crs.empty())
         std::printf("georef      %s, %s (%.17g, %.17g, %.17g)\n", describe_crs(h.crs).c_str(),
-                    h.terrain && h.terrain->frame ? "tangent point" : "model origin at", h.geo_origin[0], h.geo_origin[1], h.geo_origin[2]);
+                    h.terrain && h.terrain->tangent_frame() ? "tangent point" : "model origin at", h.geo_origin[0], h.geo_origin[1], h.geo_origin[2]);
     if (h.terrain) print_terrain(shared_file);
     if (const HlodSection* section = file.find_section(kTexturesTag)) {  // FORMAT.md §4.9
         const CubeTextures textures(shared_file, *section, file.nodes().size());

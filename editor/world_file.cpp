@@ -23,7 +23,7 @@ std::optional<Georeference> scene_georeference(const Group& scene, std::string& 
         const auto* model = dynamic_cast<const HlodModel*>(scene.child(c).get());
         if (!model || model->header().crs.empty()) continue;
         const HlodHeader& h = model->header();
-        if (h.terrain && h.terrain->frame != 0) {
+        if (h.terrain && h.terrain->tangent_frame()) {
             why = model->path().filename().string() + " lies in a tangent plane, not in its CRS's plane";
             return std::nullopt;
         }

@@ -6,6 +6,7 @@
 // HlodModel::morphed_positions.
 #include <algorithm>
 #include <array>
+#include <cstdio>
 #include <span>
 #include <string>
 #include <utility>
@@ -464,19 +465,25 @@ uint64_t pool_page_bytes(const HlodModel& model) {
 }
 
 // A page of texture layers: an eighth of a streamed model's budget (8 to 256 MiB), so that a frame's
-// cubes lie on few pages and draw in few runs; for a model loaded whole, its cubes' textures (at most 256 MiB).
+// cubes lie on few pages and draw in few runs; never more than all the model's cubes' textures.
 uint64_t texture_page_bytes(const HlodModel& model) {
     constexpr uint64_t MiB = uint64_t(1) << 20;
-    if (const StreamCache* cache = model.stream_cache()) return std::clamp(cache->budget() / 8, 8 * MiB, 256 * MiB);
-    return std::min(model.cubes().size() * model.texture_bytes(), 256 * MiB);
+    const uint64_t all = model.cubes().size() * model.texture_bytes();
+    if (const StreamCache* cache = model.stream_cache()) return std::min(std::clamp(cache->budget() / 8, 8 * MiB, 256 * MiB), all);
+    return std::min(all, 256 * MiB);
 }
 
 std::unique_ptr<CubesGpu> make_cubes_gpu(const HlodModel& model, ScenePool& pool) {
     auto gpu = std::make_unique<CubesGpu>(pool, model.header().has_colors());
     const auto& cubes = model.cubes();
     if (const CubeTextures* textures = model.textures()) {
-        gpu->textures = std::make_unique<gl::TextureLayers>(textures->layout().size, texture_page_bytes(model));
-        gpu->texture_layers = gl::Buffer(cubes.size() * sizeof(uint32_t), gl::kDynamicStorage);
+        if (gl::TextureLayers::supported()) {
+            gpu->textures = std::make_unique<gl::TextureLayers>(textures->layout().size, texture_page_bytes(model));
+            gpu->texture_layers = gl::Buffer(cubes.size() * sizeof(uint32_t), gl::kDynamicStorage);
+        } else {  // as a reader that skips its textures would (FORMAT.md §4.9)
+            std::fprintf(stderr, "strata: %s: drawn without its textures: this OpenGL driver cannot sample BC1 (S3TC) sRGB textures\n",
+                         model.path().c_str());
+        }
     }
     std::vector<std::array<uint32_t, 4>> records;
     for (const HlodCube& c : cubes) records.push_back({c.node.level, c.node.i, c.node.j, c.node.k});
@@ -525,7 +532,7 @@ void upload_kappas(HlodGpu& gpu, Kappas kappas) {
     gpu.kappas = std::move(kappas);
 }
 
-void set_view_uniforms(const HlodModel& model, const gl::Program& program, HlodGpu& gpu, const DrawContext& context,
+void set_view_uniforms(const HlodModel& model, const gl::Program& program, const CubesGpu& cubes, HlodGpu& gpu, const DrawContext& context,
                        const DrawItem& item) {
     const glm::dmat4 world_from_lattice = item.model * model.lattice_to_node();
     const HlodModel::LatticeAnchor anchor = model.anchor_for(item.model, context.eye);
@@ -560,7 +567,7 @@ void set_view_uniforms(const HlodModel& model, const gl::Program& program, HlodG
     program.set("node_id", unsigned(model.id()));
     program.set("capture", int(model.capture_morph()));
     const bool debug_colours = model.debug_view() == HlodDebugView::levels || model.debug_view() == HlodDebugView::residency;
-    program.set("textured", int(model.textures() && !debug_colours));
+    program.set("textured", int(cubes.textures && !debug_colours));
     if (model.textures()) program.set("texture_margin", model.textures()->layout().margin);
 }
 
@@ -617,7 +624,7 @@ void HlodModel::draw(DrawContext& context, const DrawItem& item) {
     HlodGpu& gpu = context.cache.get<HlodGpu>(*this, [&] { return make_gpu(*this); });
     sync_blocks(*this, cubes);
     if (std::exchange(pool.swept_frame, context.cache.frame()) != context.cache.frame()) sweep_pool(pool);
-    set_view_uniforms(*this, programs.surface, gpu, context, item);
+    set_view_uniforms(*this, programs.surface, cubes, gpu, context, item);
 
     // This frame's commands in the selection's order (front to back) in one indirect buffer, drawn as
     // runs of consecutive cubes on one page. The order is what the frame depends on where triangles

@@ -6,6 +6,18 @@
 #include <stdexcept>
 
 namespace strata {
+namespace {
+
+// How far east of the raster's first sample a longitude lies, in degrees. Longitudes come back in
+// (−180°, 180°]; a raster may start anywhere (0 … 360° grids) and span more than half the globe: east
+// of the first sample by less than a turn.
+double longitude_east_of_first(double longitude, const TerrainGrid& t) {
+    double east = std::remainder(longitude - t.first_sample[0], 360.0);
+    if (east < -0.5 * t.spacing[0] && east + 360 <= double(t.columns - 1) * t.spacing[0] + 0.5 * t.spacing[0]) east += 360;
+    return east;
+}
+
+}  // namespace
 
 struct Georeference::Proj {
     PJ_CONTEXT* context = proj_context_create();
@@ -24,19 +36,19 @@ Georeference::Georeference(const HlodHeader& header, std::string name)
     : name_(std::move(name)), crs_(header.crs), terrain_(header.terrain), proj_(std::make_unique<Proj>()) {
     if (crs_.empty()) throw std::runtime_error(name_ + ": the model has no georeference (it was built from a file without a CRS)");
     std::copy(std::begin(header.geo_origin), std::end(header.geo_origin), geo_origin_.begin());
-    if (terrain_ && terrain_->frame != 0) tangent_ = TangentPlane(terrain_->semi_major, terrain_->inverse_flattening, geo_origin_[0], geo_origin_[1]);
+    if (terrain_ && terrain_->tangent_frame()) tangent_ = TangentPlane(terrain_->semi_major, terrain_->inverse_flattening, geo_origin_[0], geo_origin_[1]);
     proj_log_level(proj_->context, PJ_LOG_NONE);
 }
 
 Georeference::~Georeference() = default;
 
 std::array<double, 3> Georeference::model_to_crs(const std::array<double, 3>& model) const {
-    if (terrain_ && terrain_->frame != 0) return tangent_.geodetic(model, TerrainFrameKind(terrain_->frame));
+    if (terrain_ && terrain_->tangent_frame()) return tangent_.geodetic(model, TerrainFrameKind(terrain_->frame));
     return {geo_origin_[0] + model[0], geo_origin_[1] + model[1], geo_origin_[2] + model[2]};
 }
 
 std::array<double, 3> Georeference::crs_to_model(const std::array<double, 3>& crs) const {
-    if (terrain_ && terrain_->frame != 0) return tangent_.local(crs[0], crs[1], crs[2], TerrainFrameKind(terrain_->frame));
+    if (terrain_ && terrain_->tangent_frame()) return tangent_.local(crs[0], crs[1], crs[2], TerrainFrameKind(terrain_->frame));
     return {crs[0] - geo_origin_[0], crs[1] - geo_origin_[1], crs[2] - geo_origin_[2]};
 }
 
@@ -87,7 +99,17 @@ std::optional<std::array<double, 2>> Georeference::raster_position(double x, dou
     if (!terrain_) return std::nullopt;
     const TerrainGrid& t = *terrain_;
     double east = geo_origin_[0] + x - t.first_sample[0], cy = geo_origin_[1] + y;
-    if (t.frame != 0) {
+    if (t.frame == uint32_t(TerrainFrameKind::reprojected)) {
+        // Back into the raster's CRS, through PROJ; a point PROJ cannot map lies off the raster.
+        std::array<double, 3> at;
+        try {
+            at = transform({geo_origin_[0] + x, geo_origin_[1] + y, height}, t.raster_crs, true);
+        } catch (const std::runtime_error&) {
+            return std::nullopt;
+        }
+        east = t.raster_geographic ? longitude_east_of_first(at[0], t) : at[0] - t.first_sample[0];
+        cy = at[1];
+    } else if (t.tangent_frame()) {
         // The ellipsoid point with these x, y; in ecef, moved until the point `height` above it has them
         // (each step shifts by the tilt of the normal: a few steps reach a micrometre).
         std::array<double, 3> g = tangent_.geodetic({x, y, 0}, TerrainFrameKind::enu);
@@ -96,10 +118,7 @@ std::optional<std::array<double, 2>> Georeference::raster_position(double x, dou
             const std::array<double, 3> at_ground = tangent_.local(g[0], g[1], 0, TerrainFrameKind::enu);
             g = tangent_.geodetic({at_ground[0] + x - at_height[0], at_ground[1] + y - at_height[1], 0}, TerrainFrameKind::enu);
         }
-        // Longitudes come back in (−180°, 180°]; a raster may start anywhere (0 … 360° grids) and span
-        // more than half the globe: east of the first sample by less than a turn.
-        east = std::remainder(g[0] - t.first_sample[0], 360.0);
-        if (east < -0.5 * t.spacing[0] && east + 360 <= double(t.columns - 1) * t.spacing[0] + 0.5 * t.spacing[0]) east += 360;
+        east = longitude_east_of_first(g[0], t);
         cy = g[1];
     }
     const double column = east / t.spacing[0];

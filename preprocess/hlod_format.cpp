@@ -143,8 +143,9 @@ void write_georeference(ByteWriter& w, const HlodHeader& h) {
 
 void write_terrain(ByteWriter& w, const TerrainGrid& t) {
     w.put(t.columns), w.put(t.rows), w.put(t.spacing[0]), w.put(t.spacing[1]), w.put(t.nodata_samples);
-    w.put(t.cube_cells), w.put(uint32_t(t.rows_run_north ? 1 : 0)), w.put(t.frame), w.put(uint32_t(0));
+    w.put(t.cube_cells), w.put(uint32_t((t.rows_run_north ? 1 : 0) | (t.raster_geographic ? 2 : 0))), w.put(t.frame), w.put(uint32_t(0));
     w.put(t.first_sample[0]), w.put(t.first_sample[1]), w.put(t.semi_major), w.put(t.inverse_flattening);
+    if (t.frame == 3) w.put_string(t.raster_crs);
 }
 
 void write_bounds(ByteWriter& w, const HlodHeader& h) {
@@ -912,7 +913,7 @@ void HlodWriter::finish(HlodHeader header) {
     if (!bounds.bytes.empty()) add(kBoundsTag, 0, &bounds.bytes, bounds.bytes.size());
     // A terrain in a frame other than its CRS's plane must not be read by a reader that would take GEOR
     // as an offset in the CRS: its TERR is required.
-    if (!terrain.bytes.empty()) add(kTerrainTag, header.terrain->frame ? kRequiredSection : 0, &terrain.bytes, terrain.bytes.size());
+    if (!terrain.bytes.empty()) add(kTerrainTag, header.terrain->tangent_frame() ? kRequiredSection : 0, &terrain.bytes, terrain.bytes.size());
     for (const SpooledSection& spooled : sections_) {
         char tag[5] = {};
         std::memcpy(tag, spooled.tag.data(), 4);
@@ -1233,7 +1234,7 @@ void HlodFile::read_terrain_section(const HlodSection& section) {
     if (section.size == 56)
         throw std::runtime_error(what + ": a terrain section of 56 bytes, from a development build of 2026-12-06 that kept "
                                  "too little to find heights; rebuild the model from its raster (strata build DEM -o " + path_.string() + ")");
-    const std::vector<uint8_t> bytes = read_section(section, kTerrainBytes);
+    const std::vector<uint8_t> bytes = read_section(section, kTerrainBytes + 4 + kMaxCrsBytes);
     ByteReader r(bytes, what);
     TerrainGrid t;
     t.columns = r.get<uint64_t>(), t.rows = r.get<uint64_t>();
@@ -1245,22 +1246,25 @@ void HlodFile::read_terrain_section(const HlodSection& section) {
     r.get<uint32_t>();  // reserved
     t.first_sample[0] = r.get<double>(), t.first_sample[1] = r.get<double>();
     t.semi_major = r.get<double>(), t.inverse_flattening = r.get<double>();
+    if (t.frame == 3) t.raster_crs = r.get_string(kMaxCrsBytes);
     if (!r.at_end()) throw std::runtime_error(what + " is longer than its fields");
+    if (t.frame == 3 && t.raster_crs.empty()) throw std::runtime_error(what + ": a reprojected terrain without its raster's CRS");
     if (t.columns < 2 || t.rows < 2 || t.columns > (uint64_t(1) << 32) || t.rows > (uint64_t(1) << 32))
         throw std::runtime_error(what + ": a grid of " + std::to_string(t.columns) + " × " + std::to_string(t.rows) + " samples");
     if (!(t.spacing[0] > 0) || !(t.spacing[1] > 0) || !std::isfinite(t.spacing[0]) || !std::isfinite(t.spacing[1]))
         throw std::runtime_error(what + ": sample spacing not a positive number");
     if (t.nodata_samples > t.columns * t.rows) throw std::runtime_error(what + ": more nodata samples than samples");
     if (t.cube_cells < 8 || t.cube_cells > 256 || t.cube_cells % 2) throw std::runtime_error(what + ": cubes of " + std::to_string(t.cube_cells) + " cells");
-    if (flags > 1) throw std::runtime_error(what + ": unknown flags " + std::to_string(flags));
-    if (t.frame > 2) throw std::runtime_error(what + ": frame " + std::to_string(t.frame) + ", which this Strata does not know");
+    if (flags > 3) throw std::runtime_error(what + ": unknown flags " + std::to_string(flags));
+    if (t.frame > 3) throw std::runtime_error(what + ": frame " + std::to_string(t.frame) + ", which this Strata does not know");
     if (!std::isfinite(t.first_sample[0]) || !std::isfinite(t.first_sample[1])) throw std::runtime_error(what + ": the first sample's position is not finite");
     if (!(t.semi_major >= 0) || !(t.inverse_flattening == 0 || t.inverse_flattening > 1) || !std::isfinite(t.semi_major) ||
         !std::isfinite(t.inverse_flattening) ||
-        (t.frame != 0 && !(t.semi_major > 0)))
+        (t.tangent_frame() && !(t.semi_major > 0)))
         throw std::runtime_error(what + ": an ellipsoid of semi-major axis " + std::to_string(t.semi_major) + " m and inverse flattening " +
                                  std::to_string(t.inverse_flattening));
     t.rows_run_north = flags & 1;
+    t.raster_geographic = (flags & 2) || t.tangent_frame();
     header_.terrain = t;
 }
 

@@ -46,8 +46,13 @@ struct TerrainGrid {
     uint32_t cube_cells = 0;          // cells along a cube's side, at every level
     bool rows_run_north = false;      // the raster stores its southern row first: y = spacing[1]·r
     // How samples go into the model (preprocess/terrain_frame.h): 0 the projected CRS's plane (GEOR's
-    // origin + (x, y) is the CRS position), 1 enu and 2 ecef at GEOR's origin (longitude, latitude, height).
+    // origin + (x, y) is the CRS position), 1 enu and 2 ecef at GEOR's origin (longitude, latitude,
+    // height), 3 reprojected into GEOR's CRS (a plane in metres, origin + (x, y) as in 0).
     uint32_t frame = 0;
+    bool raster_geographic = false;  // the raster's CRS is in degrees (always in frames 1 and 2)
+    std::string raster_crs;          // frame 3: the raster's own CRS (EPSG:N or WKT), which its grid is in
+    // Frames 1 and 2: GEOR's origin is a tangent point, not an offset in the CRS.
+    bool tangent_frame() const { return frame == 1 || frame == 2; }
     // The CRS position of the sample at column 0, row 0 (degrees of longitude and latitude in frames 1
     // and 2), and the CRS's ellipsoid (semi-major axis in metres, inverse flattening, 0 for a sphere):
     // what turns model coordinates back into the raster's grid and the CRS without GDAL.

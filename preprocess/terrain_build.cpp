@@ -92,7 +92,7 @@ Grid scan_grid(const ElevationRaster& raster, const TerrainSettings& settings, H
     grid.raster = &raster;
     grid.info = raster.info();
     const RasterInfo& info = grid.info;
-    grid.frame = TerrainFrame::for_raster(info, settings.frame);
+    grid.frame = TerrainFrame::for_raster(info, settings.frame, settings.frame_crs);
     grid.unit = vertical_unit(info, settings.elevation_unit);
     grid.fill = settings.fill;
     grid.low = INFINITY, grid.high = -INFINITY;
@@ -424,7 +424,9 @@ HlodHeader terrain_header(const Grid& grid, const build::Frame& f, uint32_t cube
     header.source = source_name;
     const std::array<double, 3>& geo = grid.frame.geo_origin();
     std::copy(geo.begin(), geo.end(), header.geo_origin);
-    header.crs = info.epsg ? "EPSG:" + std::to_string(*info.epsg) : info.crs_wkt;
+    const std::string raster_crs = info.epsg ? "EPSG:" + std::to_string(*info.epsg) : info.crs_wkt;
+    const bool reprojected = grid.frame.kind() == TerrainFrameKind::reprojected;
+    header.crs = reprojected ? grid.frame.crs() : raster_crs;
     header.has_bounds = true;
     std::copy(grid.lo.begin(), grid.lo.end(), header.bounds_lo);
     std::copy(grid.hi.begin(), grid.hi.end(), header.bounds_hi);
@@ -436,6 +438,8 @@ HlodHeader terrain_header(const Grid& grid, const build::Frame& f, uint32_t cube
                                  .cube_cells = cube_cells,
                                  .rows_run_north = grid.rows_run_north(),
                                  .frame = uint32_t(grid.frame.kind()),
+                                 .raster_geographic = info.geographic,
+                                 .raster_crs = reprojected ? raster_crs : std::string(),
                                  .first_sample = {first[0], first[1]},
                                  .semi_major = info.semi_major,
                                  .inverse_flattening = info.inverse_flattening};
@@ -460,7 +464,14 @@ BuildReport build_terrain(const std::vector<std::filesystem::path>& files, const
     const uint64_t memory = settings.memory ? settings.memory : default_memory_limit();
     limit_raster_cache(memory / 16);
     const ElevationRaster raster = ElevationRaster::open(files, settings.crs);
-    if (settings.texture) check_texture_image(*settings.texture);
+    if (settings.texture) {
+        // In ecef a model (x, y) stands for different ground at different heights: a planar texture
+        // would need each texel's ground height to find its pixel.
+        if (raster.info().geographic && settings.frame_crs.empty() && settings.frame == TerrainFrameKind::ecef)
+            throw InputError(raster.info().name + ": textures are draped in the enu frame or a projected one, not yet in ecef "
+                             "(build with --frame enu, or --frame EPSG:N)");
+        check_texture_image(*settings.texture);
+    }
     const unsigned threads = resolve_thread_count(settings.threads);
     HlodWriter writer(output);
     const Grid grid = scan_grid(raster, settings, writer, threads, progress);

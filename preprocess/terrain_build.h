@@ -31,6 +31,8 @@ struct TerrainSettings {
     std::string elevation_unit;
     // The model's frame for a raster in degrees (preprocess/terrain_frame.h): enu or ecef.
     TerrainFrameKind frame = TerrainFrameKind::enu;
+    // A projected CRS in metres (EPSG:N, WKT, PROJ string) to reproject any raster into instead.
+    std::string frame_crs;
     // Bytes the build may hold; 0: a quarter of physical memory. A raster larger than half of it is
     // built in tiles (each read with a margin), then the coarse levels from one of its levels; never
     // changes a byte of the output.

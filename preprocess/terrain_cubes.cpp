@@ -153,7 +153,12 @@ CubeData CubeEncoder::cube_data(const Cube& cube, const TerrainLevel& level, con
         const uint64_t parent = parent_vertex(level, *coarse, id);
         data.parent_vertex[v] = (*parent_number)[parent];
         const double* q = coarse->at(parent);
-        for (int a = 0; a < 3; ++a) needed_ = std::max(needed_, std::abs(p[a] - q[a]) / f_.cube_size(l + 1));
+        for (int a = 0; a < 3; ++a) {
+            needed_ = std::max(needed_, std::abs(p[a] - q[a]) / f_.cube_size(l + 1));
+            // A morphing vertex lies between v and P(v): the texture must reach its parent too.
+            const double low = f_.origin[a] + cell[a] * size;
+            if (a < 2) overhang_xy_ = std::max(overhang_xy_, std::max({0.0, low - q[a], q[a] - low - size}) / size);
+        }
     }
     data.indices = cube.triangles;
     data.child_triangle_counts = cube.child_counts;

@@ -58,8 +58,8 @@ public:
     void write(const std::vector<const Cube*>& cubes, std::vector<CubeData>& data, uint32_t level);
     // The σ0 the vertices need: their distance to their cube's cell (÷ s_l) and to their parent (÷ s_{l+1}).
     double sigma0_needed() const { return needed_; }
-    // How far the vertices lie outside their cube's cell in x and y (÷ s_l): the margin of the cubes'
-    // textures (preprocess/cube_textures.h).
+    // How far the vertices, and their parents, lie outside their cube's cell in x and y (÷ s_l): the
+    // margin of the cubes' textures (preprocess/cube_textures.h), which a morphing vertex stays within.
     double texture_margin_needed() const { return overhang_xy_; }
 
 private:

@@ -191,17 +191,25 @@ std::array<double, 2> pixel_at(const Footprint& f, uint32_t column, uint32_t row
     return p;
 }
 
+// A texture where the image has no pixel: grey.
+void fill_without_image(std::vector<uint8_t>& rgb, uint32_t size) {
+    rgb.resize(size_t(size) * size * 3);
+    for (size_t t = 0; t < rgb.size(); t += 3) std::copy(kNoImage.begin(), kNoImage.end(), rgb.begin() + ptrdiff_t(t));
+}
+
 // The cube's texture as RGB8, row 0 at the footprint's south edge; false when the image has no pixel
 // under it (it is then grey).
 bool sample_texture(const Footprint& f, const Image& image, uint32_t size, std::vector<uint8_t>& rgb) {
     rgb.resize(size_t(size) * size * 3);
-    const int x0 = std::max(0, int(std::floor(std::max(f.lo[0], -1.0))) - 2), y0 = std::max(0, int(std::floor(std::max(f.lo[1], -1.0))) - 2);
-    const int x1 = std::min(image.width(), int(std::ceil(std::min(f.hi[0], double(image.width()) + 1))) + 2);
-    const int y1 = std::min(image.height(), int(std::ceil(std::min(f.hi[1], double(image.height()) + 1))) + 2);
-    if (x1 <= x0 || y1 <= y0) {
-        for (size_t t = 0; t < rgb.size(); t += 3) std::copy(kNoImage.begin(), kNoImage.end(), rgb.begin() + ptrdiff_t(t));
+    // Off the image (or not a number): no pixel. Otherwise the window's bounds lie within a few pixels
+    // of the image's, so they fit an int.
+    if (!(f.hi[0] >= 0 && f.hi[1] >= 0 && f.lo[0] <= image.width() && f.lo[1] <= image.height())) {
+        fill_without_image(rgb, size);
         return false;
     }
+    const int x0 = std::max(0, int(std::floor(std::max(f.lo[0], 0.0))) - 2), y0 = std::max(0, int(std::floor(std::max(f.lo[1], 0.0))) - 2);
+    const int x1 = std::min(image.width(), int(std::ceil(std::min(f.hi[0], double(image.width())))) + 2);
+    const int y1 = std::min(image.height(), int(std::ceil(std::min(f.hi[1], double(image.height())))) + 2);
     // Read the window at about the texture's density: GDAL averages the pixels a texel covers.
     const int w = x1 - x0, h = y1 - y0;
     const double span = std::max(f.hi[0] - f.lo[0], f.hi[1] - f.lo[1]);
@@ -255,10 +263,15 @@ TextureReport build_terrain_textures(const TextureSettings& settings, const Hlod
     const auto start = std::chrono::steady_clock::now();
     Image image(settings);
     image.add_overviews(scratch, progress);
-    const Georeference geo(header, image.name());
+    const Georeference geo(header, header.source);
     TextureReport report;
     report.image = image.name();
-    const double density = pixels_per_unit(header, geo, image);
+    double density = 0;
+    try {
+        density = pixels_per_unit(header, geo, image);
+    } catch (const std::runtime_error& e) {  // PROJ: no way between the two CRSs, or not at the terrain
+        throw InputError(image.name() + ": " + e.what());
+    }
     if (!(density > 0) || !std::isfinite(density)) throw InputError(image.name() + ": its georeference does not place it on the terrain");
     report.image_metres = 1 / density;
     TextureLayout& layout = report.layout;
@@ -277,7 +290,13 @@ TextureReport build_terrain_textures(const TextureSettings& settings, const Hlod
         progress.check();
         const HlodNode& node = cubes[c];
         std::vector<uint8_t> rgb;
-        if (sample_texture(footprint(node, header, margin, geo, image), image, layout.size, rgb)) ++covered;
+        try {
+            if (sample_texture(footprint(node, header, margin, geo, image), image, layout.size, rgb)) ++covered;
+        } catch (const InputError&) {
+            throw;  // the image's pixels cannot be read
+        } catch (const std::runtime_error&) {  // PROJ cannot map the cube's ground into the image's CRS: no image there
+            fill_without_image(rgb, layout.size);
+        }
         section.add(node.level, node.i, node.j, node.k, encode_bc1_chain(rgb, layout.size));
         std::lock_guard lock(progress_lock);
         progress("textures", double(++done), double(cubes.size()), "cubes");

@@ -82,7 +82,7 @@ expect_success "the CRS given" "$STRATA" build "$WORK/grid.asc" --crs EPSG:31985
 expect_success "info of the CRS given" "$STRATA" info "$WORK/grid.hlod"
 checks=$((checks + 1)); grep -q "^georef      EPSG:31985 SIRGAS 2000 / UTM zone 25S, model origin" "$WORK/out.txt" ||
     fail "info: the CRS not by code and name: $(grep georef "$WORK/out.txt")"
-expect_status "an unknown frame" 2 "frame" "$STRATA" build "$WORK/grid.asc" --frame utm -o "$WORK/degrees.hlod"
+expect_status "an unknown frame" 2 "--frame utm: not a CRS PROJ knows" "$STRATA" build "$WORK/grid.asc" --frame utm -o "$WORK/degrees.hlod"
 expect_status "odd cube cells" 2 "even" "$STRATA" build "$dem" --cube-cells 33 -o "$WORK/x.hlod"
 expect_success "larger cubes" "$STRATA" build "$dem" --cube-cells 128 -o "$WORK/big_cubes.hlod" -q
 expect_success "verify larger cubes" "$STRATA" verify "$WORK/big_cubes.hlod"
@@ -105,6 +105,15 @@ if [ -s "$trinidad" ]; then
     expect_success "in tiles" "$STRATA" build "$trinidad" --crs EPSG:4326 --elevation-unit ft --memory 128M --threads 8 -o "$WORK/tiled.hlod" -q
     checks=$((checks + 1)); cmp -s "$WORK/trinidad.hlod" "$WORK/tiled.hlod" || fail "a tiled build differs from the whole raster's"
     expect_status "an unknown elevation unit" 2 "elevation-unit" "$STRATA" build "$trinidad" --crs EPSG:4326 --elevation-unit furlong -o "$WORK/x.hlod"
+    # Reprojected into UTM 13N: a plane in metres, where its world file can place a map.
+    expect_success "build reprojected" "$STRATA" build "$trinidad" --crs EPSG:4326 --elevation-unit ft --frame EPSG:32613 -o "$WORK/utm.hlod" -q
+    expect_success "verify reprojected" "$STRATA" verify "$WORK/utm.hlod"
+    expect_success "info reprojected" "$STRATA" info "$WORK/utm.hlod"
+    checks=$((checks + 1)); grep -q "^frame .*reprojected from EPSG:4326" "$WORK/out.txt" && grep -q "^georef .*EPSG:32613" "$WORK/out.txt" ||
+        fail "info: not reprojected into EPSG:32613: $(cat "$WORK/out.txt")"
+    expect_success "map of the reprojected terrain" "$STRATA" render "$WORK/utm.hlod" --top --size 200x200 --samples 1 -o "$WORK/utm.png"
+    checks=$((checks + 1)); grep -q "placed by utm.pgw and utm.prj" "$WORK/out.txt" || fail "render --top: no world file for a reprojected terrain"
+    expect_usage "a frame in degrees" "--frame EPSG:4326: not a projected CRS" "$STRATA" build "$trinidad" --crs EPSG:4326 --frame EPSG:4326 -o "$WORK/x.hlod"
 fi
 
 # Imagery draped (issue 17 §2): the Landsat 7 image of the same ground, bands 3, 2, 1.

@@ -133,6 +133,8 @@ void georeferenced_copy(const fs::path& from, const fs::path& to, std::optional<
         header.terrain = strata::TerrainGrid{.columns = 7, .rows = 5, .spacing = {30, 30}, .nodata_samples = 3, .cube_cells = 8,
                                              .rows_run_north = false,
                                              .frame = *terrain_frame,
+                                             .raster_geographic = *terrain_frame != 0,
+                                             .raster_crs = {},
                                              .first_sample = {500015, 5400135},
                                              .semi_major = 6378137,
                                              .inverse_flattening = 298.257223563};

@@ -945,7 +945,7 @@ TEST_F(BadFile, TheResealedGoodOneOpens) {
 // FORMAT.md §4.7: a terrain's grid, at the offsets the format gives, and refused when it cannot be one.
 TEST_F(BadFile, TerrainGridComesBackFromItsOffsetsAndABadOneIsRefused) {
     SmallModel model;
-    model.header.terrain = TerrainGrid{.columns = 1201, .rows = 2401, .spacing = {30, 25}, .nodata_samples = 77, .cube_cells = 64, .rows_run_north = true, .frame = 0,
+    model.header.terrain = TerrainGrid{.columns = 1201, .rows = 2401, .spacing = {30, 25}, .nodata_samples = 77, .cube_cells = 64, .rows_run_north = true, .frame = 0, .raster_geographic = false, .raster_crs = {},
                                        .first_sample = {452015, 5169987.5}, .semi_major = 6378137, .inverse_flattening = 298.257223563};
     model.write(dir / "terrain.hlod");
     const std::vector<uint8_t> bytes = test::file_bytes(dir / "terrain.hlod");
@@ -984,8 +984,8 @@ TEST_F(BadFile, TerrainGridComesBackFromItsOffsetsAndABadOneIsRefused) {
     expect_rejected(with(8, uint64_t(1)), "a grid of 1201 × 1 samples");
     expect_rejected(with(32, uint64_t(1201) * 2401 + 1), "more nodata samples than samples");
     expect_rejected(with(40, uint32_t(7)), "cubes of 7 cells");
-    expect_rejected(with(44, uint32_t(2)), "unknown flags");
-    expect_rejected(with(48, uint32_t(3)), "frame 3, which this Strata does not know");
+    expect_rejected(with(44, uint32_t(4)), "unknown flags");
+    expect_rejected(with(48, uint32_t(4)), "frame 4, which this Strata does not know");
     expect_rejected(with(56, std::numeric_limits<double>::quiet_NaN()), "the first sample's position is not finite");
     expect_rejected(with(72, -1.0), "an ellipsoid of semi-major axis -1");
     // A section of the development build that kept 56 bytes: refused with how to rebuild.

@@ -187,6 +187,66 @@ TEST(TerrainGeoreference, GeographicFramesFindTheirSamplesBothWays) {
     }
 }
 
+// A DEM in degrees reprojected into UTM 32N (`--frame EPSG:32632`): each sample lies where PROJ,
+// driven on its own, puts its longitude and latitude in that CRS (less the model's origin, which GEOR
+// holds with the CRS), within a millimetre; its height comes back there; to_geo and to_local agree;
+// the model's box is the samples' own. A CRS that is not a plane in metres is refused by name.
+TEST(TerrainGeoreference, AReprojectedFramePutsEverySampleWherePROJDoes) {
+    test::TempDir dir;
+    test::TiffSpec spec{.width = 161, .height = 121, .type = GDT_Float32, .geotransform = {10.0, 0.004, 0, 46.5, 0, -0.004}, .crs = "EPSG:4326"};
+    spec.values = ground(spec.width, spec.height, 0.0001, 9, false);
+    test::write_tiff(dir / "alps.tif", spec);
+    TerrainSettings settings{.cube_cells = 16};
+    settings.frame_crs = "EPSG:32632";
+    build(dir / "alps.tif", dir / "alps.hlod", settings);
+    EXPECT_NO_THROW(verify_hlod(HlodFile(dir / "alps.hlod")));
+    const auto model = HlodModel::load(dir / "alps.hlod");
+    const HlodHeader& h = model->header();
+    EXPECT_EQ(h.crs, "EPSG:32632");
+    ASSERT_TRUE(h.terrain);
+    EXPECT_EQ(h.terrain->frame, 3u);
+    EXPECT_TRUE(h.terrain->raster_geographic);
+    const ProjTransform utm("EPSG:4326", "EPSG:32632");
+    std::array<double, 2> lo{INFINITY, INFINITY}, hi{-INFINITY, -INFINITY};
+    for (int r = 0; r < spec.height; ++r)
+        for (int c = 0; c < spec.width; ++c) {
+            const std::array<double, 2> e = utm(10.0 + 0.004 * (c + 0.5), 46.5 - 0.004 * (r + 0.5));
+            for (size_t a = 0; a < 2; ++a) lo[a] = std::min(lo[a], e[a] - h.geo_origin[a]), hi[a] = std::max(hi[a], e[a] - h.geo_origin[a]);
+        }
+    for (size_t a = 0; a < 2; ++a) {
+        EXPECT_NEAR(h.bounds_lo[a], lo[a], 1e-3) << "axis " << a;
+        EXPECT_NEAR(h.bounds_hi[a], hi[a], 1e-3) << "axis " << a;
+    }
+    const Georeference& geo = *model->georeference();
+    std::mt19937 rng(5);
+    for (int s = 0; s < 100; ++s) {
+        const int c = int(rng() % 161), r = int(rng() % 121);
+        const double lon = 10.0 + 0.004 * (c + 0.5), lat = 46.5 - 0.004 * (r + 0.5), height = spec.values[size_t(r * 161 + c)];
+        const std::array<double, 2> e = utm(lon, lat);
+        const std::array<double, 3> p{e[0] - h.geo_origin[0], e[1] - h.geo_origin[1], height};
+        const std::optional<double> at = model->height_at(p[0], p[1]);
+        ASSERT_TRUE(at) << "sample " << c << ", " << r;
+        EXPECT_NEAR(*at, height, 0.001) << "sample " << c << ", " << r;
+        const std::array<double, 3> g = geo.to_geo(p);
+        EXPECT_NEAR(g[0], lon, 1e-9);
+        EXPECT_NEAR(g[1], lat, 1e-9);
+        const std::array<double, 3> back = geo.to_local(g);
+        for (size_t a = 0; a < 3; ++a) EXPECT_NEAR(back[a], p[a], 1e-4);
+    }
+    EXPECT_FALSE(model->height_at(hi[0] + 500, 0)) << "east of the raster";
+    for (const auto& [crs, words] : {std::pair{"EPSG:4326", "not a projected CRS"}, std::pair{"EPSG:2272", "a projected CRS not in metres"},
+                                     std::pair{"no such crs", "not a CRS PROJ knows"}}) {
+        settings.frame_crs = crs;
+        try {
+            build(dir / "alps.tif", dir / "bad.hlod", settings);
+            ADD_FAILURE() << "built in " << crs;
+        } catch (const InputError& e) {
+            EXPECT_NE(std::string(e.what()).find(std::string("--frame ") + crs + ": " + words), std::string::npos) << e.what();
+        }
+        EXPECT_FALSE(fs::exists(dir / "bad.hlod"));
+    }
+}
+
 // A grid in degrees that starts at 359.8° and runs past 360° (0 … 360° grids are common in netCDF):
 // every sample is found again from the model position of its longitude, wherever the longitude wraps.
 TEST(TerrainGeoreference, LongitudesPastTheAntimeridianOfTheGridStillFindTheirSamples) {

@@ -106,23 +106,21 @@ TEST(Bc1, MipsAverageInLinearLightNotInSrgbBytes) {
     for (size_t i = 0; i < mip0.size(); ++i) EXPECT_EQ(mip0[i], rgb[i]) << "byte " << i;
 }
 
-TEST_F(TerrainTexture, EveryCubesTextureIsTheOrthophotoOverItsFootprint) {
-    const Orthophoto image;
-    ASSERT_TRUE(image.loaded());
-    auto model = HlodModel::load(textured());
-    ASSERT_NE(model->textures(), nullptr);
-    const TextureLayout& layout = model->textures()->layout();
-    EXPECT_GE(layout.size, 32u);
-    EXPECT_GT(layout.margin, 0.0f);  // the grid's cells overhang the octree's cells
-    EXPECT_LT(layout.margin, 0.2f);
-    const HlodHeader& h = model->header();
-    const Georeference& geo = *model->georeference();
-    // Mean absolute difference, in 8-bit steps, between each cube's mip 0 and the image under its
-    // texels; and the same with the texture upside down, which must be far worse.
+// Mean absolute difference, in 8-bit steps, between each cube's mip 0 and the image under its texels
+// (the model's CRS must be the image's); and the same with each texture upside down.
+struct TextureError {
+    double mean = 0, flipped = 0;
+    uint64_t texels = 0;
+};
+
+TextureError texture_error(const HlodModel& model, const Orthophoto& image) {
+    const TextureLayout& layout = model.textures()->layout();
+    const HlodHeader& h = model.header();
+    const Georeference& geo = *model.georeference();
     double sum = 0, flipped = 0;
     uint64_t texels = 0;
-    for (const HlodCube& cube : model->cubes()) {
-        ASSERT_EQ(cube.data->texture.size(), layout.chain_bytes());
+    for (const HlodCube& cube : model.cubes()) {
+        EXPECT_EQ(cube.data->texture.size(), layout.chain_bytes());
         const std::vector<uint8_t> rgb = decode_bc1(std::span(cube.data->texture).first(TextureLayout::bc1_bytes(layout.size)), layout.size);
         const double s = h.cube_size(cube.node.level), span = 1 + 2 * double(layout.margin);
         for (uint32_t r = 0; r < layout.size; ++r)
@@ -139,11 +137,51 @@ TEST_F(TerrainTexture, EveryCubesTextureIsTheOrthophotoOverItsFootprint) {
                 ++texels;
             }
     }
-    ASSERT_GT(texels, 100000u);
-    const double mean = sum / (3.0 * texels), mean_flipped = flipped / (3.0 * texels);
-    EXPECT_LT(mean, 4.0) << "BC1 and resampling cost a few steps, no more";
-    EXPECT_GT(mean_flipped, 2.5 * mean) << "the control: the image upside down";
+    return {sum / (3.0 * double(texels)), flipped / (3.0 * double(texels)), texels};
+}
+
+TEST_F(TerrainTexture, EveryCubesTextureIsTheOrthophotoOverItsFootprint) {
+    const Orthophoto image;
+    ASSERT_TRUE(image.loaded());
+    auto model = HlodModel::load(textured());
+    ASSERT_NE(model->textures(), nullptr);
+    const TextureLayout& layout = model->textures()->layout();
+    EXPECT_GE(layout.size, 32u);
+    EXPECT_GT(layout.margin, 0.0f);  // the grid's cells overhang the octree's cells
+    EXPECT_LT(layout.margin, 0.2f);
+    const TextureError error = texture_error(*model, image);
+    ASSERT_GT(error.texels, 100000u);
+    EXPECT_LT(error.mean, 4.0) << "BC1 and resampling cost a few steps, no more";
+    EXPECT_GT(error.flipped, 2.5 * error.mean) << "the control: the image upside down";
     EXPECT_NO_THROW(verify_hlod(HlodFile(textured())));
+}
+
+// The DEM warped to longitude and latitude, then built reprojected into the image's own CRS (SIRGAS
+// 2000 / UTM 25S): drapes it as well. In the ecef frame textures are refused by name.
+TEST_F(TerrainTexture, ADemInDegreesReprojectedIntoTheImagesCrsDrapesItToo) {
+    const Orthophoto image;
+    ASSERT_TRUE(image.loaded());
+    const std::filesystem::path degrees = dir_ / "olinda_degrees.tif";
+    test::run_and_capture("gdalwarp -q -t_srs EPSG:4326 -r bilinear '" + (kData / "olinda_dem.tif").string() + "' '" + degrees.string() + "'");
+    ASSERT_TRUE(std::filesystem::exists(degrees));
+    TerrainSettings settings;
+    settings.cube_cells = 16;
+    settings.frame_crs = "EPSG:31985";
+    settings.texture = TextureSettings{kData / "olinda_l7.tif", {3, 2, 1}, 0};
+    build_terrain({degrees}, dir_ / "reprojected.hlod", settings, "olinda_degrees.tif");
+    const auto model = HlodModel::load(dir_ / "reprojected.hlod");
+    const TextureError error = texture_error(*model, image);
+    ASSERT_GT(error.texels, 100000u);
+    EXPECT_LT(error.mean, 4.0);
+    EXPECT_GT(error.flipped, 2.5 * error.mean);
+    settings.frame_crs.clear();
+    settings.frame = TerrainFrameKind::ecef;
+    try {
+        build_terrain({degrees}, dir_ / "ecef.hlod", settings, "olinda_degrees.tif");
+        ADD_FAILURE() << "textured in ecef";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("olinda_degrees.tif: textures are draped in the enu frame or a projected one"), std::string::npos) << e.what();
+    }
 }
 
 TEST_F(TerrainTexture, ACorruptTextureIsNamedWhenItsCubeLoads) {
