@@ -12,6 +12,7 @@
 #include "engine/io/image.h"
 #include "engine/render/renderer.h"
 #include "engine/scene/camera.h"
+#include "preprocess/elevation_raster.h"
 
 namespace strata::cli {
 
@@ -60,8 +61,8 @@ void place_camera(Camera& camera, const RenderOptions& o, const Box& bounds) {
 int run_render(const RenderOptions& o) {
     const std::filesystem::path output = o.output;
     const std::string extension = output.extension().string();
-    if (extension != ".png" && extension != ".exr") {
-        std::fprintf(stderr, "strata render: the output must end in .png or .exr, not '%s'\n", o.output.c_str());
+    if (extension != ".png" && extension != ".exr" && extension != ".tif") {
+        std::fprintf(stderr, "strata render: the output must end in .png, .exr or .tif, not '%s'\n", o.output.c_str());
         return kUsage;
     }
     ImageChannels channels = ImageChannel::rgba;
@@ -101,10 +102,18 @@ int run_render(const RenderOptions& o) {
     settings.full_detail = true;  // every cube the view selects, loaded before drawing
     const FrameStats stats = renderer.render(*scene, camera, target, settings);
     const Image image = renderer.read_image(target);
-    if (extension == ".png") write_png(image, output);
-    else write_exr(image, output, channels, exr);
-    const WorldFiles world = write_world_files(output, camera, *scene);
-    if (!world.not_written.empty()) std::fprintf(stderr, "strata render: note: no world file: %s\n", world.not_written.c_str());
+    WorldFiles world;
+    if (extension == ".tif") {
+        const std::optional<MapPlacement> placement = map_placement(camera, *scene, world.not_written);
+        write_geotiff(image, output, placement);
+        if (!world.not_written.empty()) std::fprintf(stderr, "strata render: note: no georeference: %s\n", world.not_written.c_str());
+        if (!o.quiet && placement) std::printf("%s: placed by its GeoTIFF tags (%s)\n", o.output.c_str(), describe_crs(placement->crs).c_str());
+    } else {
+        if (extension == ".png") write_png(image, output);
+        else write_exr(image, output, channels, exr);
+        world = write_world_files(output, camera, *scene);
+        if (!world.not_written.empty()) std::fprintf(stderr, "strata render: note: no world file: %s\n", world.not_written.c_str());
+    }
     if (!o.quiet)
         std::printf("%s: %dx%d, %llu triangles, %llu cubes, %llu draw calls, cull %.2f ms (%s)\n", o.output.c_str(), width,
                     height, (unsigned long long)stats.triangles, (unsigned long long)stats.cubes,
@@ -121,7 +130,10 @@ Command add_render(CLI::App& app) {
     CLI::App* sub = app.add_subcommand("render", "Render HLOD models (.hlod) and meshes headless into a PNG or OpenEXR image.");
     sub->add_option("files", o->files, "The .hlod models and meshes (PLY, OBJ, OFF, STL) to draw, each in its own coordinates")
         ->required();
-    sub->add_option("-o,--output", o->output, "The image to write: .png (8-bit sRGB) or .exr (linear, --channels)")->required();
+    sub->add_option("-o,--output", o->output,
+                    "The image to write: .png (8-bit sRGB), .exr (linear, --channels) or .tif (8-bit sRGB GeoTIFF: a map straight down "
+                    "on georeferenced models carries its georeference in its tags)")
+        ->required();
     sub->add_option("--size", o->size, "Image size, WIDTHxHEIGHT")->capture_default_str();
     sub->add_option("--eye", o->eye, "Camera position x,y,z (default: frame the scene)")->delimiter(',')->expected(3);
     sub->add_option("--target", o->target, "Point looked at x,y,z (default: the scene's centre)")->delimiter(',')->expected(3);

@@ -97,6 +97,8 @@ struct ExrOptions {
 // 8-bit RGBA PNG: linear RGB through the sRGB transfer function, alpha linear; values clamped to
 // [0, 1], NaN written as 0. Throws std::invalid_argument if the image has no rgba plane.
 void write_png(const Image& image, const std::filesystem::path& path);
+// Those 8-bit RGBA bytes, rows top to bottom (what write_png writes, for other writers).
+std::vector<uint8_t> encode_srgb_rgba8(const Image& image);
 // Pixels already encoded (a window's sRGB back buffer): width × height × 4 bytes, rows top to bottom.
 void write_png_rgba8(const std::vector<uint8_t>& pixels, int width, int height, const std::filesystem::path& path);
 

@@ -25,7 +25,16 @@ uint8_t encode_srgb(float linear) {
 
 uint8_t encode_alpha(float alpha) { return uint8_t(std::lround(255.0f * clamp_unit(alpha))); }
 
-std::vector<uint8_t> encode_rgba8(const Image& image) {
+// stb calls this from C: it must not throw; AtomicOutputFile::write keeps the failure for commit().
+void write_to_file(void* file, void* data, int size) {
+    static_cast<AtomicOutputFile*>(file)->write(data, size_t(size));
+}
+
+}  // namespace
+
+std::vector<uint8_t> encode_srgb_rgba8(const Image& image) {
+    image.check_sizes();
+    if (!image.has(ImageChannel::rgba)) throw std::invalid_argument("the image has no RGBA plane to encode");
     std::vector<uint8_t> bytes(image.rgba.size());
     for (size_t i = 0; i < bytes.size(); i += 4) {
         for (size_t k = 0; k < 3; ++k) bytes[i + k] = encode_srgb(image.rgba[i + k]);
@@ -34,17 +43,9 @@ std::vector<uint8_t> encode_rgba8(const Image& image) {
     return bytes;
 }
 
-// stb calls this from C: it must not throw; AtomicOutputFile::write keeps the failure for commit().
-void write_to_file(void* file, void* data, int size) {
-    static_cast<AtomicOutputFile*>(file)->write(data, size_t(size));
-}
-
-}  // namespace
-
 void write_png(const Image& image, const std::filesystem::path& path) {
-    image.check_sizes();
     if (!image.has(ImageChannel::rgba)) throw std::invalid_argument("cannot write a PNG: the image has no RGBA plane");
-    write_png_rgba8(encode_rgba8(image), image.width, image.height, path);
+    write_png_rgba8(encode_srgb_rgba8(image), image.width, image.height, path);
 }
 
 void write_png_rgba8(const std::vector<uint8_t>& pixels, int width, int height, const std::filesystem::path& path) {

@@ -37,6 +37,19 @@ checks=$((checks + 1))
 proj4() { gdalsrsinfo -o proj4 "$1" 2>/dev/null | sed 's/ +towgs84=0,0,0,0,0,0,0//' | tr -d '\n'; }
 [ "$(proj4 "$WORK/map.prj")" = "$(proj4 "$dem")" ] && [ -n "$(proj4 "$dem")" ] ||
     fail "render --top: map.prj is not the DEM's CRS: $(cat "$WORK/map.prj")"
+# The same map as a GeoTIFF: its tags place it where the world file does, its pixels are the PNG's.
+expect_success "render a GeoTIFF map" "$STRATA" render "$WORK/olinda.hlod" --top --size 300x300 --samples 1 --background 0,0,0,0 -o "$WORK/map.tif"
+checks=$((checks + 1)); grep -q "placed by its GeoTIFF tags" "$WORK/out.txt" || fail "render --top -o .tif: not georeferenced: $(cat "$WORK/out.txt")"
+tif=$(GDAL_PAM_ENABLED=NO gdalinfo -json "$WORK/map.tif" | tr -d ' \n' | sed -n 's/.*"geoTransform":\[\([^]]*\)\].*/\1/p')
+checks=$((checks + 1)); [ "$tif" = "$map" ] || fail "the GeoTIFF's geotransform $tif is not the world file's $map"
+checks=$((checks + 1)); [ "$(proj4 "$WORK/map.tif")" = "$(proj4 "$dem")" ] || fail "the GeoTIFF's CRS is not the DEM's"
+for pixel in "150 150" "40 200" "260 90"; do
+    checks=$((checks + 1))
+    [ "$(GDAL_PAM_ENABLED=NO gdallocationinfo -valonly "$WORK/map.tif" $pixel)" = "$(GDAL_PAM_ENABLED=NO gdallocationinfo -valonly "$WORK/map.png" $pixel)" ] ||
+        fail "GeoTIFF pixel $pixel differs from the PNG's"
+done
+checks=$((checks + 1)); ! ls "$WORK" | grep -q "map.tif.tmp" || fail "a temporary GeoTIFF was left behind"
+expect_failure "a GeoTIFF where none can be written" "cannot write $WORK/nowhere/map.tif" "$STRATA" render "$WORK/olinda.hlod" --top --size 50x50 -o "$WORK/nowhere/map.tif"
 
 # From Lua: at sample centres height_at is what gdallocationinfo reads, to_geo is where gdaltransform
 # puts the sample in longitude and latitude, to_local returns, and off the raster there is no ground.
