@@ -47,7 +47,7 @@ expect_status "verify: a good model" 0 "" "$STRATA" verify -q "$WORK/octa.hlod"
 # render.
 png=$WORK/x.png
 expect_usage "render: no output" "output is required" "$STRATA" render "$WORK/octa.hlod"
-expect_usage "render: bad extension" ".png or .exr" "$STRATA" render "$WORK/octa.hlod" -o "$WORK/x.jpg"
+expect_usage "render: bad extension" ".png, .exr or .tif" "$STRATA" render "$WORK/octa.hlod" -o "$WORK/x.jpg"
 expect_usage "render: --size 0x0" "WIDTHxHEIGHT" "$STRATA" render "$WORK/octa.hlod" -o "$png" --size 0x0
 expect_usage "render: --size 12by3" "WIDTHxHEIGHT" "$STRATA" render "$WORK/octa.hlod" -o "$png" --size 12by3
 expect_usage "render: --eye of two numbers" "eye" "$STRATA" render "$WORK/octa.hlod" -o "$png" --eye 1,2

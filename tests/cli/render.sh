@@ -134,7 +134,7 @@ checks=$((checks + 1)); cmp -s "$WORK/shaded.png" "$WORK/shaded_gpu.png" || fail
 expect_usage "GPU budget below the least" "--gpu-memory: '8M' is less than the least, 16M" "$STRATA" render "$WORK/bunny.hlod" -o "$WORK/x.png" --gpu-memory 8M
 
 expect_failure "missing file" "missing.hlod" "$STRATA" render "$WORK/missing.hlod" -o "$WORK/x.png"
-expect_usage "bad extension" ".png or .exr" "$STRATA" render "$WORK/bunny.hlod" -o "$WORK/x.jpg"
+expect_usage "bad extension" ".png, .exr or .tif" "$STRATA" render "$WORK/bunny.hlod" -o "$WORK/x.jpg"
 expect_usage "bad size" "WIDTHxHEIGHT" "$STRATA" render "$WORK/bunny.hlod" -o "$WORK/x.png" --size 12by3
 expect_usage "unknown channel" "Q" "$STRATA" render "$WORK/bunny.hlod" -o "$WORK/x.exr" --channels RGBA,Q
 expect_failure "unwritable output" "cannot write" "$STRATA" render "$WORK/bunny.hlod" -o "$WORK/octa.off/x.png" --size 32x32

@@ -319,9 +319,18 @@ TEST_F(TexturedRender, UnderAmbientLightAloneTheDrapedImageRendersAsTheImage) {
 
 // Textures stream with their cubes, in the one budget: a streamed model's full-detail frame is the
 // loaded model's, and what the cache holds counts every resident cube's texture twice (its bytes on
-// the CPU and its layer on the GPU).
+// the CPU and its layer on the GPU). Textures of 512² texels (15 MB in all) under a budget of 64 MiB
+// fill two pages of texture layers (8 MiB each), so runs of cubes change pages, their parents' too.
 TEST_F(TexturedRender, TexturesStreamWithTheirCubesInTheBudget) {
-    const std::filesystem::path file = textured();
+    const std::filesystem::path file = textured(512);
+    StreamCache& cache = *StreamCache::shared();
+    const uint64_t budget = cache.budget();
+    cache.set_budget(uint64_t(64) << 20);
+    struct Restore {
+        StreamCache& cache;
+        uint64_t budget;
+        ~Restore() { cache.set_budget(budget); }
+    } restore{cache, budget};
     auto frame = [](const std::shared_ptr<HlodModel>& model, FrameStats* stats) {
         model->set_pixel_error(1.0);
         auto root = std::make_shared<Group>();
@@ -355,8 +364,9 @@ TEST_F(TexturedRender, TexturesStreamWithTheirCubesInTheBudget) {
             EXPECT_EQ(cube.data->texture.size(), model->texture_bytes());
         }
     EXPECT_GT(resident, 0u);
+    EXPECT_GT(resident, (uint64_t(8) << 20) / model->texture_bytes()) << "more cubes resident than a page of layers holds";
     EXPECT_GE(stats.memory_resident, resident * 2 * model->texture_bytes());
-    EXPECT_LE(stats.memory_resident, StreamCache::shared()->budget());
+    EXPECT_LE(stats.memory_resident, cache.budget());
 }
 
 // The pop check (DESIGN.md §6) over a textured terrain: just before and just after a cube is replaced
