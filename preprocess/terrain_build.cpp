@@ -464,14 +464,7 @@ BuildReport build_terrain(const std::vector<std::filesystem::path>& files, const
     const uint64_t memory = settings.memory ? settings.memory : default_memory_limit();
     limit_raster_cache(memory / 16);
     const ElevationRaster raster = ElevationRaster::open(files, settings.crs);
-    if (settings.texture) {
-        // In ecef a model (x, y) stands for different ground at different heights: a planar texture
-        // would need each texel's ground height to find its pixel.
-        if (raster.info().geographic && settings.frame_crs.empty() && settings.frame == TerrainFrameKind::ecef)
-            throw InputError(raster.info().name + ": textures are draped in the enu frame or a projected one, not yet in ecef "
-                             "(build with --frame enu, or --frame EPSG:N)");
-        check_texture_image(*settings.texture);
-    }
+    if (settings.texture) check_texture_image(*settings.texture);
     const unsigned threads = resolve_thread_count(settings.threads);
     HlodWriter writer(output);
     const Grid grid = scan_grid(raster, settings, writer, threads, progress);
@@ -529,7 +522,17 @@ BuildReport build_terrain(const std::vector<std::filesystem::path>& files, const
         // The vertices' overhang, and the lattice's rounding of them (half a step, 2^-16·s_l) to spare.
         const float margin = float(out.texture_margin + std::ldexp(1.0, -14));
         const std::filesystem::path scratch = output.string() + std::string(HlodWriter::kTempMarker) + std::to_string(::getpid()) + ".image.vrt";
-        const TextureReport textures = build_terrain_textures(*settings.texture, header, margin, out.writer, scratch, threads, progress);
+        const GroundHeight ground = [&grid](double column, double row) -> std::optional<double> {
+            const RasterInfo& info = grid.info;
+            if (!(column >= 0 && row >= 0 && column <= double(info.width - 1) && row <= double(info.height - 1))) return std::nullopt;
+            const uint64_t c0 = std::min(uint64_t(column), info.width - 2), r0 = std::min(uint64_t(row), info.height - 2);
+            std::vector<float> h;
+            grid.read(c0, r0, 2, 2, h);
+            const double u = column - double(c0), v = row - double(r0);
+            const double value = (h[0] * (1 - u) + h[1] * u) * (1 - v) + (h[2] * (1 - u) + h[3] * u) * v;
+            return std::isnan(value) ? std::nullopt : std::optional<double>(value);
+        };
+        const TextureReport textures = build_terrain_textures(*settings.texture, header, margin, out.writer, scratch, ground, threads, progress);
         report.texture_size = textures.layout.size;
         report.texture_bytes = textures.stored_bytes;
         report.texture_seconds = textures.seconds;

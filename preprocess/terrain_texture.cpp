@@ -159,15 +159,35 @@ struct Footprint {
     double lo[2], hi[2];  // the pixels' bounding box
 };
 
-Footprint footprint(const HlodNode& node, const HlodHeader& header, float margin, const Georeference& geo, const Image& image) {
+// The model point on the ground under model (x, y), starting from height `z`: in the ecef frame the
+// ground's height moves the point that (x, y) stands for; in the others z does not matter.
+std::array<double, 3> on_ground(double x, double y, double z, const HlodHeader& header, const Georeference& geo, const GroundHeight& ground) {
+    if (!header.terrain || header.terrain->frame != uint32_t(TerrainFrameKind::ecef)) return {x, y, z};
+    // The height above the ellipsoid of the ground under (x, y), a few rounds from the model point's own
+    // (each finds the raster position for the last height), then the model z of the point at that height
+    // (Newton: a metre of z is about a metre of height, the up direction turning by d/R).
+    double height = geo.model_to_crs({x, y, z})[2];
+    for (int round = 0; round < 4; ++round) {
+        const std::optional<std::array<double, 2>> at = geo.raster_position(x, y, height);
+        const std::optional<double> h = at ? ground((*at)[0], (*at)[1]) : std::nullopt;
+        if (!h) break;
+        height = *h;
+    }
+    for (int round = 0; round < 4; ++round) z += height - geo.model_to_crs({x, y, z})[2];
+    return {x, y, z};
+}
+
+Footprint footprint(const HlodNode& node, const HlodHeader& header, float margin, const Georeference& geo, const Image& image,
+                    const GroundHeight& ground) {
     const double s = header.cube_size(node.level), cell[3] = {double(node.i), double(node.j), double(node.k)};
     Footprint f;
     f.lo[0] = f.lo[1] = INFINITY, f.hi[0] = f.hi[1] = -INFINITY;
     for (int b = 0; b <= kControl; ++b)
         for (int a = 0; a <= kControl; ++a) {
-            const std::array<double, 3> model{header.origin[0] + (cell[0] - margin + (1 + 2 * margin) * a / kControl) * s,
-                                              header.origin[1] + (cell[1] - margin + (1 + 2 * margin) * b / kControl) * s,
-                                              header.origin[2] + (cell[2] + 0.5) * s};
+            const std::array<double, 3> model =
+                on_ground(header.origin[0] + (cell[0] - margin + (1 + 2 * margin) * a / kControl) * s,
+                          header.origin[1] + (cell[1] - margin + (1 + 2 * margin) * b / kControl) * s, header.origin[2] + (cell[2] + 0.5) * s,
+                          header, geo, ground);
             const std::array<double, 3> at = geo.to_geo(model, image.crs());
             const std::array<double, 2> p = image.pixel_of(at[0], at[1]);
             f.pixel[size_t(b * (kControl + 1) + a)] = p;
@@ -259,7 +279,8 @@ double pixels_per_unit(const HlodHeader& header, const Georeference& geo, const 
 void check_texture_image(const TextureSettings& settings) { Image image(settings); }
 
 TextureReport build_terrain_textures(const TextureSettings& settings, const HlodHeader& header, float margin, HlodWriter& writer,
-                                     const std::filesystem::path& scratch, unsigned threads, const Progress& progress) {
+                                     const std::filesystem::path& scratch, const GroundHeight& ground, unsigned threads,
+                                     const Progress& progress) {
     const auto start = std::chrono::steady_clock::now();
     Image image(settings);
     image.add_overviews(scratch, progress);
@@ -291,7 +312,7 @@ TextureReport build_terrain_textures(const TextureSettings& settings, const Hlod
         const HlodNode& node = cubes[c];
         std::vector<uint8_t> rgb;
         try {
-            if (sample_texture(footprint(node, header, margin, geo, image), image, layout.size, rgb)) ++covered;
+            if (sample_texture(footprint(node, header, margin, geo, image, ground), image, layout.size, rgb)) ++covered;
         } catch (const InputError&) {
             throw;  // the image's pixels cannot be read
         } catch (const std::runtime_error&) {  // PROJ cannot map the cube's ground into the image's CRS: no image there

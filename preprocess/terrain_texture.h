@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -31,6 +32,10 @@ struct TextureReport {
     double seconds = 0;
 };
 
+// The DEM's height in metres at a raster position (column, row; sample centres at whole numbers),
+// bilinear; nothing off the raster or on nodata.
+using GroundHeight = std::function<std::optional<double>(double column, double row)>;
+
 // Checks the image before a build spends time on the ground: a raster GDAL reads, with a georeference
 // and a CRS, 8- or 16-bit samples, the bands named. Throws InputError naming the file and the problem.
 void check_texture_image(const TextureSettings& settings);
@@ -38,9 +43,11 @@ void check_texture_image(const TextureSettings& settings);
 // Writes the section TXTR for the cubes `writer` holds, of the terrain `header` describes (its
 // georeference places the image), whose vertices lie within `margin`·s_l of their cells in x and y.
 // `scratch`: where a large image without overviews gets them for the build (a VRT there and its .ovr,
-// removed after). Throws InputError naming the image when it cannot be read or does not overlap the
-// terrain, Cancelled when progress.cancel is raised.
+// removed after). `ground`: the DEM's heights, which place a texel in the ecef frame (where a model
+// (x, y) stands for different ground at different heights). Throws InputError naming the image when
+// it cannot be read or does not overlap the terrain, Cancelled when progress.cancel is raised.
 TextureReport build_terrain_textures(const TextureSettings& settings, const HlodHeader& header, float margin, HlodWriter& writer,
-                                     const std::filesystem::path& scratch, unsigned threads, const Progress& progress);
+                                     const std::filesystem::path& scratch, const GroundHeight& ground, unsigned threads,
+                                     const Progress& progress);
 
 }  // namespace strata

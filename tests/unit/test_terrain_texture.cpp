@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <gdal_priv.h>
+#include <ogr_spatialref.h>
 
 #include <cmath>
 #include <filesystem>
@@ -33,24 +34,26 @@ const std::filesystem::path kData = std::filesystem::path(STRATA_SOURCE_DIR) / "
 
 double linear_to_srgb(double c) { return c <= 0.0031308 ? 12.92 * c : 1.055 * std::pow(c, 1 / 2.4) - 0.055; }
 
-// The Landsat image's red, green and blue (bands 3, 2, 1), read with GDAL, sampled bilinearly at
-// CRS positions (its pixel centres at whole pixels + ½).
+// An image's red, green and blue (by default the Landsat image's bands 3, 2, 1, in SIRGAS 2000 / UTM
+// 25S), read with GDAL, sampled bilinearly at CRS positions (its pixel centres at whole pixels + ½).
 class Orthophoto {
 public:
-    Orthophoto() {
+    explicit Orthophoto(const std::filesystem::path& file = kData / "olinda_l7.tif", std::array<int, 3> bands = {3, 2, 1},
+                        std::string crs = "EPSG:31985")
+        : crs_(std::move(crs)) {
         GDALAllRegister();
-        std::unique_ptr<GDALDataset> d(GDALDataset::Open((kData / "olinda_l7.tif").c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY));
+        std::unique_ptr<GDALDataset> d(GDALDataset::Open(file.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY));
         if (!d) return;
         width_ = d->GetRasterXSize(), height_ = d->GetRasterYSize();
         d->GetGeoTransform(g_.data());
         rgb_.resize(size_t(width_) * height_ * 3);
-        const int bands[3] = {3, 2, 1};
-        for (int c = 0; c < 3; ++c)
+        for (size_t c = 0; c < 3; ++c)
             EXPECT_EQ(d->GetRasterBand(bands[c])->RasterIO(GF_Read, 0, 0, width_, height_, rgb_.data() + c, width_, height_, GDT_Float32,
                                                            3 * sizeof(float), GSpacing(3 * sizeof(float)) * width_, nullptr),
                       CE_None);
     }
     bool loaded() const { return !rgb_.empty(); }
+    const std::string& crs() const { return crs_; }
     // The colour at a CRS position, or nothing outside the image (a pixel's margin inside its edge).
     std::optional<std::array<double, 3>> at(double x, double y) const {
         const double u = (x - g_[0]) / g_[1] - 0.5, v = (y - g_[3]) / g_[5] - 0.5;
@@ -66,6 +69,7 @@ public:
     }
 
 private:
+    std::string crs_;
     int width_ = 0, height_ = 0;
     std::array<double, 6> g_{};
     std::vector<float> rgb_;
@@ -107,27 +111,36 @@ TEST(Bc1, MipsAverageInLinearLightNotInSrgbBytes) {
 }
 
 // Mean absolute difference, in 8-bit steps, between each cube's mip 0 and the image under its texels
-// (the model's CRS must be the image's); and the same with each texture upside down.
+// (every `stride`-th texel each way, of the cubes of levels up to `finest`); and the same with each
+// texture upside down. In the ecef frame a texel shows the ground under its (x, y): the model point
+// there at the height height_at gives.
 struct TextureError {
     double mean = 0, flipped = 0;
     uint64_t texels = 0;
 };
 
-TextureError texture_error(const HlodModel& model, const Orthophoto& image) {
+TextureError texture_error(const HlodModel& model, const Orthophoto& image, uint32_t stride = 1, uint32_t finest = kMaxHlodLevels) {
     const TextureLayout& layout = model.textures()->layout();
     const HlodHeader& h = model.header();
     const Georeference& geo = *model.georeference();
     double sum = 0, flipped = 0;
     uint64_t texels = 0;
     for (const HlodCube& cube : model.cubes()) {
+        if (cube.node.level > finest) continue;
         EXPECT_EQ(cube.data->texture.size(), layout.chain_bytes());
         const std::vector<uint8_t> rgb = decode_bc1(std::span(cube.data->texture).first(TextureLayout::bc1_bytes(layout.size)), layout.size);
         const double s = h.cube_size(cube.node.level), span = 1 + 2 * double(layout.margin);
-        for (uint32_t r = 0; r < layout.size; ++r)
-            for (uint32_t c = 0; c < layout.size; ++c) {
+        for (uint32_t r = 0; r < layout.size; r += stride)
+            for (uint32_t c = 0; c < layout.size; c += stride) {
                 const double x = h.origin[0] + (cube.node.i - layout.margin + span * (c + 0.5) / layout.size) * s;
                 const double y = h.origin[1] + (cube.node.j - layout.margin + span * (r + 0.5) / layout.size) * s;
-                const std::array<double, 3> crs = geo.model_to_crs({x, y, 0});
+                double z = 0;
+                if (h.terrain->frame == uint32_t(TerrainFrameKind::ecef)) {
+                    const std::optional<double> ground = model.height_at(x, y);
+                    if (!ground) continue;
+                    for (int round = 0; round < 4; ++round) z += *ground - geo.model_to_crs({x, y, z})[2];
+                }
+                const std::array<double, 3> crs = geo.to_geo({x, y, z}, image.crs());
                 const auto expected = image.at(crs[0], crs[1]);
                 if (!expected) continue;
                 for (int ch = 0; ch < 3; ++ch) {
@@ -157,8 +170,9 @@ TEST_F(TerrainTexture, EveryCubesTextureIsTheOrthophotoOverItsFootprint) {
 }
 
 // The DEM warped to longitude and latitude, then built reprojected into the image's own CRS (SIRGAS
-// 2000 / UTM 25S): drapes it as well. In the ecef frame textures are refused by name.
-TEST_F(TerrainTexture, ADemInDegreesReprojectedIntoTheImagesCrsDrapesItToo) {
+// 2000 / UTM 25S), or in the ecef frame (where the ground's height moves what a texel shows): drapes
+// it as well either way.
+TEST_F(TerrainTexture, ADemInDegreesReprojectedOrInEcefDrapesTheImageToo) {
     const Orthophoto image;
     ASSERT_TRUE(image.loaded());
     const std::filesystem::path degrees = dir_ / "olinda_degrees.tif";
@@ -176,12 +190,62 @@ TEST_F(TerrainTexture, ADemInDegreesReprojectedIntoTheImagesCrsDrapesItToo) {
     EXPECT_GT(error.flipped, 2.5 * error.mean);
     settings.frame_crs.clear();
     settings.frame = TerrainFrameKind::ecef;
-    try {
-        build_terrain({degrees}, dir_ / "ecef.hlod", settings, "olinda_degrees.tif");
-        ADD_FAILURE() << "textured in ecef";
-    } catch (const InputError& e) {
-        EXPECT_NE(std::string(e.what()).find("olinda_degrees.tif: textures are draped in the enu frame or a projected one"), std::string::npos) << e.what();
+    build_terrain({degrees}, dir_ / "ecef.hlod", settings, "olinda_degrees.tif");
+    const auto ecef = HlodModel::load(dir_ / "ecef.hlod");
+    const TextureError curved = texture_error(*ecef, image, 2);
+    ASSERT_GT(curved.texels, 20000u);
+    EXPECT_LT(curved.mean, 4.0);
+    EXPECT_GT(curved.flipped, 2.5 * curved.mean);
+}
+
+// A continent in the ecef frame: 12° × 12° of ground (101 × 101 samples, heights to 3 km) and an
+// image of it whose colours change smoothly with longitude and latitude. Far from the tangent point
+// the ground lies tens of kilometres below the plane: a texel must show the ground under its (x, y)
+// (placed at the DEM's height there, not at its cube's middle, which for the root cube is hundreds of
+// kilometres off and would shift the colours by half a degree).
+TEST_F(TerrainTexture, OnAContinentInEcefEachTexelShowsTheGroundUnderIt) {
+    const std::filesystem::path dem = dir_ / "continent.tif", picture = dir_ / "continent_image.tif";
+    GDALAllRegister();
+    GDALDriver* tiff = GetGDALDriverManager()->GetDriverByName("GTiff");
+    OGRSpatialReference wgs84;
+    wgs84.SetFromUserInput("EPSG:4326");
+    {
+        std::unique_ptr<GDALDataset> d(tiff->Create(dem.c_str(), 101, 101, 1, GDT_Float32, nullptr));
+        double g[6] = {0, 0.12, 0, 50, 0, -0.12};
+        d->SetGeoTransform(g), d->SetSpatialRef(&wgs84);
+        std::vector<float> h(101 * 101);
+        for (size_t s = 0; s < h.size(); ++s) h[s] = float(1500 + 1500 * std::sin(double(s % 101) * 0.1) * std::cos(double(s / 101) * 0.13));
+        ASSERT_EQ(d->GetRasterBand(1)->RasterIO(GF_Write, 0, 0, 101, 101, h.data(), 101, 101, GDT_Float32, 0, 0, nullptr), CE_None);
     }
+    {
+        constexpr int n = 601;
+        std::unique_ptr<GDALDataset> d(tiff->Create(picture.c_str(), n, n, 3, GDT_Byte, nullptr));
+        double g[6] = {0, 0.02, 0, 50, 0, -0.02};
+        d->SetGeoTransform(g), d->SetSpatialRef(&wgs84);
+        std::vector<uint8_t> rgb(size_t(n) * n * 3);
+        for (int r = 0; r < n; ++r)
+            for (int c = 0; c < n; ++c) {
+                const double lon = 0.02 * (c + 0.5), lat = 50 - 0.02 * (r + 0.5);
+                uint8_t* p = &rgb[(size_t(r) * n + size_t(c)) * 3];
+                p[0] = uint8_t(128 + 100 * std::sin(lon * 1.3)), p[1] = uint8_t(128 + 100 * std::cos(lat * 1.7));
+                p[2] = uint8_t(128 + 100 * std::sin((lon + lat) * 0.9));
+            }
+        ASSERT_EQ(d->RasterIO(GF_Write, 0, 0, n, n, rgb.data(), n, n, GDT_Byte, 3, nullptr, 3, GSpacing(3) * n, 1, nullptr), CE_None);
+    }
+    TerrainSettings settings;
+    settings.cube_cells = 16;
+    settings.frame = TerrainFrameKind::ecef;
+    settings.texture = TextureSettings{picture, {}, 0};
+    build_terrain({dem}, dir_ / "continent.hlod", settings, "continent.tif");
+    const auto model = HlodModel::load(dir_ / "continent.hlod");
+    const Orthophoto image(picture, {1, 2, 3}, "EPSG:4326");
+    const TextureError error = texture_error(*model, image, 4);
+    ASSERT_GT(error.texels, 10000u);
+    EXPECT_LT(error.mean, 4.0) << "each texel the ground under it";
+    EXPECT_GT(error.flipped, 2.5 * error.mean);
+    const TextureError coarse = texture_error(*model, image, 2, 1);  // where a cube's middle is farthest from its ground
+    ASSERT_GT(coarse.texels, 10000u);
+    EXPECT_LT(coarse.mean, 4.0) << "the coarse levels' texels too";
 }
 
 TEST_F(TerrainTexture, ACorruptTextureIsNamedWhenItsCubeLoads) {
