@@ -82,7 +82,8 @@ std::shared_ptr<HlodModel::Tree> HlodModel::read_octree(HlodFile& file) {
 
 uint64_t HlodModel::Tree::table_bytes() const {
     auto held = [](const auto& v) { return uint64_t(v.capacity()) * sizeof(v[0]); };
-    return held(cubes) + held(level_error) + held(neighbours) + held(parent) + held(finest_first) + held(resident) + held(lacks_child);
+    return held(cubes) + held(level_error) + held(neighbours) + held(parent) + held(finest_first) + held(resident) + held(lacks_child) +
+           (textures ? textures->index_bytes() : 0);
 }
 
 void HlodModel::adopt(std::shared_ptr<Tree> tree, const std::filesystem::path& path) {
@@ -135,7 +136,7 @@ std::shared_ptr<HlodModel> HlodModel::load(const std::filesystem::path& path) {
     for (auto c = tree.finest_first.rbegin(); c != tree.finest_first.rend(); ++c) {
         HlodCube& cube = tree.cubes[*c];
         auto data = std::make_shared<CubeData>(file.read_cube(cube.node));
-        if (tree.textures) data->texture = tree.textures->read(*c);
+        if (tree.textures) data->texture = tree.textures->read(*c, cube.node);
         const uint32_t parent = tree.parent[*c];
         resolve_parents(*data, parent == kNoCube ? data->vertices : tree.cubes[parent].data->vertices,
                         path.string() + ": " + describe_cube(cube.node));
@@ -194,7 +195,7 @@ public:
     Loaded load(uint32_t cube, const std::shared_ptr<const void>& parent) override {
         const HlodNode& node = tree_->cubes[cube].node;
         auto data = std::make_shared<CubeData>(file_->read_cube(node));
-        if (tree_->textures) data->texture = tree_->textures->read(cube);
+        if (tree_->textures) data->texture = tree_->textures->read(cube, node);
         const auto* parent_data = static_cast<const CubeData*>(parent.get());
         resolve_parents(*data, parent_data ? parent_data->vertices : data->vertices,
                         file_->path().string() + ": " + describe_cube(node));

@@ -192,9 +192,9 @@ CubeTextures::CubeTextures(std::shared_ptr<const HlodFile> file, const HlodSecti
     }
 }
 
-std::vector<uint8_t> CubeTextures::read(uint64_t node) const {
-    const IndexEntry& e = index_.at(node);
-    const std::string what = "the texture of cube " + std::to_string(node);
+std::vector<uint8_t> CubeTextures::read(uint64_t index, const HlodNode& node) const {
+    const IndexEntry& e = index_.at(index);
+    const std::string what = "the texture of " + describe_cube(node);
     const std::vector<uint8_t> frame = file_->read_section_part(section_, e.offset, e.size, what);
     auto corrupt = [&](const std::string& problem) {
         return std::runtime_error(file_->path().string() + ": " + what + ": " + problem + " (the file is corrupt)");

@@ -79,11 +79,13 @@ public:
     CubeTextures(std::shared_ptr<const HlodFile> file, const HlodSection& section, uint64_t node_count);
 
     const TextureLayout& layout() const { return layout_; }
-    // The BC1 chain of the node table's `node`-th cube (layout().chain_bytes() bytes), its checksum
-    // checked. Throws std::runtime_error naming the file and the cube when the bytes are corrupt.
-    std::vector<uint8_t> read(uint64_t node) const;
+    // The BC1 chain of `node`, the node table's `index`-th cube (layout().chain_bytes() bytes), its
+    // checksum checked. Throws std::runtime_error naming the file and the cube when the bytes are corrupt.
+    std::vector<uint8_t> read(uint64_t index, const HlodNode& node) const;
     // The compressed bytes of every texture (strata verify reads each through read()).
     uint64_t stored_bytes() const { return stored_bytes_; }
+    // What the index takes in memory.
+    uint64_t index_bytes() const { return uint64_t(index_.capacity()) * sizeof(IndexEntry); }
 
 private:
     struct IndexEntry {

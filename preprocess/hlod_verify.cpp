@@ -214,7 +214,7 @@ void Verifier::check_textures(const HlodSection& section) {
     const float margin = textures.layout().margin;
     for (uint64_t c = 0; c < file_.nodes().size(); ++c) {
         const HlodNode& n = file_.nodes()[c];
-        textures.read(c);
+        textures.read(c, n);
         const CubeData cube = file_.read_cube(n);
         const uint32_t cell[2] = {n.i, n.j};
         const double s = h_.cube_size(n.level), reach = margin * s + h_.lattice_step(n.level) / 2 + float_slack();

@@ -276,7 +276,11 @@ double pixels_per_unit(const HlodHeader& header, const Georeference& geo, const 
 
 }  // namespace
 
-void check_texture_image(const TextureSettings& settings) { Image image(settings); }
+void check_texture_image(const TextureSettings& settings) {
+    if (settings.size && (!std::has_single_bit(settings.size) || settings.size < 8 || settings.size > 4096))
+        throw InputError(settings.image.string() + ": textures of " + std::to_string(settings.size) + " texels; a power of two from 8 to 4096");
+    Image image(settings);
+}
 
 TextureReport build_terrain_textures(const TextureSettings& settings, const HlodHeader& header, float margin, HlodWriter& writer,
                                      const std::filesystem::path& scratch, const GroundHeight& ground, unsigned threads,

@@ -37,7 +37,8 @@ struct TextureReport {
 using GroundHeight = std::function<std::optional<double>(double column, double row)>;
 
 // Checks the image before a build spends time on the ground: a raster GDAL reads, with a georeference
-// and a CRS, 8- or 16-bit samples, the bands named. Throws InputError naming the file and the problem.
+// and a CRS, 8- or 16-bit samples, the bands named; and the texture size asked for. Throws InputError
+// naming the file and the problem.
 void check_texture_image(const TextureSettings& settings);
 
 // Writes the section TXTR for the cubes `writer` holds, of the terrain `header` describes (its
