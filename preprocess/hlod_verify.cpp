@@ -108,7 +108,7 @@ private:
     std::vector<const HlodNode*> walk_order(uint32_t level) const;
     const ParentCube& parent_of(const HlodNode& n);
     void check_cube_bounds(const HlodNode& n, const CubeData& cube);
-    void check_textures(const HlodSection& section);
+    void check_texture(const HlodNode& n, const CubeData& cube);
     void check_parent_index(const HlodNode& n, const CubeData& cube, uint32_t v, uint32_t parent_vertices) const;
     void check_root(const HlodNode& n, const CubeData& cube);
     void check_child_groups(const HlodNode& n, const CubeData& cube);
@@ -123,6 +123,7 @@ private:
     std::vector<std::vector<const HlodNode*>> levels_;  // the node table by level
     std::unordered_map<uint64_t, const HlodNode*> cubes_;  // by cube_key
     ParentCube parent_;
+    std::unique_ptr<const CubeTextures> textures_;  // a textured model's (section TXTR)
 };
 
 // Everything the node table alone shows: errors, no cube twice, every level present, the root, a
@@ -206,27 +207,20 @@ void Verifier::check_cube_bounds(const HlodNode& n, const CubeData& cube) {
         }
 }
 
-// A model's textures: the section's checksum, every texture decodes, and (planar mapping) every
-// vertex lies on its cube's texture.
-void Verifier::check_textures(const HlodSection& section) {
-    file_.check_section(section);
-    const CubeTextures textures(std::shared_ptr<const HlodFile>(std::shared_ptr<const void>(), &file_), section, file_.nodes().size());
-    const float margin = textures.layout().margin;
-    for (uint64_t c = 0; c < file_.nodes().size(); ++c) {
-        const HlodNode& n = file_.nodes()[c];
-        textures.read(c, n);
-        const CubeData cube = file_.read_cube(n);
-        const uint32_t cell[2] = {n.i, n.j};
-        const double s = h_.cube_size(n.level), reach = margin * s + h_.lattice_step(n.level) / 2 + float_slack();
-        for (uint32_t v = 0; v < cube.vertex_count(); ++v)
-            for (int a = 0; a < 2; ++a) {
-                const double x = decode_coordinate(h_, a, n.level, cell[a], cube.vertices.positions[3 * v + size_t(a)]);
-                const double lo = h_.origin[a] + cell[a] * s, d = std::max({0.0, lo - x, x - lo - s});
-                if (d > reach)
-                    fail(describe_cube(n) + ": vertex " + std::to_string(v) + " lies " + fmt(d) + " beyond its cell, off its texture (margin " +
-                         fmt(margin * s) + ")");
-            }
-    }
+// A textured model's cube: its texture decodes, and (planar mapping) every vertex lies on it.
+void Verifier::check_texture(const HlodNode& n, const CubeData& cube) {
+    textures_->read(uint64_t(&n - file_.nodes().data()), n);
+    const float margin = textures_->layout().margin;
+    const uint32_t cell[2] = {n.i, n.j};
+    const double s = h_.cube_size(n.level), reach = margin * s + h_.lattice_step(n.level) / 2 + float_slack();
+    for (uint32_t v = 0; v < cube.vertex_count(); ++v)
+        for (int a = 0; a < 2; ++a) {
+            const double x = decode_coordinate(h_, a, n.level, cell[a], cube.vertices.positions[3 * v + size_t(a)]);
+            const double lo = h_.origin[a] + cell[a] * s, d = std::max({0.0, lo - x, x - lo - s});
+            if (d > reach)
+                fail(describe_cube(n) + ": vertex " + std::to_string(v) + " lies " + fmt(d) + " beyond its cell, off its texture (margin " +
+                     fmt(margin * s) + ")");
+        }
 }
 
 // P(v) names a vertex of the parent cube (of the cube itself at level 0).
@@ -335,6 +329,10 @@ VerifyReport Verifier::run() {
     if (h_.node_count == 0) fail("no cubes");
     check_node_table();
     check_payload_layout();
+    const HlodSection* textures = file_.find_section(kTexturesTag);
+    if (textures)
+        textures_ = std::make_unique<const CubeTextures>(std::shared_ptr<const HlodFile>(std::shared_ptr<const void>(), &file_), *textures,
+                                                         file_.nodes().size());
     // Level by level, coarse to fine, one cube decoded at a time besides the parent its siblings share.
     std::vector<Closure> closures(h_.max_level + 1);
     for (uint32_t l = 0; l <= h_.max_level; ++l) {
@@ -344,6 +342,7 @@ VerifyReport Verifier::run() {
             const CubeData cube = file_.read_cube(*n);
             report_.cubes++, report_.vertices += n->vertex_count, report_.triangles += n->triangle_count;
             check_cube_bounds(*n, cube);
+            if (textures_) check_texture(*n, cube);
             if (l == 0) check_root(*n, cube);
             else check_against_parent(*n, cube, parent_of(*n));
             check_child_groups(*n, cube);
@@ -362,7 +361,7 @@ VerifyReport Verifier::run() {
         file_.check_section(*heights);
         TerrainHeights(std::shared_ptr<const HlodFile>(std::shared_ptr<const void>(), &file_), *heights).check_all();
     }
-    if (const HlodSection* textures = file_.find_section(kTexturesTag)) check_textures(*textures);
+    if (textures) file_.check_section(*textures);  // each texture was checked with its cube
     progress_("verify", h_.max_level + 1, h_.max_level + 1, "level");
     return report_;
 }
