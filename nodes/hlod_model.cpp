@@ -102,7 +102,9 @@ void HlodModel::read_optional_sections(Tree& tree, const std::shared_ptr<const H
         tree.textures = std::make_shared<CubeTextures>(file, *textures, tree.cubes.size());
 }
 
-uint64_t HlodModel::texture_bytes() const { return tree_->textures ? tree_->textures->layout().chain_bytes() : 0; }
+uint64_t HlodModel::Tree::texture_bytes() const { return textures ? textures->layout().chain_bytes() : 0; }
+
+uint64_t HlodModel::texture_bytes() const { return tree_->texture_bytes(); }
 
 std::optional<double> HlodModel::height_at(double x, double y) const {
     const Georeference* geo = georeference();
@@ -174,9 +176,9 @@ public:
     }
     uint32_t item_count() const override { return uint32_t(tree_->cubes.size()); }
     uint32_t parent(uint32_t cube) const override { return tree_->parent[cube]; }
-    uint64_t item_bytes(uint32_t cube) const override { return cube_bytes_bound(tree_->header, tree_->cubes[cube].node, texture_bytes()); }
+    uint64_t item_bytes(uint32_t cube) const override { return cube_bytes_bound(tree_->header, tree_->cubes[cube].node, tree_->texture_bytes()); }
     uint64_t item_gpu_bytes(uint32_t cube) const override {
-        return cube_gpu_bytes_bound(tree_->header, tree_->cubes[cube].node, texture_bytes());
+        return cube_gpu_bytes_bound(tree_->header, tree_->cubes[cube].node, tree_->texture_bytes());
     }
     // The coarse levels whose cubes fit in 5 % of the budget together; the root always, since nothing
     // is drawn without it.
@@ -218,7 +220,6 @@ public:
     }
 
 private:
-    uint64_t texture_bytes() const { return tree_->textures ? tree_->textures->layout().chain_bytes() : 0; }
     std::shared_ptr<const HlodFile> file_;
     std::shared_ptr<Tree> tree_;
     const StreamCache* cache_ = nullptr;

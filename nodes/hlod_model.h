@@ -134,6 +134,7 @@ class HlodModel : public Drawable {
         std::shared_ptr<const Georeference> georeference;
         std::shared_ptr<const TerrainHeights> heights;
         std::shared_ptr<const CubeTextures> textures;  // section TXTR
+        uint64_t texture_bytes() const;                // HlodModel::texture_bytes
     };
 
 public:
