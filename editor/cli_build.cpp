@@ -365,8 +365,7 @@ Command add_build(CLI::App& app) {
     sub->add_option("--texture-size", o->texture_size,
                     "Terrains: texels along a cube's texture (a power of two, 8 to 4096); default: as fine as the image, at most 1024")
         ->check([](const std::string& value) {
-            const unsigned long n = std::stoul(value);
-            return n >= 8 && n <= 4096 && (n & (n - 1)) == 0 ? std::string() : std::string("a power of two from 8 to 4096");
+            return TextureLayout::valid_size(uint32_t(std::min(std::stoul(value), 1ul << 20))) ? std::string() : std::string("a power of two from 8 to 4096");
         });
     sub->add_flag("-q,--quiet", o->quiet, "No progress bar and no summary");
     sub->add_flag("-v,--verbose", o->verbose, "Also print the memory, temporary-disk and time estimates, each level's counts, each stage's time, and the peak temporary disk and memory");

@@ -19,7 +19,6 @@ namespace {
 
 constexpr uint32_t kTextureCodec = 1;  // BC1, sRGB, the mip chain down to 4 × 4, one zstd frame a cube
 constexpr size_t kHeadBytes = 32, kIndexEntryBytes = 16;
-constexpr uint32_t kLeastSize = 8, kMostSize = 4096;
 // BC1 blocks are near-random bytes to a general-purpose coder: a low level gains as much as a high one.
 constexpr int kZstdLevel = 3;
 
@@ -71,6 +70,8 @@ std::array<uint8_t, 3> expand_565(uint16_t c) {
 }
 
 }  // namespace
+
+bool TextureLayout::valid_size(uint32_t size) { return std::has_single_bit(size) && size >= 8 && size <= 4096; }
 
 uint32_t TextureLayout::mip_count() const { return size < 4 ? 0 : uint32_t(std::bit_width(size)) - 2; }
 
@@ -124,7 +125,7 @@ std::vector<uint8_t> decode_bc1(std::span<const uint8_t> blocks, uint32_t size) 
 }
 
 TextureSectionWriter::TextureSectionWriter(HlodWriter& writer, TextureLayout layout) : writer_(writer), layout_(layout) {
-    if (!std::has_single_bit(layout.size) || layout.size < kLeastSize || layout.size > kMostSize || !(layout.margin >= 0 && layout.margin < 0.5f))
+    if (!TextureLayout::valid_size(layout.size) || !(layout.margin >= 0 && layout.margin < 0.5f))
         throw std::invalid_argument("TextureSectionWriter: textures of " + std::to_string(layout.size) + " texels, margin " + std::to_string(layout.margin));
 }
 
@@ -175,7 +176,7 @@ CubeTextures::CubeTextures(std::shared_ptr<const HlodFile> file, const HlodSecti
     if (codec != kTextureCodec) throw std::runtime_error(what + ": texture codec " + std::to_string(codec) + ", which this Strata does not know");
     if (mapping != uint32_t(TextureMapping::planar))
         throw std::runtime_error(what + ": texture mapping " + std::to_string(mapping) + ", which this Strata does not know");
-    if (!std::has_single_bit(layout_.size) || layout_.size < kLeastSize || layout_.size > kMostSize)
+    if (!TextureLayout::valid_size(layout_.size))
         throw std::runtime_error(what + ": textures of " + std::to_string(layout_.size) + " texels (a power of two, 8 to 4096)");
     if (!(layout_.margin >= 0 && layout_.margin < 0.5f)) throw std::runtime_error(what + ": a margin of " + std::to_string(layout_.margin) + " (0 to 0.5)");
     if (count != node_count)

@@ -32,6 +32,8 @@ struct TextureLayout {
     float margin = 0;    // planar: the cell grown by margin·s_l on each side, 0 ≤ margin < 0.5
     TextureMapping mapping = TextureMapping::planar;
 
+    // Whether `size` may be a texture's: a power of two, 8‥4096.
+    static bool valid_size(uint32_t size);
     // Mip levels stored: size, size/2, … 4.
     uint32_t mip_count() const;
     uint32_t mip_size(uint32_t mip) const { return size >> mip; }

@@ -277,7 +277,7 @@ double pixels_per_unit(const HlodHeader& header, const Georeference& geo, const 
 }  // namespace
 
 void check_texture_image(const TextureSettings& settings) {
-    if (settings.size && (!std::has_single_bit(settings.size) || settings.size < 8 || settings.size > 4096))
+    if (settings.size && !TextureLayout::valid_size(settings.size))
         throw InputError(settings.image.string() + ": textures of " + std::to_string(settings.size) + " texels; a power of two from 8 to 4096");
     Image image(settings);
 }
