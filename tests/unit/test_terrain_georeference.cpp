@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <functional>
 #include <random>
 
 #include <glm/gtc/matrix_transform.hpp>
@@ -152,38 +153,53 @@ TEST(TerrainGeoreference, HeightsAreTheRastersValuesAtSampleCentresAndBilinearBe
     }
 }
 
+// A DEM in degrees over the Alps: 161 × 121 samples 0.004° apart from 10° E, 46.5° N, WGS 84.
+test::TiffSpec alps_dem(const fs::path& file) {
+    test::TiffSpec spec{.width = 161, .height = 121, .type = GDT_Float32, .geotransform = {10.0, 0.004, 0, 46.5, 0, -0.004}, .crs = "EPSG:4326"};
+    spec.values = ground(spec.width, spec.height, 0.0001, 9, false);
+    test::write_tiff(file, spec);
+    return spec;
+}
+
+// At 100 random samples of alps_dem: at the model position `place` gives a sample's longitude,
+// latitude and height, height_at gives its height (within `tolerance`), to_geo its longitude and
+// latitude (1e-9°, 0.1 mm) and height, and to_local returns to the position.
+void expect_samples_found(const HlodModel& model, const test::TiffSpec& spec, double tolerance, uint32_t seed,
+                          const std::function<std::array<double, 3>(double lon, double lat, double height)>& place) {
+    const Georeference& geo = *model.georeference();
+    std::mt19937 rng(seed);
+    for (int s = 0; s < 100; ++s) {
+        const int c = int(rng() % 161), r = int(rng() % 121);
+        const double lon = 10.0 + 0.004 * (c + 0.5), lat = 46.5 - 0.004 * (r + 0.5), height = spec.values[size_t(r * 161 + c)];
+        const std::array<double, 3> p = place(lon, lat, height);
+        const std::optional<double> h = model.height_at(p[0], p[1]);
+        ASSERT_TRUE(h) << "sample " << c << ", " << r;
+        EXPECT_NEAR(*h, height, tolerance) << "sample " << c << ", " << r;
+        const std::array<double, 3> g = geo.to_geo(p);
+        EXPECT_NEAR(g[0], lon, 1e-9);
+        EXPECT_NEAR(g[1], lat, 1e-9);
+        EXPECT_NEAR(g[2], height, 1e-4);
+        const std::array<double, 3> back = geo.to_local(g);
+        for (size_t a = 0; a < 3; ++a) EXPECT_NEAR(back[a], p[a], 1e-4);
+    }
+}
+
 // A DEM in degrees, in both geographic frames: a sample's model position (PROJ's topocentric
 // coordinates of its ellipsoid point, or of the point itself in ecef) gives back its height within a
 // centimetre, to_geo gives its longitude and latitude within 1e-9° (0.1 mm), and to_local returns.
 TEST(TerrainGeoreference, GeographicFramesFindTheirSamplesBothWays) {
     test::TempDir dir;
-    test::TiffSpec spec{.width = 161, .height = 121, .type = GDT_Float32, .geotransform = {10.0, 0.004, 0, 46.5, 0, -0.004}, .crs = "EPSG:4326"};
-    spec.values = ground(spec.width, spec.height, 0.0001, 9, false);
-    test::write_tiff(dir / "alps.tif", spec);
+    const test::TiffSpec spec = alps_dem(dir / "alps.tif");
     const double lon0 = 10.0 + 0.004 * (80 + 0.5), lat0 = 46.5 - 0.004 * (60 + 0.5);
     const test::Topocentric topocentric(lon0, lat0);
     ASSERT_TRUE(topocentric.ok());
     for (const TerrainFrameKind frame : {TerrainFrameKind::enu, TerrainFrameKind::ecef}) {
         SCOPED_TRACE(frame == TerrainFrameKind::enu ? "enu" : "ecef");
         build(dir / "alps.tif", dir / "alps.hlod", {.cube_cells = 16, .frame = frame});
-        const auto model = HlodModel::open(dir / "alps.hlod");
-        const Georeference& geo = *model->georeference();
-        std::mt19937 rng(4);
-        for (int s = 0; s < 100; ++s) {
-            const int c = int(rng() % 161), r = int(rng() % 121);
-            const double lon = 10.0 + 0.004 * (c + 0.5), lat = 46.5 - 0.004 * (r + 0.5), height = spec.values[size_t(r * 161 + c)];
+        expect_samples_found(*HlodModel::open(dir / "alps.hlod"), spec, 0.01, 4, [&](double lon, double lat, double height) {
             const std::array<double, 3> at_zero = topocentric(lon, lat, 0), at_height = topocentric(lon, lat, height);
-            const std::array<double, 3> p = frame == TerrainFrameKind::enu ? std::array{at_zero[0], at_zero[1], height} : at_height;
-            const std::optional<double> h = model->height_at(p[0], p[1]);
-            ASSERT_TRUE(h) << "sample " << c << ", " << r;
-            EXPECT_NEAR(*h, height, 0.01) << "sample " << c << ", " << r;
-            const std::array<double, 3> g = geo.to_geo(p);
-            EXPECT_NEAR(g[0], lon, 1e-9);
-            EXPECT_NEAR(g[1], lat, 1e-9);
-            EXPECT_NEAR(g[2], height, 1e-4);
-            const std::array<double, 3> back = geo.to_local(g);
-            for (size_t a = 0; a < 3; ++a) EXPECT_NEAR(back[a], p[a], 1e-4);
-        }
+            return frame == TerrainFrameKind::enu ? std::array{at_zero[0], at_zero[1], height} : at_height;
+        });
     }
 }
 
@@ -193,9 +209,7 @@ TEST(TerrainGeoreference, GeographicFramesFindTheirSamplesBothWays) {
 // the model's box is the samples' own. A CRS that is not a plane in metres is refused by name.
 TEST(TerrainGeoreference, AReprojectedFramePutsEverySampleWherePROJDoes) {
     test::TempDir dir;
-    test::TiffSpec spec{.width = 161, .height = 121, .type = GDT_Float32, .geotransform = {10.0, 0.004, 0, 46.5, 0, -0.004}, .crs = "EPSG:4326"};
-    spec.values = ground(spec.width, spec.height, 0.0001, 9, false);
-    test::write_tiff(dir / "alps.tif", spec);
+    const test::TiffSpec spec = alps_dem(dir / "alps.tif");
     TerrainSettings settings{.cube_cells = 16};
     settings.frame_crs = "EPSG:32632";
     build(dir / "alps.tif", dir / "alps.hlod", settings);
@@ -217,22 +231,10 @@ TEST(TerrainGeoreference, AReprojectedFramePutsEverySampleWherePROJDoes) {
         EXPECT_NEAR(h.bounds_lo[a], lo[a], 1e-3) << "axis " << a;
         EXPECT_NEAR(h.bounds_hi[a], hi[a], 1e-3) << "axis " << a;
     }
-    const Georeference& geo = *model->georeference();
-    std::mt19937 rng(5);
-    for (int s = 0; s < 100; ++s) {
-        const int c = int(rng() % 161), r = int(rng() % 121);
-        const double lon = 10.0 + 0.004 * (c + 0.5), lat = 46.5 - 0.004 * (r + 0.5), height = spec.values[size_t(r * 161 + c)];
+    expect_samples_found(*model, spec, 0.001, 5, [&](double lon, double lat, double height) {
         const std::array<double, 2> e = utm(lon, lat);
-        const std::array<double, 3> p{e[0] - h.geo_origin[0], e[1] - h.geo_origin[1], height};
-        const std::optional<double> at = model->height_at(p[0], p[1]);
-        ASSERT_TRUE(at) << "sample " << c << ", " << r;
-        EXPECT_NEAR(*at, height, 0.001) << "sample " << c << ", " << r;
-        const std::array<double, 3> g = geo.to_geo(p);
-        EXPECT_NEAR(g[0], lon, 1e-9);
-        EXPECT_NEAR(g[1], lat, 1e-9);
-        const std::array<double, 3> back = geo.to_local(g);
-        for (size_t a = 0; a < 3; ++a) EXPECT_NEAR(back[a], p[a], 1e-4);
-    }
+        return std::array{e[0] - h.geo_origin[0], e[1] - h.geo_origin[1], height};
+    });
     EXPECT_FALSE(model->height_at(hi[0] + 500, 0)) << "east of the raster";
     for (const auto& [crs, words] : {std::pair{"EPSG:4326", "not a projected CRS"}, std::pair{"EPSG:2272", "a projected CRS not in metres"},
                                      std::pair{"no such crs", "not a CRS PROJ knows"}}) {
