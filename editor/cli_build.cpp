@@ -154,6 +154,8 @@ int run_terrain(const BuildOptions& o, const std::vector<std::filesystem::path>&
             for (const std::string& note : report.notes) std::fprintf(stderr, "strata build: note: %s\n", note.c_str());
         if (o.verbose) {
             print_levels(report);
+            std::printf("  heights: on a %.3g m lattice at level %u, within %.3g m of the raster's (--height-tolerance)\n",
+                        report.height_quantum, report.max_level, report.height_quantum / 2);
             std::printf("  seconds: read %.2f, tiles %.2f, coarse levels %.2f, write %.2f (textures %.2f)\n", report.read_seconds,
                         report.partition_seconds, report.simplify_seconds, report.write_seconds, report.texture_seconds);
             if (report.texture_size)
@@ -354,6 +356,10 @@ Command add_build(CLI::App& app) {
         ->check(CLI::Range(8u, 256u))
         ->check([](const std::string& value) { return std::stoul(value) % 2 ? std::string("an even number of cells") : std::string(); })
         ->capture_default_str();
+    sub->add_option("--height-tolerance", o->terrain.height_tolerance,
+                    "Terrains: how far (metres) a vertex's height may move from the raster's value, to store it in fewer bits "
+                    "(each cube's error bound includes it; height_at stays exact); default 1/128 of the sample spacing, 0: finest")
+        ->check(CLI::Range(0.0, 1e6));
     sub->add_option("--fill-nodata", o->fill_nodata,
                     "Terrains: give nodata samples this elevation (metres) instead of leaving holes");
     sub->add_option("--texture", o->texture,

@@ -66,6 +66,8 @@ struct BuildReport {
     uint32_t texture_size = 0;
     uint64_t texture_bytes = 0;
     double texture_seconds = 0;
+    // Terrains: the finest level's height lattice (metres); its vertices are within half of it of the raster.
+    double height_quantum = 0;
 };
 
 // Throws InputError naming the first setting out of range (checked before any input is read, so a

@@ -490,12 +490,13 @@ std::vector<uint32_t> decode_indices(std::span<const uint8_t> stream, uint32_t t
 
 // A stream in the payload: as a zstd frame when that is smaller and within the ratio a reader accepts,
 // else as it is. Returns the bytes to store.
-std::vector<uint8_t> packed(const std::vector<uint8_t>& stream) {
+// `floor`: a size any stream may unpack to whatever its ratio (grid payloads; 0 for meshes).
+std::vector<uint8_t> packed(const std::vector<uint8_t>& stream, uint64_t floor) {
     if (stream.empty()) return {};
     std::vector<uint8_t> frame(ZSTD_compressBound(stream.size()));
     const size_t size = ZSTD_compressCCtx(zstd.compress, frame.data(), frame.size(), stream.data(), stream.size(), kZstdLevel);
     if (ZSTD_isError(size)) throw std::runtime_error(std::string("zstd: ") + ZSTD_getErrorName(size));
-    if (size < stream.size() && stream.size() <= kMaxZstdRatio * size) {
+    if (size < stream.size() && stream.size() <= std::max(kMaxZstdRatio * size, floor)) {
         frame.resize(size);
         return frame;
     }
@@ -504,10 +505,10 @@ std::vector<uint8_t> packed(const std::vector<uint8_t>& stream) {
 
 // A stream back from its stored bytes: `size` is its unpacked length, checked against the stored bytes
 // before anything is allocated for it.
-std::vector<uint8_t> unpacked(std::span<const uint8_t> stored, uint32_t size, const std::string& what) {
+std::vector<uint8_t> unpacked(std::span<const uint8_t> stored, uint32_t size, uint64_t floor, const std::string& what) {
     if (stored.size() == size) return {stored.begin(), stored.end()};
     if (stored.size() > size) throw std::runtime_error(what + ": stream stored in more bytes than it holds");
-    if (size > kMaxZstdRatio * stored.size()) throw std::runtime_error(what + ": counts larger than the payload could hold");
+    if (size > std::max(kMaxZstdRatio * stored.size(), floor)) throw std::runtime_error(what + ": counts larger than the payload could hold");
     if (ZSTD_getFrameContentSize(stored.data(), stored.size()) != size)
         throw std::runtime_error(what + ": zstd frame does not hold the stream's size");
     std::vector<uint8_t> stream(size);
@@ -545,53 +546,82 @@ std::vector<int16_t> predicted_normals(const std::vector<uint16_t>& positions, c
             for (int a = 0; a < 3; ++a) sums[indices[t + k]][a] += normal[a];
     }
     std::vector<int16_t> out(2 * sums.size());
-    constexpr double steps = double((1 << (kNormalBits - 1)) - 1);
     for (size_t v = 0; v < sums.size(); ++v) {
-        double x = double(int64_t(sums[v][0])), y = double(int64_t(sums[v][1])), z = double(int64_t(sums[v][2]));
-        const double l1 = std::fabs(x) + std::fabs(y) + std::fabs(z);
-        if (!(l1 > 0)) continue;  // no triangle: predicts (0, 0)
-        x /= l1, y /= l1, z /= l1;
-        if (z < 0) {
-            const double ox = (1 - std::fabs(y)) * (x >= 0 ? 1.0 : -1.0);
-            const double oy = (1 - std::fabs(x)) * (y >= 0 ? 1.0 : -1.0);
-            x = ox, y = oy;
-        }
-        out[2 * v] = round_half_away(std::clamp(x, -1.0, 1.0) * steps);
-        out[2 * v + 1] = round_half_away(std::clamp(y, -1.0, 1.0) * steps);
+        const std::array<int16_t, 2> normal = lattice_normal(sums[v]);
+        out[2 * v] = normal[0], out[2 * v + 1] = normal[1];
     }
     return out;
 }
 
+}  // namespace
+
+std::array<int16_t, 2> lattice_normal(const std::array<uint64_t, 3>& sum) {
+    constexpr double steps = double((1 << (kNormalBits - 1)) - 1);
+    double x = double(int64_t(sum[0])), y = double(int64_t(sum[1])), z = double(int64_t(sum[2]));
+    const double l1 = std::fabs(x) + std::fabs(y) + std::fabs(z);
+    if (!(l1 > 0)) return {0, 0};  // no triangle
+    x /= l1, y /= l1, z /= l1;
+    if (z < 0) {
+        const double ox = (1 - std::fabs(y)) * (x >= 0 ? 1.0 : -1.0);
+        const double oy = (1 - std::fabs(x)) * (y >= 0 ? 1.0 : -1.0);
+        x = ox, y = oy;
+    }
+    return {round_half_away(std::clamp(x, -1.0, 1.0) * steps), round_half_away(std::clamp(y, -1.0, 1.0) * steps)};
+}
+
+namespace {
+
 // ---- the streams, one function each way ----------------------------------------------------
 
-std::vector<uint8_t> encode_positions(const std::vector<FirstUse>& walk, const std::vector<uint16_t>& positions,
-                                      BitWriter& bits) {
-    std::vector<uint8_t> classes;
-    classes.reserve(positions.size());
+// Heights may lie on a lattice 2^shift times coarser (grid payloads, FORMAT.md §6): their residuals
+// count its steps, modulo 2^(16 − shift). `shift` 0: every axis as it is.
+int32_t height_residual(uint16_t value, uint16_t predicted, uint32_t shift) {
+    const uint32_t bits = 16 - shift;
+    const uint32_t difference = uint32_t((value >> shift) - (predicted >> shift)) & ((1u << bits) - 1);
+    return int32_t(difference << (32 - bits)) >> (32 - bits);  // sign-extended from its bits
+}
+
+// Where the class of axis x of the i-th vertex of the walk lies in stream 1: x, y, z together, or
+// (grid payloads) every x, then every y, then every z, so that the grid's x and y classes, nearly all
+// 0, make long runs.
+struct ClassOrder {
+    bool planar = false;
+    size_t vertices = 0;
+    size_t at(size_t i, int x) const { return planar ? size_t(x) * vertices + i : 3 * i + size_t(x); }
+};
+
+std::vector<uint8_t> encode_positions(const std::vector<FirstUse>& walk, const std::vector<uint16_t>& positions, uint32_t shift,
+                                      ClassOrder order, BitWriter& bits) {
+    std::vector<uint8_t> classes(positions.size());
     uint16_t previous[3] = {kCellCentre, kCellCentre, kCellCentre};
-    for (const FirstUse& f : walk) {
+    for (size_t i = 0; i < walk.size(); ++i) {
+        const FirstUse& f = walk[i];
         const std::array<uint16_t, 3> p = predicted_position(f, positions.data(), previous);
         for (int x = 0; x < 3; ++x) {
             const uint16_t value = positions[3 * size_t(f.v) + x];
-            const uint32_t z = zigzag(int16_t(uint16_t(value - p[x])));
-            classes.push_back(uint8_t(size_class(z)));
-            bits.put_low_bits(z, classes.back());
+            const uint32_t z = zigzag(x == 2 ? height_residual(value, p[x], shift) : int16_t(uint16_t(value - p[x])));
+            const uint8_t n = uint8_t(size_class(z));
+            classes[order.at(i, x)] = n;
+            bits.put_low_bits(z, n);
             previous[x] = value;
         }
     }
     return classes;
 }
 
-void decode_positions(const std::vector<FirstUse>& walk, std::span<const uint8_t> classes, BitReader& bits,
-                      std::vector<uint16_t>& positions, const std::string& what) {
+void decode_positions(const std::vector<FirstUse>& walk, std::span<const uint8_t> classes, uint32_t shift, ClassOrder order,
+                      BitReader& bits, std::vector<uint16_t>& positions, const std::string& what) {
     positions.resize(3 * walk.size());
     uint16_t previous[3] = {kCellCentre, kCellCentre, kCellCentre};
-    const uint8_t* c = classes.data();
-    for (const FirstUse& f : walk) {
+    for (size_t i = 0; i < walk.size(); ++i) {
+        const FirstUse& f = walk[i];
         const std::array<uint16_t, 3> p = predicted_position(f, positions.data(), previous);
-        for (int x = 0; x < 3; ++x, ++c) {
+        for (int x = 0; x < 3; ++x) {
+            const uint8_t* c = &classes[order.at(i, x)];
             if (*c > 16) throw std::runtime_error(what + ": position residual class " + std::to_string(*c) + " past 16");
-            const uint16_t value = uint16_t(p[x] + uint16_t(unzigzag(bits.value_of_class(*c))));
+            const int32_t r = unzigzag(bits.value_of_class(*c));
+            const uint16_t value = x == 2 && shift ? uint16_t((uint32_t(p[x] >> shift) + uint32_t(r)) << shift)
+                                                   : uint16_t(p[x] + uint16_t(r));
             positions[3 * size_t(f.v) + x] = previous[x] = value;
         }
     }
@@ -686,20 +716,211 @@ void decode_parents(const std::vector<FirstUse>& walk, std::span<const uint8_t> 
     }
 }
 
-}  // namespace
+// ---- grid payloads (codec 3, FORMAT.md §5.1) ------------------------------------------------
 
-// Payload (FORMAT.md §5): counts, child triangle counts, each stream's size and stored size, then the
-// streams: the triangles (meshoptimizer's index codec), then positions, normals and parents as residual
-// classes against what the triangles predict, walking the vertices in first-use order, colours and UVs
-// (its vertex codec), and the residuals' low bits.
-std::vector<uint8_t> encode_cube(const CubeData& cube, uint32_t flags) {
+constexpr uint32_t kMaxGridSide = 4096;
+constexpr uint32_t kMaxHeightShift = 14;
+constexpr uint8_t kGridRowsRunNorth = 1;
+// A grid payload's streams are far more regular than a mesh's (most normals and most x, y residuals
+// are 0): each may unpack to this many bytes whatever its frame's ratio, which still bounds what a
+// reader allocates.
+constexpr uint64_t kGridStreamFloor = uint64_t(1) << 20;
+
+void put_varint(std::vector<uint8_t>& out, uint64_t value) {
+    for (; value >= 0x80; value >>= 7) out.push_back(uint8_t(value | 0x80));
+    out.push_back(uint8_t(value));
+}
+
+uint32_t get_varint(ByteReader& r, const std::string& what) {
+    uint64_t value = 0;
+    for (int shift = 0;; shift += 7) {
+        const uint8_t byte = r.get<uint8_t>();
+        value |= uint64_t(byte & 0x7F) << shift;
+        if (value > 0xFFFFFFFFu) throw std::runtime_error(what + ": grid run past 2^32");
+        if (!(byte & 0x80)) return uint32_t(value);
+        if (shift == 28) throw std::runtime_error(what + ": grid run past 2^32");
+    }
+}
+
+// Run lengths of a grid stream: the samples' alternate between absent and present, absent first; the
+// cells' repeat a value.
+class SampleRuns {
+public:
+    SampleRuns(ByteReader& r, const std::string& what) : r_(r), what_(what) {}
+    bool next() {
+        while (left_ == 0) left_ = get_varint(r_, what_), present_ = !present_;
+        --left_;
+        return present_;
+    }
+    bool ended() const { return left_ == 0; }
+
+private:
+    ByteReader& r_;
+    const std::string& what_;
+    uint32_t left_ = 0;
+    bool present_ = true;  // the first run is absent
+};
+
+class CellRuns {
+public:
+    CellRuns(ByteReader& r, const std::string& what) : r_(r), what_(what) {}
+    uint8_t next() {
+        if (left_ == 0) {
+            value_ = r_.get<uint8_t>(), left_ = get_varint(r_, what_);
+            if (left_ == 0) throw std::runtime_error(what_ + ": a cell run of length 0");
+            if ((value_ & 15) > 8 || (value_ >> 4) > 8) throw std::runtime_error(what_ + ": cell value " + std::to_string(value_) + " names no child group");
+        }
+        --left_;
+        return value_;
+    }
+    bool ended() const { return left_ == 0; }
+
+private:
+    ByteReader& r_;
+    const std::string& what_;
+    uint32_t left_ = 0;
+    uint8_t value_ = 0;
+};
+
+// What a grid stream gives: the triangles, grouped by child, the walk, and the heights' shift.
+struct GridTopology {
+    std::vector<uint32_t> indices;
+    std::vector<FirstUse> walk;
+    uint32_t height_shift = 0;
+};
+
+// Decodes a grid stream (FORMAT.md §5.1) for a cube of `vertices` vertices and `child_counts`
+// triangles per child group (the caller has checked their sum is at most 2·vertices).
+GridTopology decode_grid(std::span<const uint8_t> stream, uint32_t vertices, const std::array<uint32_t, 8>& child_counts,
+                         const std::string& what) {
+    ByteReader r(stream, what + " grid stream");
+    const uint32_t width = r.get<uint16_t>(), height = r.get<uint16_t>();
+    GridTopology out;
+    out.height_shift = r.get<uint8_t>();
+    const uint8_t flags = r.get<uint8_t>();
+    if (width < 1 || height < 1 || width > kMaxGridSide || height > kMaxGridSide)
+        throw std::runtime_error(what + ": a grid of " + std::to_string(width) + " × " + std::to_string(height) + " samples");
+    if (out.height_shift > kMaxHeightShift) throw std::runtime_error(what + ": height shift " + std::to_string(out.height_shift) + " past 14");
+    if (flags & ~kGridRowsRunNorth) throw std::runtime_error(what + ": unknown grid flags");
+    std::array<uint32_t, 8> next{}, end{};
+    for (uint32_t o = 0, sum = 0; o < 8; ++o) next[o] = sum, sum += child_counts[o], end[o] = sum;
+    // The sample runs, then the cell runs: find where the first end.
+    const std::span<const uint8_t> runs = stream.subspan(r.position());
+    ByteReader scan(runs, what + " grid stream");
+    for (uint64_t covered = 0; covered < uint64_t(width) * height;) covered += get_varint(scan, what);
+    ByteReader sample_bytes(runs.first(scan.position()), what + " grid stream"), cell_bytes(runs.subspan(scan.position()), what + " grid stream");
+    SampleRuns samples(sample_bytes, what);
+    CellRuns cells(cell_bytes, what);
+    out.indices.resize(3 * size_t(end[7]));
+    out.walk.reserve(vertices);
+    std::vector<uint32_t> above(width, kNone), here(width, kNone);
+    uint32_t count = 0;
+    for (uint32_t row = 0; row < height; ++row) {
+        for (uint32_t c = 0; c < width; ++c) {
+            here[c] = kNone;
+            if (!samples.next()) continue;
+            if (count == vertices) throw std::runtime_error(what + ": grid has more vertices than its count");
+            const uint32_t a = c > 0 ? here[c - 1] : kNone, b = above[c];
+            out.walk.push_back({count, a, b, a != kNone && b != kNone ? above[c - 1] : kNone});
+            here[c] = count++;
+        }
+        if (row == 0) {
+            above.swap(here);
+            continue;
+        }
+        for (uint32_t c = 0; c + 1 < width; ++c) {
+            const uint8_t value = cells.next();
+            for (int t = 0; t < 2; ++t) {
+                const uint32_t group = (value >> (4 * t)) & 15;
+                if (group == 0) continue;
+                const uint32_t o = group - 1;
+                // Triangle t of the cell (FORMAT.md §4.7): min, (min column, max row) or (max column, min
+                // row), max; counter-clockwise seen from above.
+                const uint32_t min = above[c], max = here[c + 1], side = t == 0 ? here[c] : above[c + 1];
+                if (min == kNone || max == kNone || side == kNone)
+                    throw std::runtime_error(what + ": a triangle of grid cell (" + std::to_string(c) + ", " + std::to_string(row - 1) + ") lacks a corner");
+                if (next[o] == end[o]) throw std::runtime_error(what + ": child group " + std::to_string(o) + " has more triangles than its count");
+                const bool turn = (t == 0) != bool(flags & kGridRowsRunNorth);
+                uint32_t* corner = &out.indices[3 * size_t(next[o]++)];
+                corner[0] = min, corner[1] = turn ? side : max, corner[2] = turn ? max : side;
+            }
+        }
+        above.swap(here);
+    }
+    if (!samples.ended() || !sample_bytes.at_end()) throw std::runtime_error(what + ": grid stream's sample runs overrun its grid");
+    if (!cells.ended() || !cell_bytes.at_end()) throw std::runtime_error(what + ": grid stream longer than its grid");
+    if (count != vertices) throw std::runtime_error(what + ": grid has fewer vertices than its count");
+    for (uint32_t o = 0; o < 8; ++o)
+        if (next[o] != end[o]) throw std::runtime_error(what + ": child group " + std::to_string(o) + " has fewer triangles than its count");
+    return out;
+}
+
+// The grid stream of a cube whose vertices stand at `grid.samples` (row-major, in vertex order) and
+// whose triangles are the grid's, grouped by child.
+std::vector<uint8_t> encode_grid(const CubeData& cube, const GridPlacement& grid) {
+    const uint32_t n = cube.vertex_count();
+    if (grid.samples.size() != n) throw std::logic_error("encode_grid_cube: a sample per vertex");
+    uint32_t c0 = ~0u, r0 = ~0u, c1 = 0, r1 = 0;
+    for (const auto& [c, r] : grid.samples) c0 = std::min(c0, c), c1 = std::max(c1, c), r0 = std::min(r0, r), r1 = std::max(r1, r);
+    if (n == 0) c0 = r0 = 0;
+    const uint32_t width = c1 - c0 + 1, height = r1 - r0 + 1;
+    if (width > kMaxGridSide || height > kMaxGridSide || grid.height_shift > kMaxHeightShift)
+        throw std::logic_error("encode_grid_cube: a grid of " + std::to_string(width) + " × " + std::to_string(height) + " samples");
+    std::vector<uint32_t> at(size_t(width) * height, kNone);
+    for (uint32_t v = 0; v < n; ++v) {
+        const size_t sample = size_t(grid.samples[v][1] - r0) * width + (grid.samples[v][0] - c0);
+        if (v > 0 && sample <= size_t(grid.samples[v - 1][1] - r0) * width + (grid.samples[v - 1][0] - c0))
+            throw std::logic_error("encode_grid_cube: vertices not in row-major order");
+        at[sample] = v;
+    }
+    std::vector<uint8_t> out;
+    out.push_back(uint8_t(width)), out.push_back(uint8_t(width >> 8)), out.push_back(uint8_t(height)), out.push_back(uint8_t(height >> 8));
+    out.push_back(uint8_t(grid.height_shift)), out.push_back(grid.rows_run_north ? kGridRowsRunNorth : 0);
+    bool present = false;
+    uint64_t run = 0;
+    for (uint32_t v : at) {
+        if ((v != kNone) != present) put_varint(out, run), run = 0, present = !present;
+        ++run;
+    }
+    put_varint(out, run);
+    std::vector<uint8_t> cell(size_t(width - 1) * (height - 1), 0);
+    for (uint32_t o = 0, t = 0; o < 8; ++o)
+        for (uint32_t end = t + cube.child_triangle_counts[o]; t < end; ++t) {
+            uint32_t cmin = ~0u, rmin = ~0u;
+            for (int k = 0; k < 3; ++k) {
+                const auto& s = grid.samples[cube.indices[3 * size_t(t) + k]];
+                cmin = std::min(cmin, s[0]), rmin = std::min(rmin, s[1]);
+            }
+            bool low_side = false;  // a corner at (min column, max row): triangle 0
+            for (int k = 0; k < 3; ++k) {
+                const auto& s = grid.samples[cube.indices[3 * size_t(t) + k]];
+                low_side |= s[0] == cmin && s[1] == rmin + 1;
+            }
+            if (cmin + 1 > c1 || rmin + 1 > r1) throw std::logic_error("encode_grid_cube: a triangle that is not a grid cell's");
+            uint8_t& value = cell[size_t(rmin - r0) * (width - 1) + (cmin - c0)];
+            const int shift = low_side ? 0 : 4;
+            if ((value >> shift) & 15) throw std::logic_error("encode_grid_cube: two triangles in one place of a cell");
+            value |= uint8_t((o + 1) << shift);
+        }
+    for (size_t i = 0; i < cell.size();) {
+        size_t j = i;
+        while (j < cell.size() && cell[j] == cell[i]) ++j;
+        out.push_back(cell[i]), put_varint(out, j - i), i = j;
+    }
+    return out;
+}
+
+// The streams every payload codes the same way once its triangles and walk are known: positions,
+// normals and parents as residual classes, colours, UVs, the low bits. Returns the whole payload.
+// `grid`: a grid payload (FORMAT.md §5.1), with the heights' shift.
+std::vector<uint8_t> payload_from(const CubeData& cube, uint32_t flags, std::vector<uint8_t> triangles,
+                                  const std::vector<uint32_t>& indices, const std::vector<FirstUse>& walk, bool grid,
+                                  uint32_t height_shift) {
     const uint32_t n = cube.vertex_count();
     std::vector<uint8_t> streams[kStreams];
-    streams[kIndices] = encode_indices(cube.indices, n);
-    const std::vector<uint32_t> indices = decode_indices(streams[kIndices], cube.triangle_count(), n, "encode_cube");
-    const std::vector<FirstUse> walk = first_use_walk(indices, n);
+    streams[kIndices] = std::move(triangles);
     BitWriter bits;
-    streams[kPositions] = encode_positions(walk, cube.vertices.positions, bits);
+    streams[kPositions] = encode_positions(walk, cube.vertices.positions, height_shift, ClassOrder{grid, n}, bits);
     streams[kNormals] = encode_normals(walk, cube.vertices.normals, predicted_normals(cube.vertices.positions, indices), bits);
     streams[kParents] = encode_parents(walk, cube.parent_vertex, bits);
     if (flags & kHasColors) streams[kColors] = encode_vertices(cube.vertices.colors, n, 4);
@@ -711,7 +932,7 @@ std::vector<uint8_t> encode_cube(const CubeData& cube, uint32_t flags) {
     for (uint32_t c : cube.child_triangle_counts) w.put(c);
     std::vector<uint8_t> body;
     for (const auto& s : streams) {
-        const std::vector<uint8_t> stored = packed(s);
+        const std::vector<uint8_t> stored = packed(s, grid ? kGridStreamFloor : 0);
         w.put(uint32_t(s.size())), w.put(uint32_t(stored.size()));
         body.insert(body.end(), stored.begin(), stored.end());
     }
@@ -719,8 +940,33 @@ std::vector<uint8_t> encode_cube(const CubeData& cube, uint32_t flags) {
     return std::move(w.bytes);
 }
 
-CubeData decode_cube(std::span<const uint8_t> bytes, const HlodNode& node, uint32_t flags) {
+}  // namespace
+
+// Payload (FORMAT.md §5): counts, child triangle counts, each stream's size and stored size, then the
+// streams: the triangles (meshoptimizer's index codec), then positions, normals and parents as residual
+// classes against what the triangles predict, walking the vertices in first-use order, colours and UVs
+// (its vertex codec), and the residuals' low bits.
+std::vector<uint8_t> encode_cube(const CubeData& cube, uint32_t flags) {
+    const uint32_t n = cube.vertex_count();
+    std::vector<uint8_t> triangles = encode_indices(cube.indices, n);
+    const std::vector<uint32_t> indices = decode_indices(triangles, cube.triangle_count(), n, "encode_cube");
+    return payload_from(cube, flags, std::move(triangles), indices, first_use_walk(indices, n), false, 0);
+}
+
+std::vector<uint8_t> encode_grid_cube(const CubeData& cube, const GridPlacement& grid) {
+    std::vector<uint8_t> stream = cube.vertex_count() ? encode_grid(cube, grid) : std::vector<uint8_t>();
+    GridTopology topology;
+    if (!stream.empty()) topology = decode_grid(stream, cube.vertex_count(), cube.child_triangle_counts, "encode_grid_cube");
+    if (topology.indices != cube.indices) throw std::logic_error("encode_grid_cube: the cube's triangles are not its grid's, in the grid's order");
+    const uint32_t shift = grid.height_shift;
+    for (size_t v = 0; v < cube.vertex_count(); ++v)
+        if (cube.vertices.positions[3 * v + 2] & ((1u << shift) - 1)) throw std::logic_error("encode_grid_cube: a height off its lattice");
+    return payload_from(cube, 0, std::move(stream), topology.indices, topology.walk, true, shift);
+}
+
+CubeData decode_cube(std::span<const uint8_t> bytes, const HlodNode& node, uint32_t flags, uint32_t codec) {
     const std::string what = describe_cube(node);
+    const bool grid = codec == kGridPayloadCodec;
     ByteReader r(bytes, what + " payload");
     CubeData cube;
     const uint32_t n = r.get<uint32_t>(), triangles = r.get<uint32_t>();
@@ -732,21 +978,31 @@ CubeData decode_cube(std::span<const uint8_t> bytes, const HlodNode& node, uint3
     uint32_t sizes[kStreams], stored[kStreams];
     for (int s = 0; s < kStreams; ++s) sizes[s] = r.get<uint32_t>(), stored[s] = r.get<uint32_t>();
     // Every count is bounded by the stream that holds it before anything is allocated for it: one byte
-    // per position coordinate and one per normal and parent, at least a byte per triangle in the index codec.
+    // per position coordinate and one per normal and parent; at least a byte per triangle in the index
+    // codec, at most two triangles a vertex in a grid.
     const bool colours = (flags & kHasColors) && n > 0, uvs = (flags & kHasUvs) && n > 0;
     if (sizes[kPositions] != 3 * uint64_t(n) || sizes[kNormals] != n || sizes[kParents] != n ||
         colours != (sizes[kColors] != 0) || uvs != (sizes[kUvs] != 0))
         throw std::runtime_error(what + ": stream sizes disagree with the counts");
-    if (triangles > sizes[kIndices] || (triangles == 0) != (sizes[kIndices] == 0))
+    if (grid ? triangles > 2 * uint64_t(n) || (n == 0) != (sizes[kIndices] == 0)
+             : triangles > sizes[kIndices] || (triangles == 0) != (sizes[kIndices] == 0))
         throw std::runtime_error(what + ": counts larger than the payload could hold");
     std::vector<uint8_t> streams[kStreams];
-    for (int s = 0; s < kStreams; ++s) streams[s] = unpacked(r.get_bytes(stored[s]), sizes[s], what);
+    for (int s = 0; s < kStreams; ++s) streams[s] = unpacked(r.get_bytes(stored[s]), sizes[s], grid ? kGridStreamFloor : 0, what);
     if (!r.at_end()) throw std::runtime_error(what + ": payload longer than its streams");
 
-    cube.indices = decode_indices(streams[kIndices], triangles, n, what);
-    const std::vector<FirstUse> walk = first_use_walk(cube.indices, n);
+    std::vector<FirstUse> walk;
+    uint32_t height_shift = 0;
+    if (grid) {
+        GridTopology topology;
+        if (n > 0) topology = decode_grid(streams[kIndices], n, cube.child_triangle_counts, what);
+        cube.indices = std::move(topology.indices), walk = std::move(topology.walk), height_shift = topology.height_shift;
+    } else {
+        cube.indices = decode_indices(streams[kIndices], triangles, n, what);
+        walk = first_use_walk(cube.indices, n);
+    }
     BitReader bits(streams[kBits], what);
-    decode_positions(walk, streams[kPositions], bits, cube.vertices.positions, what);
+    decode_positions(walk, streams[kPositions], height_shift, ClassOrder{grid, n}, bits, cube.vertices.positions, what);
     decode_normals(walk, streams[kNormals], bits, predicted_normals(cube.vertices.positions, cube.indices),
                    cube.vertices.normals, what);
     decode_parents(walk, streams[kParents], bits, cube.parent_vertex, what);
@@ -1157,10 +1413,12 @@ void HlodFile::read_model_section(const HlodSection& section) {
         throw std::runtime_error(name + ": payload codec " + std::to_string(h.payload_codec) +
                                  " (from an older Strata), which this Strata no longer reads; rebuild it from its scan: "
                                  "strata build SCAN -o " + name);
-    if (h.payload_codec != kCubePayloadCodec)
+    if (h.payload_codec != kCubePayloadCodec && h.payload_codec != kGridPayloadCodec)
         throw std::runtime_error(name + ": payload codec " + std::to_string(h.payload_codec) +
                                  ", which this Strata does not know; it was written by a newer version");
     h.flags = r.get<uint32_t>();
+    if (h.payload_codec == kGridPayloadCodec && (h.flags & (kHasColors | kHasUvs)))
+        throw std::runtime_error(name + ": a terrain's grid payloads carry no colours or UVs, but its flags say they do");
     for (double& o : h.origin) o = r.get<double>();
     h.root_size = r.get<double>();
     h.max_level = r.get<uint32_t>();
@@ -1279,7 +1537,7 @@ std::vector<uint8_t> HlodFile::read_payload(const HlodNode& node) const {
 
 CubeData HlodFile::read_cube(const HlodNode& node) const {
     try {
-        return decode_cube(read_payload(node), node, header_.flags);
+        return decode_cube(read_payload(node), node, header_.flags, header_.payload_codec);
     } catch (const std::runtime_error& e) {
         std::string message = e.what();
         if (message.rfind(path_.string(), 0) == 0) throw;

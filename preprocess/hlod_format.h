@@ -23,6 +23,10 @@ inline constexpr uint32_t kHlodVersion = 2;
 // UVs), each stream stored or zstd-packed (FORMAT.md §5). Codec 1 (before 2026-12) is refused with how to
 // rebuild; a later layout gets a new id, which older readers refuse by name instead of misreading.
 inline constexpr uint32_t kCubePayloadCodec = 2;
+// Codec 3, for terrains built from a raster (FORMAT.md §5.1): the same payload, but the triangles are
+// a grid's cells (a few bytes of runs instead of an index stream), the walk goes row by row, and heights
+// may lie on a coarser lattice. Decodes to the same CubeData, so everything after the reader is shared.
+inline constexpr uint32_t kGridPayloadCodec = 3;
 
 // Vertex positions live on one lattice per level anchored at the model origin (DESIGN.md §2):
 // q = round((x − O)/h_l) with h_l = 2^-15·s_l, stored as the 16-bit q − 2^15·cell + 2^14.
@@ -158,13 +162,30 @@ uint32_t crc32c_combine(uint32_t first, uint32_t second, uint64_t second_size);
 
 std::vector<uint8_t> encode_cube(const CubeData& cube, uint32_t flags);
 // Throws std::runtime_error("...") describing what is wrong with the bytes.
-CubeData decode_cube(std::span<const uint8_t> bytes, const HlodNode& node, uint32_t flags);
+CubeData decode_cube(std::span<const uint8_t> bytes, const HlodNode& node, uint32_t flags, uint32_t codec = kCubePayloadCodec);
+
+// Where a grid payload's vertices stand in their level's grid (codec 3): a column and row per vertex,
+// in row-major order; the heights' shift (every stored z a multiple of 2^shift, shift ≤ 14); the
+// raster's row order, which fixes the triangles' winding.
+struct GridPlacement {
+    std::vector<std::array<uint32_t, 2>> samples;
+    uint32_t height_shift = 0;
+    bool rows_run_north = false;
+};
+// A terrain cube as a grid payload: its triangles must be its grid's cells' (TerrainLevel::corners),
+// grouped by child, in row-major cell order within a group, triangle 0 before 1 (std::logic_error
+// otherwise: a builder's mistake). No colours or UVs.
+std::vector<uint8_t> encode_grid_cube(const CubeData& cube, const GridPlacement& grid);
 
 // Octahedral normal encoding: 12-bit snorm per component (±2047; worst error about 0.04°), kept
 // in an int16 whose small range the vertex codec packs tighter than full 16-bit values.
 inline constexpr int kNormalBits = 12;
 std::array<int16_t, 2> encode_normal(float x, float y, float z);
 std::array<float, 3> decode_normal(int16_t u, int16_t v);
+// The octahedral normal of a sum of triangle normals (b − a) × (c − a) in lattice integers, each
+// component wrapped to 64 bits: what a payload predicts for a vertex from its cube's triangles (FORMAT.md
+// §7). A builder that gives a vertex the normal of this sum over the same triangles stores no residual.
+std::array<int16_t, 2> lattice_normal(const std::array<uint64_t, 3>& sum);
 
 // A file descriptor that closes itself, so that a constructor throwing after open() leaks nothing.
 class FileHandle {

@@ -44,6 +44,23 @@ constexpr double kCoarseBytesPerSample = 170;
 // two cells around a dropped fragment (terrain_bounds.cpp).
 constexpr uint64_t kMarginCells = 5;
 
+// Heights lie on a lattice 2^shift times as coarse as the level's position lattice (2^-15 of a cube),
+// so that a payload codes them in fewer bits (FORMAT.md §6): the same shift on every level, so a
+// level's heights are within half its quantum of the finer level's.
+double height_quantum(const build::Frame& f, uint32_t level, uint32_t shift) {
+    return std::ldexp(f.cube_size(level), int(shift) - kLatticeBits);
+}
+
+// The shift whose level-L quantum moves no height by more than `tolerance` metres (at most 14: the
+// lattice's stored values keep their 16 bits). Default: 1/128 of the sample spacing, a slope error
+// under half a degree.
+uint32_t height_shift(const build::Frame& f, std::optional<double> tolerance, double spacing) {
+    const double allowed = 2 * tolerance.value_or(spacing / 128);
+    uint32_t shift = 0;
+    while (shift < 14 && height_quantum(f, f.max_level, shift + 1) <= allowed) ++shift;
+    return shift;
+}
+
 // Metres per unit of the band's elevations: the unit the raster states, else the one given.
 double vertical_unit(const RasterInfo& info, const std::string& given) {
     std::string unit = info.unit.empty() ? given : info.unit;
@@ -223,7 +240,7 @@ Window tile_window(const std::array<uint64_t, 4>& box, const TilePlan& plan, con
     return {column, row, column_end - column, row_end - row};
 }
 
-TerrainLevel finest_level(const Grid& grid, const Window& w, const build::Frame& f) {
+TerrainLevel finest_level(const Grid& grid, const Window& w, const build::Frame& f, uint32_t shift) {
     TerrainLevel level;
     level.level = f.max_level;
     level.rows_run_north = grid.rows_run_north();
@@ -245,6 +262,7 @@ TerrainLevel finest_level(const Grid& grid, const Window& w, const build::Frame&
             const std::array<double, 3> p = grid.frame.position(level.columns[c], level.rows[r], heights[v]);
             std::copy(p.begin(), p.end(), &level.position[3 * v]);
         }
+    terrain::snap_heights(level, f.origin[2], height_quantum(f, f.max_level, shift));
     level.cube.assign(2 * (width - 1) * (height - 1), kNoTriangle);
     for (size_t r = 0; r + 1 < height; ++r)
         for (size_t c = 0; c + 1 < width; ++c)
@@ -295,10 +313,11 @@ struct Assembly {
     uint64_t input_triangles = 0;
     double sigma0_needed = 0;
     double texture_margin = 0;  // CubeEncoder::texture_margin_needed over every cube
+    const uint32_t height_shift;  // the heights' lattice (height_quantum)
 
-    Assembly(const build::Frame& frame, HlodWriter& output, std::string raster_name)
-        : f(frame), name(std::move(raster_name)), writer(output), levels(frame.max_level + 1) {}
-    terrain::CubeEncoder encoder(unsigned threads) { return terrain::CubeEncoder(f, name, writer, errors, levels, lock, threads); }
+    Assembly(const build::Frame& frame, HlodWriter& output, std::string raster_name, uint32_t shift)
+        : f(frame), name(std::move(raster_name)), writer(output), levels(frame.max_level + 1), height_shift(shift) {}
+    terrain::CubeEncoder encoder(unsigned threads) { return terrain::CubeEncoder(f, name, writer, errors, levels, lock, threads, height_shift); }
 };
 
 // Levels from a finest one down to level `last`, and the bounds between consecutive ones.
@@ -315,11 +334,16 @@ struct Pyramid {
     const terrain::CubeDistances* coverage(uint32_t l) const { return l > last() ? &steps[l - 1 - last()].finer_coverage : nullptr; }
 };
 
-Pyramid make_pyramid(TerrainLevel finest, uint32_t last, const terrain::CubeDistances& finest_forward, const build::Frame& f) {
+// `shift`: the heights' lattice (height_quantum); the finest level's are on it already.
+Pyramid make_pyramid(TerrainLevel finest, uint32_t last, const terrain::CubeDistances& finest_forward, const build::Frame& f,
+                     uint32_t shift) {
     Pyramid p;
     p.finest_forward = &finest_forward;
     p.levels.push_back(std::move(finest));
-    while (p.levels.back().level > last) p.levels.push_back(terrain::coarser_level(p.levels.back()));
+    while (p.levels.back().level > last) {
+        p.levels.push_back(terrain::coarser_level(p.levels.back()));
+        terrain::snap_heights(p.levels.back(), f.origin[2], height_quantum(f, p.levels.back().level, shift));
+    }
     p.steps.resize(p.top() - last);
     const double far = std::sqrt(3.0) * f.root_size;  // the model's diagonal
     for (uint32_t l = p.top(); l-- > last;) p.steps[l - last] = terrain::bound_step(p.level(l + 1), p.level(l), p.forward(l + 1), far);
@@ -356,8 +380,12 @@ void build_tile(const Grid& grid, const Window& window, const std::array<uint32_
         const uint32_t i = build::key_i(key) >> (l - T), j = build::key_j(key) >> (l - T);
         return i >= owned_cubes[0] && i < owned_cubes[1] && j >= owned_cubes[2] && j < owned_cubes[3];
     };
-    const terrain::CubeDistances none;  // F at level L
-    const Pyramid p = make_pyramid(finest_level(grid, window, f), T, none, f);
+    TerrainLevel finest = finest_level(grid, window, f, out.height_shift);
+    // F at level L: the heights' rounding to their lattice, half a quantum.
+    terrain::CubeDistances rounding;
+    for (CubeKey key : finest.cube)
+        if (key != kNoTriangle) rounding.emplace(key, height_quantum(f, L, out.height_shift) / 2);
+    const Pyramid p = make_pyramid(std::move(finest), T, rounding, f, out.height_shift);
 
     terrain::CubeEncoder encoder = out.encoder(threads);
     std::vector<uint32_t> number(p.level(L).flags.size(), terrain::kUnnumbered);
@@ -399,13 +427,13 @@ void build_tile(const Grid& grid, const Window& window, const std::array<uint32_
 // Levels T … 0 from level T's grid and cubes; encodes level T's cubes and every coarser one.
 void build_coarse_levels(const build::Frame& f, unsigned threads, Assembly& out, const Progress& progress) {
     terrain::CubeEncoder encoder = out.encoder(threads);
-    const Pyramid p = make_pyramid(std::move(out.coarse), 0, out.coarse_forward, f);
+    const Pyramid p = make_pyramid(std::move(out.coarse), 0, out.coarse_forward, f, out.height_shift);
     std::vector<uint32_t> number(p.levels.front().flags.size(), terrain::kUnnumbered);
     std::vector<Cube> cubes = std::move(out.coarse_cubes);
     std::sort(cubes.begin(), cubes.end(), [](const Cube& a, const Cube& b) { return a.key < b.key; });
     cubes = encode_levels(p, std::move(cubes), [](CubeKey, uint32_t) { return true; }, number, encoder, progress);
     encoder.start_level(p.level(0), &p.forward(0), nullptr);
-    std::vector<CubeData> root{encoder.cube_data(cubes.front(), p.level(0), nullptr, nullptr)};
+    std::vector<terrain::CubeContent> root{encoder.cube_data(cubes.front(), p.level(0), nullptr, nullptr)};
     encoder.write({&cubes.front()}, root, 0);
     out.sigma0_needed = std::max(out.sigma0_needed, encoder.sigma0_needed());
     out.texture_margin = std::max(out.texture_margin, encoder.texture_margin_needed());
@@ -415,6 +443,7 @@ HlodHeader terrain_header(const Grid& grid, const build::Frame& f, uint32_t cube
     const RasterInfo& info = grid.info;
     HlodHeader header;
     header.flags = kErrorsAreBounds;
+    header.payload_codec = kGridPayloadCodec;
     for (int a = 0; a < 3; ++a) header.origin[a] = f.origin[a];
     header.root_size = f.root_size;
     header.max_level = f.max_level;
@@ -478,7 +507,9 @@ BuildReport build_terrain(const std::vector<std::filesystem::path>& files, const
     report.read_seconds = since(start);
     start = Clock::now();
 
-    Assembly out(f, writer, grid.info.name);
+    const std::array<double, 2> spacing = grid.frame.spacing();
+    Assembly out(f, writer, grid.info.name, height_shift(f, settings.height_tolerance, std::min(spacing[0], spacing[1])));
+    report.height_quantum = height_quantum(f, f.max_level, out.height_shift);
     out.coarse = empty_level(grid, f.max_level, plan.level);
     const TileOwners owners(grid, out.coarse, f, plan.tile_cubes);
     // Tiles side by side, each compressing its cubes on its share of the threads.

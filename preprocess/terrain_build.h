@@ -37,6 +37,10 @@ struct TerrainSettings {
     // built in tiles (each read with a margin), then the coarse levels from one of its levels; never
     // changes a byte of the output.
     uint64_t memory = 0;
+    // How far a vertex's height may move from the raster's value at full detail (metres): heights are
+    // stored on a lattice that fine, and each cube's error bound includes it. Default: 1/128 of the
+    // sample spacing. 0: the finest lattice (2^-15 of a cube). The raster's exact values stay in HGHT.
+    std::optional<double> height_tolerance;
     int threads = 0;              // threads compressing cubes; 0: every core
     // The tiles instead of what `memory` allows: level T and level-T cubes per tile side (tests and
     // benchmarks show the output does not depend on them).

@@ -32,6 +32,21 @@ std::unordered_map<CubeKey, std::vector<uint64_t>> triangles_by_cube(const Terra
     return by_cube;
 }
 
+}  // namespace
+
+void in_row_order(Cube& cube) {
+    std::vector<uint32_t> order(cube.vertices.size());
+    std::iota(order.begin(), order.end(), 0u);
+    std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) { return cube.vertices[a] < cube.vertices[b]; });
+    std::vector<uint32_t> place(order.size());
+    std::vector<uint64_t> sorted(order.size());
+    for (uint32_t v = 0; v < order.size(); ++v) place[order[v]] = v, sorted[v] = cube.vertices[order[v]];
+    cube.vertices.swap(sorted);
+    for (uint32_t& index : cube.triangles) index = place[index];
+}
+
+namespace {
+
 // One cube from its triangles (2·cell + t, row order): grouped by the child they came from, in
 // vertex-cache order, the vertices in first-use order. `number`: kUnnumbered per level vertex, and
 // left so.
@@ -62,12 +77,7 @@ Cube make_cube(CubeKey key, const std::vector<uint64_t>& triangles, const Terrai
         }
     }
     for (uint64_t v : cube.vertices) number[v] = kUnnumbered;
-    std::vector<uint32_t> order(cube.vertices.size());
-    std::iota(order.begin(), order.end(), 0u);
-    build::order_for_payload(cube.triangles, cube.child_counts, order);
-    std::vector<uint64_t> ordered(order.size());
-    for (size_t v = 0; v < order.size(); ++v) ordered[v] = cube.vertices[order[v]];
-    cube.vertices.swap(ordered);
+    in_row_order(cube);
     return cube;
 }
 
@@ -93,19 +103,20 @@ std::vector<Cube> level_cubes(const TerrainLevel& level, const TerrainLevel* fin
 }
 
 CubeEncoder::CubeEncoder(const build::Frame& f, std::string name, HlodWriter& writer, std::vector<build::CubeErrors>& errors,
-                         std::vector<LevelStats>& levels, std::mutex& output_lock, unsigned threads)
-    : f_(f), name_(std::move(name)), writer_(writer), errors_(errors), levels_(levels), output_lock_(output_lock), threads_(threads) {}
+                         std::vector<LevelStats>& levels, std::mutex& output_lock, unsigned threads, uint32_t height_shift)
+    : f_(f), name_(std::move(name)), writer_(writer), errors_(errors), levels_(levels), output_lock_(output_lock), threads_(threads),
+      height_shift_(height_shift) {}
 
 void CubeEncoder::start_level(const TerrainLevel& level, const CubeDistances* forward, const CubeDistances* coverage) {
-    normals_ = vertex_normals(level);
+    normals_ = lattice_normals(level, f_);
     forward_ = forward, coverage_ = coverage;
 }
 
-void CubeEncoder::write(const std::vector<const Cube*>& cubes, std::vector<CubeData>& data, uint32_t level) {
+void CubeEncoder::write(const std::vector<const Cube*>& cubes, std::vector<CubeContent>& content, uint32_t level) {
     std::vector<std::vector<uint8_t>> payloads(cubes.size());
     parallel_for(cubes.size(), threads_, [&](size_t c, unsigned) {
-        payloads[c] = encode_cube(data[c], kErrorsAreBounds);
-        data[c] = CubeData();  // its memory back as soon as it is packed
+        payloads[c] = encode_grid_cube(content[c].data, content[c].grid);
+        content[c] = CubeContent();  // its memory back as soon as it is packed
     });
     std::lock_guard lock(output_lock_);
     LevelStats& stats = levels_.at(level);
@@ -122,17 +133,22 @@ void CubeEncoder::write(const std::vector<const Cube*>& cubes, std::vector<CubeD
     }
 }
 
-CubeData CubeEncoder::cube_data(const Cube& cube, const TerrainLevel& level, const TerrainLevel* coarse, const std::vector<uint32_t>* parent_number) {
+CubeContent CubeEncoder::cube_data(const Cube& cube, const TerrainLevel& level, const TerrainLevel* coarse, const std::vector<uint32_t>* parent_number) {
     const uint32_t l = level.level, cell[3] = {build::key_i(cube.key), build::key_j(cube.key), build::key_k(cube.key)};
     const double size = f_.cube_size(l);
-    CubeData data;
+    CubeContent content;
+    CubeData& data = content.data;
     const size_t n = cube.vertices.size();
+    content.grid.height_shift = height_shift_;
+    content.grid.rows_run_north = level.rows_run_north;
+    content.grid.samples.resize(n);
     data.vertices.positions.resize(3 * n);
     data.vertices.normals.resize(2 * n);
     data.parent_vertex.resize(n);
     for (size_t v = 0; v < n; ++v) {
         const uint64_t id = cube.vertices[v];
         const double* p = level.at(id);
+        content.grid.samples[v] = {uint32_t(id % level.width()), uint32_t(id / level.width())};
         for (int a = 0; a < 3; ++a) {
             const double low = f_.origin[a] + cell[a] * size;
             const double outside = std::max({0.0, low - p[a], p[a] - low - size}) / size;
@@ -144,8 +160,7 @@ CubeData CubeEncoder::cube_data(const Cube& cube, const TerrainLevel& level, con
                                  " lies half a cube outside its cell); build with larger cubes (--cube-cells)");
             data.vertices.positions[3 * v + size_t(a)] = uint16_t(stored);
         }
-        const std::array<int16_t, 2> normal = encode_normal(normals_[3 * id], normals_[3 * id + 1], normals_[3 * id + 2]);
-        data.vertices.normals[2 * v] = normal[0], data.vertices.normals[2 * v + 1] = normal[1];
+        data.vertices.normals[2 * v] = normals_[2 * id], data.vertices.normals[2 * v + 1] = normals_[2 * id + 1];
         if (!coarse) {
             data.parent_vertex[v] = uint32_t(v);
             continue;
@@ -162,7 +177,7 @@ CubeData CubeEncoder::cube_data(const Cube& cube, const TerrainLevel& level, con
     }
     data.indices = cube.triangles;
     data.child_triangle_counts = cube.child_counts;
-    return data;
+    return content;
 }
 
 
@@ -173,15 +188,17 @@ void encode_children(std::vector<Cube>& parents, const std::vector<Cube>& childr
     std::unordered_map<CubeKey, std::vector<uint32_t>> children_of;
     for (uint32_t c = 0; c < children.size(); ++c) children_of[build::parent_key(children[c].key)].push_back(c);
     std::vector<const Cube*> order;
-    std::vector<CubeData> data;
+    std::vector<CubeContent> data;
     for (Cube& parent : parents) {
-        for (uint32_t v = 0; v < parent.vertices.size(); ++v) number[parent.vertices[v]] = v;
+        for (uint64_t v : parent.vertices) number[v] = 0;  // only whether it is there, for now
         const std::vector<uint32_t>& mine = children_of[parent.key];
         for (uint32_t c : mine)
             for (uint64_t v : children[c].vertices) {
                 const uint64_t p = parent_vertex(finer, coarse, v);
-                if (number[p] == kUnnumbered) number[p] = uint32_t(parent.vertices.size()), parent.vertices.push_back(p);
+                if (number[p] == kUnnumbered) number[p] = 0, parent.vertices.push_back(p);
             }
+        in_row_order(parent);
+        for (uint32_t v = 0; v < parent.vertices.size(); ++v) number[parent.vertices[v]] = v;
         for (uint32_t c : mine) {
             order.push_back(&children[c]);
             data.push_back(encoder.cube_data(children[c], finer, &coarse, &number));

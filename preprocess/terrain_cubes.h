@@ -27,6 +27,16 @@ struct Cube {
     std::array<uint32_t, 8> child_counts{};
 };
 
+// Sorts a cube's vertices into row-major order (by their level ids), as its grid payload lists them
+// (FORMAT.md §5.1), renumbering its triangles.
+void in_row_order(Cube& cube);
+
+// A cube's payload content, and where its vertices stand in the level's grid.
+struct CubeContent {
+    CubeData data;
+    GridPlacement grid;
+};
+
 // A place per vertex of a level, kUnnumbered except while one cube is being numbered.
 inline constexpr uint32_t kUnnumbered = ~0u;
 
@@ -45,17 +55,18 @@ class CubeEncoder {
 public:
     // The writer, errors and level counts may be shared by encoders on other threads: `output_lock`
     // guards them.
+    // `height_shift`: every level's heights lie on its lattice's multiples of 2^height_shift.
     CubeEncoder(const build::Frame& f, std::string name, HlodWriter& writer, std::vector<build::CubeErrors>& errors,
-                std::vector<LevelStats>& levels, std::mutex& output_lock, unsigned threads);
+                std::vector<LevelStats>& levels, std::mutex& output_lock, unsigned threads, uint32_t height_shift);
 
     // Sets the level whose cubes come next: its normals, and its cubes' F and D (null: 0).
     void start_level(const TerrainLevel& level, const CubeDistances* forward, const CubeDistances* coverage);
     // A cube's payload content: its vertices on the level's lattice, each naming its parent's place in
     // the parent cube (`parent_number`, over the coarse level) or itself at level 0 (null `coarse`).
-    CubeData cube_data(const Cube& cube, const TerrainLevel& level, const TerrainLevel* coarse, const std::vector<uint32_t>* parent_number);
+    CubeContent cube_data(const Cube& cube, const TerrainLevel& level, const TerrainLevel* coarse, const std::vector<uint32_t>* parent_number);
     // Compresses the cubes' payloads on the encoder's threads and adds them to the writer in the
     // order given (so the output does not depend on the thread count).
-    void write(const std::vector<const Cube*>& cubes, std::vector<CubeData>& data, uint32_t level);
+    void write(const std::vector<const Cube*>& cubes, std::vector<CubeContent>& content, uint32_t level);
     // The σ0 the vertices need: their distance to their cube's cell (÷ s_l) and to their parent (÷ s_{l+1}).
     double sigma0_needed() const { return needed_; }
     // How far the vertices, and their parents, lie outside their cube's cell in x and y (÷ s_l): the
@@ -69,9 +80,10 @@ private:
     std::vector<build::CubeErrors>& errors_;
     std::vector<LevelStats>& levels_;  // by level
     std::mutex& output_lock_;
-    std::vector<float> normals_;
+    std::vector<int16_t> normals_;  // the level's, 2 per vertex
     const CubeDistances *forward_ = nullptr, *coverage_ = nullptr;
     unsigned threads_;
+    uint32_t height_shift_;
     double needed_ = 0, overhang_xy_ = 0;
 };
 

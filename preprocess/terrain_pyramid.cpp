@@ -1,5 +1,8 @@
 #include "preprocess/terrain_pyramid.h"
 
+#include "preprocess/hlod_format.h"
+
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -101,26 +104,44 @@ void mark_used(TerrainLevel& level) {
                     for (uint64_t v : level.corners(c, r, t)) level.flags[v] |= kUsed | kNeeded;
 }
 
-std::vector<float> vertex_normals(const TerrainLevel& level) {
-    std::vector<double> sums(level.position.size(), 0.0);
+std::vector<int16_t> lattice_normals(const TerrainLevel& level, const build::Frame& f) {
+    // Each vertex on the level's lattice, in global steps: within a cube, differences of these are the
+    // differences of the payload's stored values, so the sums below are what the payload predicts.
+    std::vector<int64_t> q(level.position.size());
+    for (size_t v = 0; v < level.flags.size(); ++v)
+        if (level.flags[v] & kNeeded)
+            for (int a = 0; a < 3; ++a) q[3 * v + size_t(a)] = build::lattice_offset(f, level.position[3 * v + size_t(a)], a, level.level, 0);
+    std::vector<std::array<uint64_t, 3>> sums(level.flags.size(), {0, 0, 0});
     for (size_t r = 0; r + 1 < level.height(); ++r)
         for (size_t c = 0; c + 1 < level.width(); ++c)
             for (int t = 0; t < 2; ++t) {
                 if (level.cube[2 * level.cell(c, r) + t] == kNoTriangle) continue;
                 const std::array<uint64_t, 3> v = level.corners(c, r, t);
-                const double *a = level.at(v[0]), *b = level.at(v[1]), *d = level.at(v[2]);
-                const double e[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, g[3] = {d[0] - a[0], d[1] - a[1], d[2] - a[2]};
-                const double n[3] = {e[1] * g[2] - e[2] * g[1], e[2] * g[0] - e[0] * g[2], e[0] * g[1] - e[1] * g[0]};
+                const int64_t *a = &q[3 * v[0]], *b = &q[3 * v[1]], *d = &q[3 * v[2]];
+                const int64_t e[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, g[3] = {d[0] - a[0], d[1] - a[1], d[2] - a[2]};
+                const uint64_t n[3] = {uint64_t(e[1] * g[2] - e[2] * g[1]), uint64_t(e[2] * g[0] - e[0] * g[2]),
+                                       uint64_t(e[0] * g[1] - e[1] * g[0])};
                 for (uint64_t corner : v)
-                    for (int x = 0; x < 3; ++x) sums[3 * corner + x] += n[x];
+                    for (int x = 0; x < 3; ++x) sums[corner][size_t(x)] += n[x];
             }
-    std::vector<float> normals(sums.size());
-    for (size_t v = 0; v < sums.size() / 3; ++v) {
-        const double* s = &sums[3 * v];
-        const double length = std::sqrt(s[0] * s[0] + s[1] * s[1] + s[2] * s[2]);
-        for (int x = 0; x < 3; ++x) normals[3 * v + x] = length > 0 ? float(s[x] / length) : (x == 2 ? 1.0f : 0.0f);
+    std::vector<int16_t> normals(2 * sums.size());
+    for (size_t v = 0; v < sums.size(); ++v) {
+        const std::array<int16_t, 2> n = lattice_normal(sums[v]);
+        normals[2 * v] = n[0], normals[2 * v + 1] = n[1];
     }
     return normals;
+}
+
+double snap_heights(TerrainLevel& level, double origin_z, double quantum) {
+    double moved = 0;
+    for (size_t v = 0; v < level.flags.size(); ++v) {
+        if (!(level.flags[v] & (kNeeded | kSampleValid))) continue;
+        double& z = level.position[3 * v + 2];
+        const double snapped = origin_z + std::round((z - origin_z) / quantum) * quantum;
+        moved = std::max(moved, std::abs(snapped - z));
+        z = snapped;
+    }
+    return moved;
 }
 
 }  // namespace strata::terrain

@@ -88,8 +88,14 @@ TerrainLevel coarser_level(const TerrainLevel& finer);
 // Marks every vertex a triangle uses kUsed | kNeeded (the finest level, once `cube` is filled).
 void mark_used(TerrainLevel& level);
 
-// Unit area-weighted vertex normals over the level's triangles, 3 per vertex (up where no triangle
-// uses the vertex): the same for every cube that shares a vertex.
-std::vector<float> vertex_normals(const TerrainLevel& level);
+// Area-weighted vertex normals over the level's triangles, octahedral (2 per vertex; up where no
+// triangle uses the vertex): the same for every cube that shares a vertex. Summed on the level's
+// lattice exactly as a payload predicts a normal from its cube's triangles (FORMAT.md §7), so only a
+// cube's border vertices, whose triangles it does not all hold, cost a residual.
+std::vector<int16_t> lattice_normals(const TerrainLevel& level, const build::Frame& f);
+
+// Moves every vertex's height to the nearest `origin_z + k·quantum` (its level's height lattice,
+// preprocess/terrain_build.h); returns the largest move.
+double snap_heights(TerrainLevel& level, double origin_z, double quantum);
 
 }  // namespace strata::terrain

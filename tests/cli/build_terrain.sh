@@ -99,6 +99,13 @@ expect_status "an unknown frame" 2 "--frame utm: not a CRS PROJ knows" "$STRATA"
 expect_status "odd cube cells" 2 "even" "$STRATA" build "$dem" --cube-cells 33 -o "$WORK/x.hlod"
 expect_success "larger cubes" "$STRATA" build "$dem" --cube-cells 128 -o "$WORK/big_cubes.hlod" -q
 expect_success "verify larger cubes" "$STRATA" verify "$WORK/big_cubes.hlod"
+expect_status "a negative height tolerance" 2 "--height-tolerance" "$STRATA" build "$dem" --height-tolerance -1 -o "$WORK/x.hlod"
+# The finest height lattice costs more bytes than the default's; -v says which lattice was used.
+expect_success "exact heights" "$STRATA" build "$dem" --height-tolerance 0 -o "$WORK/exact.hlod" -v
+checks=$((checks + 1)); grep -q "heights: on a 0.1.* m lattice at level" "$WORK/out.txt" ||
+    fail "-v: no finest height lattice: $(grep heights: "$WORK/out.txt")"
+checks=$((checks + 1)); [ "$(stat -c %s "$WORK/exact.hlod")" -gt "$(stat -c %s "$WORK/olinda.hlod")" ] ||
+    fail "the finest heights took no more bytes than the default's"
 expect_status "fill not a number" 2 "--fill-nodata takes an elevation" "$STRATA" build "$dem" --fill-nodata low -o "$WORK/x.hlod"
 checks=$((checks + 1)); ls "$WORK" | grep -q -e "degrees.hlod" -e "x.hlod" && fail "a failed build left output: $(ls "$WORK")"
 

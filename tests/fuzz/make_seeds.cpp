@@ -2,6 +2,7 @@
 // then minimized with libFuzzer's -merge=1 by scripts/fuzz.sh --merge): meshes from the test suite's
 // synthetic shapes in each format and variant the readers know, .hlod models built from them, and
 // camera paths using every option. Usage: fuzz_make_seeds DIR
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -15,8 +16,13 @@
 #include "preprocess/hlod_builder.h"
 #include "preprocess/hlod_format.h"
 #include "preprocess/mesh_io.h"
+#include "preprocess/terrain_build.h"
 #include "preprocess/terrain_heights.h"
 #include "tests/support/test_meshes.h"
+
+#if STRATA_SEEDS_WITH_GDAL
+#include <gdal_priv.h>
+#endif
 
 namespace {
 
@@ -156,6 +162,34 @@ void georeferenced_copy(const fs::path& from, const fs::path& to, std::optional<
     writer.finish(header);
 }
 
+#if STRATA_SEEDS_WITH_GDAL
+// A terrain built from a small DEM (payload codec 3, the grid payloads; TERR, HGHT): 23 × 17 samples,
+// nodata in a block and a few pixels, cubes of 8 cells, heights on a lattice 8 steps coarse.
+void terrain_seed(const fs::path& dem, const fs::path& out) {
+    GDALAllRegister();
+    constexpr int width = 23, height = 17;
+    GDALDataset* data = GetGDALDriverManager()->GetDriverByName("GTiff")->Create(dem.c_str(), width, height, 1, GDT_Float32, nullptr);
+    double transform[6] = {500000, 30, 0, 5400000, 0, -30};
+    data->SetGeoTransform(transform);
+    data->SetProjection("EPSG:32633");
+    std::vector<float> heights(width * height);
+    for (int s = 0; s < width * height; ++s) {
+        const int c = s % width, r = s / width;
+        heights[size_t(s)] = (c > 14 && r < 5) || s % 29 == 3 ? -9999.0f : float(300 + 40 * std::sin(c * 0.4) * std::cos(r * 0.3));
+    }
+    data->GetRasterBand(1)->SetNoDataValue(-9999);
+    if (data->GetRasterBand(1)->RasterIO(GF_Write, 0, 0, width, height, heights.data(), width, height, GDT_Float32, 0, 0) != CE_None)
+        throw std::runtime_error("cannot write " + dem.string());
+    GDALClose(data);
+    strata::TerrainSettings settings;
+    settings.cube_cells = 8;
+    settings.threads = 1;
+    settings.height_tolerance = 30.0 * 8 * 8 / 32768 * 4;  // a shift of 3
+    strata::build_terrain({dem}, out, settings, "dem.tif");
+    fs::remove(dem);
+}
+#endif
+
 void hlod_seeds(const fs::path& dir) {
     fs::create_directories(dir / "hlod");
     strata::BuildSettings settings;
@@ -168,6 +202,9 @@ void hlod_seeds(const fs::path& dir) {
     georeferenced_copy(dir / "hlod/sphere", dir / "hlod/sphere_georeferenced");
     georeferenced_copy(dir / "hlod/grid", dir / "hlod/grid_terrain", 0);
     georeferenced_copy(dir / "hlod/grid", dir / "hlod/grid_terrain_enu", 1);
+#if STRATA_SEEDS_WITH_GDAL
+    terrain_seed(dir / "hlod/dem.tif", dir / "hlod/terrain");
+#endif
 }
 
 void path_seeds(const fs::path& dir) {

@@ -451,6 +451,251 @@ TEST(CubePayload, RoundTripWithoutTriangles) {
     }
 }
 
+// ---- grid payloads (codec 3, FORMAT.md §5.1) --------------------------------------------------------
+
+struct GridCube {
+    CubeData cube;
+    GridPlacement grid;
+};
+
+// A terrain cube as the builder makes one: the samples of a width × height window at column 10, row 20
+// of its level, less those `hole` names; each cell's triangle t where its corners are samples, in child
+// group octant(c, r, t) (−1: not this cube's); heights h(c, r) on multiples of 2^shift; parents the
+// coarser grid's (c/2, r/2), numbered row-major; normals as the builder computes them (the lattice sums
+// over the level's triangles: here those of the cube, and a few vertices off by some steps, as on a
+// cube's border).
+template <class Hole, class Octant, class Height>
+GridCube terrain_cube(uint32_t width, uint32_t height, uint32_t shift, bool rows_run_north, Hole hole, Octant octant, Height h) {
+    GridCube g;
+    g.grid.height_shift = shift, g.grid.rows_run_north = rows_run_north;
+    CubeData& c = g.cube;
+    std::vector<uint32_t> at(size_t(width) * height, ~0u);
+    for (uint32_t r = 0; r < height; ++r)
+        for (uint32_t col = 0; col < width; ++col) {
+            if (hole(col, r)) continue;
+            at[size_t(r) * width + col] = c.vertex_count();
+            const uint32_t z = (uint32_t(32768 + h(col, r)) >> shift) << shift;
+            c.vertices.positions.insert(c.vertices.positions.end(), {uint16_t(16384 + 512 * col), uint16_t(16384 + 512 * (rows_run_north ? r : height - 1 - r)), uint16_t(z)});
+            c.parent_vertex.push_back((r / 2) * ((width + 1) / 2) + col / 2);
+            g.grid.samples.push_back({10 + col, 20 + r});
+        }
+    for (int o = 0; o < 8; ++o)
+        for (uint32_t r = 0; r + 1 < height; ++r)
+            for (uint32_t col = 0; col + 1 < width; ++col)
+                for (int t = 0; t < 2; ++t) {
+                    if (octant(col, r, t) != o) continue;
+                    const uint32_t min = at[size_t(r) * width + col], max = at[size_t(r + 1) * width + col + 1];
+                    const uint32_t side = t == 0 ? at[size_t(r + 1) * width + col] : at[size_t(r) * width + col + 1];
+                    if (min == ~0u || max == ~0u || side == ~0u) continue;
+                    const bool turn = (t == 0) != rows_run_north;
+                    c.indices.insert(c.indices.end(), {min, turn ? side : max, turn ? max : side});
+                    c.child_triangle_counts[size_t(o)]++;
+                }
+    std::vector<std::array<uint64_t, 3>> sums(c.vertex_count(), {0, 0, 0});
+    for (size_t t = 0; t < c.indices.size(); t += 3) {
+        int64_t p[3][3];
+        for (int k = 0; k < 3; ++k)
+            for (int a = 0; a < 3; ++a) p[k][a] = c.vertices.positions[3 * c.indices[t + size_t(k)] + size_t(a)];
+        const int64_t e[3] = {p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]}, f[3] = {p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]};
+        const int64_t n[3] = {e[1] * f[2] - e[2] * f[1], e[2] * f[0] - e[0] * f[2], e[0] * f[1] - e[1] * f[0]};
+        for (int k = 0; k < 3; ++k)
+            for (int a = 0; a < 3; ++a) sums[c.indices[t + size_t(k)]][size_t(a)] += uint64_t(n[a]);
+    }
+    for (uint32_t v = 0; v < c.vertex_count(); ++v) {
+        std::array<int16_t, 2> n = lattice_normal(sums[v]);
+        if (v % 7 == 3) n[0] = int16_t(std::clamp(n[0] + 5, -2047, 2047));
+        c.vertices.normals.insert(c.vertices.normals.end(), n.begin(), n.end());
+    }
+    return g;
+}
+
+// Rolling ground, a hole with an isolated sample inside it (a vertex no triangle uses, as an extra
+// vertex of §9 is), the four quadrants in four child groups and two heights' halves in two more.
+GridCube rolling_cube(uint32_t side, uint32_t shift, bool rows_run_north) {
+    auto hole = [](uint32_t c, uint32_t r) { return c >= 3 && c <= 5 && r >= 2 && r <= 4 && !(c == 4 && r == 3); };
+    auto octant = [side](uint32_t c, uint32_t r, int t) { return int(c >= side / 2) + 2 * int(r >= side / 2) + 4 * ((c + r + uint32_t(t)) % 5 == 0); };
+    auto height = [](uint32_t c, uint32_t r) { return int(900 * std::sin(0.3 * c) * std::cos(0.23 * r) + 37 * ((c * 7 + r * 3) % 5)); };
+    return terrain_cube(side, side, shift, rows_run_north, hole, octant, height);
+}
+
+HlodNode grid_node(const CubeData& c) { return node_for(c); }
+
+TEST(GridPayload, RoundTripsAsTheBuilderMadeIt) {
+    auto none = [](uint32_t, uint32_t) { return false; };
+    auto flat = [](uint32_t, uint32_t) { return 0; };
+    auto first = [](uint32_t, uint32_t, int) { return 0; };
+    std::vector<GridCube> cases;
+    for (const uint32_t shift : {0u, 3u, 14u})
+        for (const bool north : {false, true}) cases.push_back(rolling_cube(17, shift, north));
+    cases.push_back(terrain_cube(1, 1, 0, false, none, first, flat));   // one vertex
+    cases.push_back(terrain_cube(9, 1, 2, false, none, first, flat));   // a row: no cells
+    cases.push_back(terrain_cube(2, 2, 0, true, none, [](uint32_t, uint32_t, int t) { return t == 1 ? 7 : -1; }, flat));
+    for (const GridCube& g : cases) {
+        SCOPED_TRACE(::testing::Message() << g.grid.samples.size() << " vertices, shift " << g.grid.height_shift);
+        const std::vector<uint8_t> payload = encode_grid_cube(g.cube, g.grid);
+        const CubeData back = decode_cube(payload, grid_node(g.cube), 0, kGridPayloadCodec);
+        EXPECT_EQ(back.vertices.positions, g.cube.vertices.positions);
+        EXPECT_EQ(back.vertices.normals, g.cube.vertices.normals);
+        EXPECT_EQ(back.parent_vertex, g.cube.parent_vertex);
+        EXPECT_EQ(back.child_triangle_counts, g.cube.child_triangle_counts);
+        EXPECT_EQ(back.indices, g.cube.indices) << "the same triangles in the same order, corners unrotated";
+        // Read as a mesh payload, the grid stream is no index stream.
+        EXPECT_THROW(decode_cube(payload, grid_node(g.cube), 0, kCubePayloadCodec), std::runtime_error);
+    }
+}
+
+// The grid costs a few bytes where the index codec spends about a byte a triangle, and a coarser height
+// lattice saves about a bit a vertex per step of shift.
+TEST(GridPayload, CostsFarLessThanTheMeshPayloadOfTheSameCube) {
+    const GridCube g = rolling_cube(65, 0, false);
+    const std::vector<uint8_t> grid = encode_grid_cube(g.cube, g.grid), mesh = encode_cube(g.cube, 0);
+    EXPECT_LT(8 * stored_size(grid, kIndexStream), stored_size(mesh, kIndexStream));
+    EXPECT_LT(2 * grid.size(), mesh.size()) << grid.size() << " against " << mesh.size();
+    const GridCube coarse = rolling_cube(65, 4, false);
+    EXPECT_LT(encode_grid_cube(coarse.cube, coarse.grid).size() + 3 * g.cube.vertex_count() / 8, grid.size());
+}
+
+TEST(GridPayload, ABuildersMistakeIsALogicError) {
+    GridCube g = rolling_cube(9, 2, false);
+    GridCube swapped = g;
+    std::swap(swapped.cube.indices[0], swapped.cube.indices[3]);  // corners of two triangles mixed
+    EXPECT_THROW(encode_grid_cube(swapped.cube, swapped.grid), std::logic_error);
+    GridCube reordered = g;
+    std::rotate(reordered.cube.indices.begin(), reordered.cube.indices.begin() + 3, reordered.cube.indices.begin() + 6);
+    EXPECT_THROW(encode_grid_cube(reordered.cube, reordered.grid), std::logic_error);
+    GridCube off_lattice = g;
+    off_lattice.cube.vertices.positions[2] += 1;
+    EXPECT_THROW(encode_grid_cube(off_lattice.cube, off_lattice.grid), std::logic_error);
+    GridCube out_of_order = g;
+    std::swap(out_of_order.grid.samples[0], out_of_order.grid.samples[1]);
+    EXPECT_THROW(encode_grid_cube(out_of_order.cube, out_of_order.grid), std::logic_error);
+}
+
+class BadGridPayload : public ::testing::Test {
+protected:
+    void SetUp() override {
+        g = rolling_cube(12, 2, false);
+        node = grid_node(g.cube);
+        payload = encode_grid_cube(g.cube, g.grid);
+        streams = unpacked_streams(payload);
+        ASSERT_NO_THROW(decode_cube(payload, node, 0, kGridPayloadCodec));
+    }
+    void expect_rejected(const std::vector<uint8_t>& bytes, const std::string& what) {
+        try {
+            decode_cube(bytes, node, 0, kGridPayloadCodec);
+            ADD_FAILURE() << "accepted; expected \"" << what << "\"";
+        } catch (const std::runtime_error& e) {
+            EXPECT_THAT(e.what(), HasSubstr(describe_cube(node)));
+            EXPECT_THAT(e.what(), HasSubstr(what));
+        }
+    }
+    // The payload with its grid stream's header fields replaced, or its runs.
+    std::vector<uint8_t> with_grid(std::vector<uint8_t> grid) const {
+        auto edited = streams;
+        edited[kIndexStream] = std::move(grid);
+        return with_streams(payload, edited, false);
+    }
+    std::vector<uint8_t> grid_with(size_t at, std::vector<uint8_t> bytes) const {
+        std::vector<uint8_t> grid = streams[kIndexStream];
+        std::copy(bytes.begin(), bytes.end(), grid.begin() + long(at));
+        return grid;
+    }
+    GridCube g;
+    HlodNode node;
+    std::vector<uint8_t> payload;
+    std::vector<std::vector<uint8_t>> streams;
+};
+
+TEST_F(BadGridPayload, HeaderFieldsOutOfRange) {
+    expect_rejected(with_grid(grid_with(0, {0, 0})), "a grid of 0 × 12 samples");
+    expect_rejected(with_grid(grid_with(2, {0x01, 0x10})), "a grid of 12 × 4097 samples");
+    expect_rejected(with_grid(grid_with(4, {15})), "height shift 15 past 14");
+    expect_rejected(with_grid(grid_with(5, {2})), "unknown grid flags");
+}
+
+TEST_F(BadGridPayload, RunsThatDoNotCoverTheGrid) {
+    // One sample run of all 144 samples absent, then the cells: no vertex where the counts say 137.
+    std::vector<uint8_t> absent(streams[kIndexStream].begin(), streams[kIndexStream].begin() + 6);
+    absent.insert(absent.end(), {0x90, 0x01, 0x00, 0x79});
+    expect_rejected(with_grid(absent), "grid has fewer vertices than its count");
+    // Every sample present: more vertices than the count.
+    std::vector<uint8_t> all(streams[kIndexStream].begin(), streams[kIndexStream].begin() + 6);
+    all.insert(all.end(), {0x00, 0x90, 0x01, 0x00, 0x79});
+    expect_rejected(with_grid(all), "more vertices than its count");
+    std::vector<uint8_t> longer = streams[kIndexStream];
+    longer.insert(longer.end(), {0x11, 0x01});
+    expect_rejected(with_grid(longer), "grid stream longer than its grid");
+    std::vector<uint8_t> shorter(streams[kIndexStream].begin(), streams[kIndexStream].end() - 2);
+    expect_rejected(with_grid(shorter), "ends early");
+}
+
+TEST_F(BadGridPayload, CellsThatNameNoGroupOrLackACorner) {
+    std::vector<uint8_t> cells(streams[kIndexStream]);
+    // The last cell run's value: a group past 8.
+    std::vector<uint8_t> bad = cells;
+    bad[bad.size() - 2] = 0x9A;
+    expect_rejected(with_grid(bad), "names no child group");
+    // All 121 cells with both triangles, in group 0: the hole's cells lack corners.
+    std::vector<uint8_t> full(cells.begin(), cells.begin() + 6);
+    const std::vector<uint8_t> samples(cells.begin() + 6, cells.end());
+    size_t sample_runs = 0;  // the sample runs' bytes: varints summing to 144
+    for (uint64_t covered = 0; covered < 144;) {
+        uint64_t value = 0;
+        for (int s = 0;; s += 7) {
+            const uint8_t b = samples[sample_runs++];
+            value |= uint64_t(b & 0x7F) << s;
+            if (!(b & 0x80)) break;
+        }
+        covered += value;
+    }
+    full.insert(full.end(), samples.begin(), samples.begin() + long(sample_runs));
+    std::vector<uint8_t> zero_run = full;
+    full.insert(full.end(), {0x11, 121});
+    expect_rejected(with_grid(full), "lacks a corner");
+    zero_run.insert(zero_run.end(), {0x11, 0});
+    expect_rejected(with_grid(zero_run), "a cell run of length 0");
+}
+
+TEST_F(BadGridPayload, CountsABuilderCouldNotWrite) {
+    // More triangles than two a vertex, caught before anything is allocated for them.
+    std::vector<uint8_t> bytes = payload;
+    const uint32_t triangles = 2 * node.vertex_count + 1;
+    put<uint32_t>(bytes, kTriangleCountAt, triangles);
+    put<uint32_t>(bytes, kChildCountsAt, triangles);
+    for (int o = 1; o < 8; ++o) put<uint32_t>(bytes, kChildCountsAt + 4 * size_t(o), 0);
+    HlodNode more = node;
+    more.triangle_count = triangles;
+    try {
+        decode_cube(bytes, more, 0, kGridPayloadCodec);
+        ADD_FAILURE() << "accepted";
+    } catch (const std::runtime_error& e) {
+        EXPECT_THAT(e.what(), HasSubstr("counts larger than the payload could hold"));
+    }
+    // Groups whose counts disagree with the grid's cells.
+    bytes = payload;
+    put<uint32_t>(bytes, kChildCountsAt, g.cube.child_triangle_counts[0] + 1);
+    put<uint32_t>(bytes, kChildCountsAt + 4, g.cube.child_triangle_counts[1] - 1);
+    expect_rejected(bytes, "child group 1 has more triangles than its count");
+}
+
+// Any byte of a grid payload changed, or its end cut off: refused or decoded, never a crash (the fuzz
+// target goes further).
+TEST_F(BadGridPayload, AnyDamageIsRefusedOrDecoded) {
+    for (size_t keep = 0; keep < payload.size(); keep += 7)
+        EXPECT_THROW(decode_cube(std::vector<uint8_t>(payload.begin(), payload.begin() + long(keep)), node, 0, kGridPayloadCodec),
+                     std::runtime_error);
+    const std::vector<uint8_t> stored = stored_payload(payload);
+    for (size_t at = 0; at < stored.size(); ++at)
+        for (const uint8_t flip : {uint8_t(1), uint8_t(0x80), uint8_t(0xFF)}) {
+            std::vector<uint8_t> bytes = stored;
+            bytes[at] ^= flip;
+            try {
+                decode_cube(bytes, node, 0, kGridPayloadCodec);
+            } catch (const std::runtime_error&) {
+            }
+        }
+}
+
 class BadPayload : public ::testing::Test {
 protected:
     void SetUp() override {
@@ -1156,8 +1401,10 @@ TEST_F(BadFile, RequiredSectionMissing) {
 }
 
 TEST_F(BadFile, UnknownPayloadCodec) {
-    expect_rejected(with_model_field<uint32_t>(kCodecAt, 3),
-                    "payload codec 3, which this Strata does not know; it was written by a newer version");
+    expect_rejected(with_model_field<uint32_t>(kCodecAt, 4),
+                    "payload codec 4, which this Strata does not know; it was written by a newer version");
+    // Codec 3 (a terrain's grid payloads) has no colours or UVs: a model with them cannot be one.
+    expect_rejected(with_model_field<uint32_t>(kCodecAt, 3), "a terrain's grid payloads carry no colours or UVs");
     // Codec 1, the payload before codec 2 (2026-12), is no longer read: the message says how to rebuild.
     expect_rejected(with_model_field<uint32_t>(kCodecAt, 1),
                     "payload codec 1 (from an older Strata), which this Strata no longer reads; rebuild it from its "

@@ -84,31 +84,47 @@ BuildReport build(const fs::path& dem, const fs::path& out, TerrainSettings sett
     return report;
 }
 
+// Level L's vertices in CRS coordinates, by the sample (column, row) they stand at, with their cube's
+// error bound; `g` the raster's geotransform.
+struct FinestVertex {
+    std::array<double, 3> geo;
+    float cube_error;
+};
+std::map<std::pair<int64_t, int64_t>, FinestVertex> finest_vertices(const HlodModel& model, const std::array<double, 6>& g) {
+    const HlodHeader& h = model.header();
+    std::map<std::pair<int64_t, int64_t>, FinestVertex> finest;
+    for (const HlodCube& cube : model.cubes()) {
+        if (cube.node.level != h.max_level) continue;
+        for (uint32_t v = 0; v < cube.data->vertex_count(); ++v) {
+            const glm::vec3 p = model.vertex_position(cube, v);
+            const std::array<double, 3> geo{h.geo_origin[0] + h.origin[0] + p.x, h.geo_origin[1] + h.origin[1] + p.y,
+                                            h.geo_origin[2] + h.origin[2] + p.z};
+            const int64_t column = std::llround((geo[0] - g[0]) / g[1] - 0.5), row = std::llround((geo[1] - g[3]) / g[5] - 0.5);
+            finest[{column, row}] = {geo, cube.node.error};
+        }
+    }
+    return finest;
+}
+
+std::array<double, 6> geotransform(const nlohmann::json& info) {
+    std::array<double, 6> g;
+    for (size_t i = 0; i < 6; ++i) g[i] = info["geoTransform"][i];
+    return g;
+}
+
 TEST(TerrainBuild, TheFinestLevelIsEverySampleWhereGdalPutsIt) {
     const fs::path dem = data_file("olinda_dem.tif");
     if (!fs::exists(dem)) GTEST_SKIP() << "data/olinda_dem.tif missing: run scripts/setup.sh";
     test::TempDir dir;
-    build(dem, dir / "olinda.hlod");
+    build(dem, dir / "olinda.hlod", {.height_tolerance = 0.0});
     const auto model = HlodModel::load(dir / "olinda.hlod");
     const HlodHeader& h = model->header();
     EXPECT_FALSE(h.crs.empty());
 
-    // Level L's vertices in CRS coordinates, by the sample column and row they stand at.
     const nlohmann::json info = test::gdalinfo(dem);
-    std::array<double, 6> g;
-    for (size_t i = 0; i < 6; ++i) g[i] = info["geoTransform"][i];
+    const std::array<double, 6> g = geotransform(info);
     const int width = info["size"][0], height = info["size"][1];
-    std::map<std::pair<int64_t, int64_t>, std::array<double, 3>> finest;
-    for (const HlodCube& cube : model->cubes()) {
-        if (cube.node.level != h.max_level) continue;
-        for (uint32_t v = 0; v < cube.data->vertex_count(); ++v) {
-            const glm::vec3 p = model->vertex_position(cube, v);
-            const std::array<double, 3> geo{h.geo_origin[0] + h.origin[0] + p.x, h.geo_origin[1] + h.origin[1] + p.y,
-                                            h.geo_origin[2] + h.origin[2] + p.z};
-            const int64_t column = std::llround((geo[0] - g[0]) / g[1] - 0.5), row = std::llround((geo[1] - g[3]) / g[5] - 0.5);
-            finest[{column, row}] = geo;
-        }
-    }
+    const auto finest = finest_vertices(*model, g);
     EXPECT_EQ(finest.size(), size_t(width) * size_t(height)) << "every sample of the DEM (it has no nodata) is a vertex";
 
     std::mt19937 rng(17);
@@ -121,10 +137,49 @@ TEST(TerrainBuild, TheFinestLevelIsEverySampleWhereGdalPutsIt) {
         const auto [column, row] = pixels[s];
         auto it = finest.find({int64_t(column), int64_t(row)});
         ASSERT_NE(it, finest.end()) << "no vertex at column " << column << ", row " << row;
-        EXPECT_NEAR(it->second[0], g[0] + (column + 0.5) * g[1], step) << column << ", " << row;
-        EXPECT_NEAR(it->second[1], g[3] + (row + 0.5) * g[5], step) << column << ", " << row;
-        EXPECT_NEAR(it->second[2], values[s], step) << column << ", " << row;
+        EXPECT_NEAR(it->second.geo[0], g[0] + (column + 0.5) * g[1], step) << column << ", " << row;
+        EXPECT_NEAR(it->second.geo[1], g[3] + (row + 0.5) * g[5], step) << column << ", " << row;
+        EXPECT_NEAR(it->second.geo[2], values[s], step) << column << ", " << row;
     }
+}
+
+// Heights lie on a coarser lattice than positions (FORMAT.md §5.1), within the tolerance asked for
+// (default 1/128 of the spacing): every sample's vertex is within it of GDAL's value and within its
+// cube's error bound, the file is smaller for it, and a larger tolerance moves heights further.
+TEST(TerrainBuild, HeightsStayWithinTheirToleranceAndTheirCubesBound) {
+    const fs::path dem = data_file("olinda_dem.tif");
+    if (!fs::exists(dem)) GTEST_SKIP() << "data/olinda_dem.tif missing: run scripts/setup.sh";
+    test::TempDir dir;
+    const nlohmann::json info = test::gdalinfo(dem);
+    const std::array<double, 6> g = geotransform(info);
+    const int width = info["size"][0], height = info["size"][1];
+    std::vector<std::pair<uint64_t, uint64_t>> pixels;
+    for (uint64_t r = 0; r < uint64_t(height); r += 3)
+        for (uint64_t c = 0; c < uint64_t(width); c += 3) pixels.push_back({c, r});
+    const std::vector<double> values = test::gdal_values(dem, pixels);
+    ASSERT_EQ(values.size(), pixels.size());
+
+    build(dem, dir / "exact.hlod", {.height_tolerance = 0.0});
+    const uintmax_t exact_bytes = fs::file_size(dir / "exact.hlod");
+    std::vector<double> worst;
+    for (const std::optional<double> tolerance : {std::optional<double>(), std::optional<double>(3.0)}) {
+        build(dem, dir / "olinda.hlod", {.height_tolerance = tolerance});
+        EXPECT_LT(fs::file_size(dir / "olinda.hlod"), exact_bytes);
+        const auto model = HlodModel::load(dir / "olinda.hlod");
+        const double allowed = tolerance.value_or(std::abs(g[1]) / 128) + model->header().lattice_step(model->header().max_level) / 2;
+        const auto finest = finest_vertices(*model, g);
+        double moved = 0;
+        for (size_t s = 0; s < pixels.size(); ++s) {
+            auto it = finest.find({int64_t(pixels[s].first), int64_t(pixels[s].second)});
+            ASSERT_NE(it, finest.end());
+            const double off = std::abs(it->second.geo[2] - values[s]);
+            EXPECT_LE(off, allowed) << pixels[s].first << ", " << pixels[s].second;
+            EXPECT_LE(off, it->second.cube_error * (1 + 1e-6)) << pixels[s].first << ", " << pixels[s].second;
+            moved = std::max(moved, off);
+        }
+        worst.push_back(moved);
+    }
+    EXPECT_GT(worst[1], 2 * worst[0]) << "a larger tolerance moves heights further";
 }
 
 // 75 × 53 samples (so both the last column and the last row of some levels are narrower), cubes of 16
@@ -203,7 +258,7 @@ TEST(TerrainBuild, FilledNodataMakesEveryLevelOneWholeGrid) {
     test::TempDir dir;
     std::vector<bool> valid;
     test::write_tiff(dir / "holes.tif", holes_spec(valid));
-    build(dir / "holes.tif", dir / "filled.hlod", {.cube_cells = 16, .fill = 130.0f});
+    build(dir / "holes.tif", dir / "filled.hlod", {.cube_cells = 16, .fill = 130.0f, .height_tolerance = 0.0});
     const auto model = HlodModel::load(dir / "filled.hlod");
     const HlodHeader& h = model->header();
     // A sample of the nodata block (column 35, row 15) is ground at the fill's height.
@@ -265,7 +320,7 @@ TEST(TerrainBuild, ADemInDegreesLiesInATangentPlaneAtItsCentre) {
 
     for (const TerrainFrameKind frame : {TerrainFrameKind::enu, TerrainFrameKind::ecef}) {
         SCOPED_TRACE(frame == TerrainFrameKind::enu ? "enu" : "ecef");
-        build(dir / "alps.tif", dir / "alps.hlod", {.cube_cells = 16, .frame = frame});
+        build(dir / "alps.tif", dir / "alps.hlod", {.cube_cells = 16, .frame = frame, .height_tolerance = 0.0});
         const auto model = HlodModel::load(dir / "alps.hlod");
         const HlodHeader& h = model->header();
         ASSERT_TRUE(h.terrain);
