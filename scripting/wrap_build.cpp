@@ -1,8 +1,11 @@
 // strata.build{…}: `strata build` from Lua, with every option (one scan or the tiles of one, a memory
-// ceiling), a progress callback, and the statistics returned.
+// ceiling; or a terrain from elevation rasters, with its frame, heights and imagery), a progress
+// callback, and the statistics returned.
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <climits>
+#include <cmath>
 #include <condition_variable>
 #include <filesystem>
 #include <mutex>
@@ -16,6 +19,7 @@
 #include "preprocess/byte_size.h"
 #include "preprocess/hlod_builder.h"
 #include "preprocess/mesh_io.h"
+#include "preprocess/terrain_build.h"
 #include "scripting/lua_util.h"
 #include "scripting/runtime.h"
 
@@ -25,13 +29,58 @@ namespace {
 
 constexpr lua_Integer kMaxThreads = 1024;  // far beyond any machine's cores; a typo of 1e9 threads is refused
 
+// The options that build only meshes, and those that build only terrains (elevation rasters).
+constexpr const char* kMeshOptions[] = {"levels", "block", "ratio", "sigma0", "error", "temp", "resume"};
+constexpr const char* kTerrainOptions[] = {"crs",          "frame",   "elevation_unit", "fill_nodata",  "cube_cells",
+                                           "height_tolerance", "texture", "texture_bands",  "texture_size"};
+
 struct BuildJob {
     std::vector<std::string> inputs;  // files and @lists, as `strata build` takes them
     std::string output;
     BuildSettings settings;
+    TerrainSettings terrain;
+    std::string frame = "enu";  // enu, ecef or a CRS
+    std::vector<std::string> mesh_options, terrain_options;  // those given, for refusing the wrong kind
     uint64_t memory_limit = 0;
     std::string limit_name;  // where the limit came from, for the refusal's message
 };
+
+// The terrain options (strata build DEM's, as the CLI names them with dashes).
+void check_terrain_options(lua_State* L, int index, BuildJob& job) {
+    TerrainSettings& t = job.terrain;
+    t.crs = lua::opt_string(L, index, "crs", "");
+    job.frame = lua::opt_string(L, index, "frame", job.frame);
+    t.elevation_unit = lua::opt_string(L, index, "elevation_unit", "");
+    if (lua::get_option(L, index, "fill_nodata")) t.fill = lua::opt_float(L, index, "fill_nodata", 0);
+    lua_pop(L, 1);
+    t.cube_cells = uint32_t(lua::opt_integer_in(L, index, "cube_cells", t.cube_cells, 8, 256));
+    if (lua::get_option(L, index, "height_tolerance")) {
+        const double tolerance = lua::opt_number(L, index, "height_tolerance", 0);
+        if (!(tolerance >= 0 && tolerance <= 1e6)) luaL_error(L, "option 'height_tolerance' must be metres from 0 to 1e6, got %f", tolerance);
+        t.height_tolerance = tolerance;
+    }
+    lua_pop(L, 1);
+    const std::string image = lua::opt_string(L, index, "texture", "");
+    std::vector<int> bands;
+    if (lua::get_option(L, index, "texture_bands")) {
+        if (!lua_istable(L, -1)) luaL_error(L, "option 'texture_bands' must be a list of band numbers, got %s", luaL_typename(L, -1));
+        const lua_Integer count = luaL_len(L, -1);
+        if (count != 1 && count != 3) luaL_error(L, "option 'texture_bands': 1 band (grey) or 3 (red, green, blue), not %d", int(count));
+        for (lua_Integer i = 1; i <= count; ++i) {
+            lua_rawgeti(L, -1, i);
+            int exact = 0;
+            const lua_Integer band = lua_tointegerx(L, -1, &exact);
+            if (!exact || band < 1 || band > 65535) luaL_error(L, "option 'texture_bands': item %d is not a band number (1 to 65535)", int(i));
+            bands.push_back(int(band));
+            lua_pop(L, 1);
+        }
+    }
+    lua_pop(L, 1);
+    const lua_Integer size = lua::opt_integer_in(L, index, "texture_size", 0, 0, 4096);
+    if (size && !TextureLayout::valid_size(uint32_t(size))) luaL_error(L, "option 'texture_size': a power of two from 8 to 4096, not %d", int(size));
+    if (!image.empty()) t.texture = TextureSettings{image, bands, uint32_t(size)};
+    else if (!bands.empty() || size) luaL_error(L, "options 'texture_bands' and 'texture_size' need 'texture', the image to drape");
+}
 
 // `input`: a string (a file or an @list) or a list of strings (the tiles of one model).
 std::vector<std::string> check_inputs(lua_State* L, int index) {
@@ -85,9 +134,18 @@ void check_memory_option(lua_State* L, int index, BuildJob& job) {
 
 BuildJob check_job(lua_State* L, int index) {
     luaL_checktype(L, index, LUA_TTABLE);
-    lua::check_keys(L, index,
-                    {"input", "output", "levels", "block", "ratio", "sigma0", "error", "threads", "memory", "temp", "resume", "on_progress"});
+    lua::check_keys(L, index, {"input", "output", "levels", "block", "ratio", "sigma0", "error", "threads", "memory", "temp", "resume",
+                               "on_progress", "crs", "frame", "elevation_unit", "fill_nodata", "cube_cells", "height_tolerance",
+                               "texture", "texture_bands", "texture_size"});
     BuildJob job;
+    for (const char* key : kMeshOptions) {
+        if (lua::get_option(L, index, key)) job.mesh_options.emplace_back(key);
+        lua_pop(L, 1);
+    }
+    for (const char* key : kTerrainOptions) {
+        if (lua::get_option(L, index, key)) job.terrain_options.emplace_back(key);
+        lua_pop(L, 1);
+    }
     job.inputs = check_inputs(L, index);
     job.output = lua::opt_string(L, index, "output", "");
     if (job.inputs.empty()) luaL_error(L, "option 'input' (the scan to build) is required");
@@ -107,7 +165,38 @@ BuildJob check_job(lua_State* L, int index) {
     job.settings.threads = int(lua::opt_integer_in(L, index, "threads", 0, 0, kMaxThreads));
     job.settings.temp_dir = lua::opt_string(L, index, "temp", "");
     job.settings.resume = lua::opt_boolean(L, index, "resume", false);
+    check_terrain_options(L, index, job);
+    job.terrain.threads = job.settings.threads;
     return job;
+}
+
+// A model from a scan (or its tiles), within the job's memory and temporary disk: refuses the terrain
+// options. `warnings`: what the reader read past; `estimate`: the memory the build was expected to take.
+BuildReport build_mesh_job(const BuildJob& job, const std::vector<std::filesystem::path>& files, const Progress& progress,
+                           std::vector<std::string>& warnings, MemoryEstimate& estimate) {
+    if (!job.terrain_options.empty())
+        throw InputError("option '" + job.terrain_options.front() + "' builds terrains from elevation rasters; " + files.front().string() +
+                         " is a mesh");
+    BuildSettings settings = job.settings;
+    settings.memory = job.memory_limit;
+    check_settings(settings);
+    estimate = estimate_build(files, job.memory_limit);
+    check_memory(estimate, job.memory_limit, job.limit_name);
+    check_temp_disk(estimate, temp_folder(job.output, job.settings.temp_dir),
+                    settings.resume ? leftover_bytes(job.output, job.settings.temp_dir) : 0);
+    return build_hlod(input_from_files(files, job.memory_limit, progress, warnings), files, job.output, settings,
+                      source_name(job.inputs, files.size()), progress);
+}
+
+// A terrain from elevation rasters (the CLI's run_terrain): refuses the mesh options.
+BuildReport build_terrain_job(const BuildJob& job, const std::vector<std::filesystem::path>& files, const Progress& progress) {
+    if (!job.mesh_options.empty())
+        throw InputError("option '" + job.mesh_options.front() + "' builds meshes; " + files.front().string() + " is an elevation raster");
+    TerrainSettings settings = job.terrain;
+    settings.memory = job.memory_limit;
+    if (job.frame == "ecef") settings.frame = TerrainFrameKind::ecef;
+    else if (job.frame != "enu") TerrainFrame::check_crs(job.frame), settings.frame_crs = job.frame;
+    return build_terrain(files, job.output, settings, source_name(job.inputs, files.size()), progress);
 }
 
 // What the build's worker reports, for the Lua thread to pass on.
@@ -117,7 +206,9 @@ struct Shared {
     std::string stage, unit;
     double done = 0, total = 0;
     bool fresh = false, finished = false;
-    bool first_report = true;  // the first report wakes the Lua thread at once: a callback can cancel early
+    // The first report wakes the Lua thread at once and waits until on_progress has had it, so that a
+    // script can cancel before any work, however quick the build.
+    bool first_report = true, first_delivered = false;
     bool wake = false;
 };
 
@@ -134,13 +225,14 @@ int build(lua_State* L) {
     Shared shared;
     std::atomic<bool> cancel{false};
     Progress progress{[&](std::string_view stage, double done, double total, std::string_view unit) {
-                          std::lock_guard lock(shared.mutex);
+                          std::unique_lock lock(shared.mutex);
                           shared.stage = stage, shared.unit = unit, shared.done = done, shared.total = total;
                           shared.fresh = true;
                           if (shared.first_report) {
                               shared.first_report = false;
                               shared.wake = true;
                               shared.changed.notify_all();
+                              if (has_callback) shared.changed.wait(lock, [&] { return shared.first_delivered; });
                           }
                       },
                       &cancel};
@@ -154,15 +246,8 @@ int build(lua_State* L) {
     std::thread worker([&] {
         try {
             const std::vector<std::filesystem::path> files = expand_inputs(job.inputs);
-            BuildSettings settings = job.settings;
-            settings.memory = job.memory_limit;
-            check_settings(settings);
-            estimate = estimate_build(files, job.memory_limit);
-            check_memory(estimate, job.memory_limit, job.limit_name);
-            check_temp_disk(estimate, temp_folder(job.output, job.settings.temp_dir),
-                            settings.resume ? leftover_bytes(job.output, job.settings.temp_dir) : 0);
-            report = build_hlod(input_from_files(files, job.memory_limit, progress, warnings), files, job.output, settings,
-                                source_name(job.inputs, files.size()), progress);
+            report = std::all_of(files.begin(), files.end(), is_elevation_raster) ? build_terrain_job(job, files, progress)
+                                                                                 : build_mesh_job(job, files, progress, warnings, estimate);
             triangles = report.input_triangles;
         } catch (const Cancelled&) {
             cancelled = true;
@@ -178,12 +263,18 @@ int build(lua_State* L) {
     struct JoinOnUnwind {
         std::thread& worker;
         std::atomic<bool>& cancel;
+        Shared& shared;
         ~JoinOnUnwind() {
             if (!worker.joinable()) return;
             cancel = true;
+            {
+                std::lock_guard lock(shared.mutex);
+                shared.first_delivered = true;  // a worker waiting on its first report goes on, to stop
+                shared.changed.notify_all();
+            }
             worker.join();
         }
-    } join_on_unwind{worker, cancel};
+    } join_on_unwind{worker, cancel, shared};
 
     // Passes the latest figures to on_progress; called with the mutex held, released around the call.
     std::string callback_error;
@@ -206,6 +297,8 @@ int build(lua_State* L) {
         }
         lua_pop(L, 1);
         lock.lock();
+        shared.first_delivered = true;
+        shared.changed.notify_all();
     };
     {
         std::unique_lock lock(shared.mutex);
@@ -242,6 +335,12 @@ int build(lua_State* L) {
     lua_setfield(L, -2, "memory_estimate");
     lua_pushboolean(L, report.resumed || report.already_complete);
     lua_setfield(L, -2, "resumed");
+    if (report.height_quantum > 0) {  // a terrain
+        lua_pushnumber(L, report.height_quantum);
+        lua_setfield(L, -2, "height_quantum");
+        lua_pushinteger(L, report.texture_size);
+        lua_setfield(L, -2, "texture_size");
+    }
     lua_createtable(L, int(report.levels.size()), 0);
     for (size_t i = 0; i < report.levels.size(); ++i) {
         const LevelStats& l = report.levels[i];

@@ -7,6 +7,10 @@ dem=$2/data/olinda_dem.tif
 expect_success "build terrain" "$STRATA" build "$dem" -o "$WORK/olinda.hlod"
 checks=$((checks + 1)); grep -q "terrain, 24200 triangles" "$WORK/out.txt" || fail "build: not 110 × 110 cells of two triangles: $(cat "$WORK/out.txt")"
 expect_success "verify terrain" "$STRATA" verify "$WORK/olinda.hlod"
+# strata.build from Lua builds the same bytes as the CLI (tests/lua/build_terrain_api.lua tests its options).
+printf 'local strata = require "strata"\nstrata.build{ input = arg[1], output = arg[2] }\nprint("built")\n' >"$WORK/build_dem.lua"
+expect_success "build terrain from Lua" "$STRATA" run "$WORK/build_dem.lua" "$dem" "$WORK/olinda_lua.hlod"
+checks=$((checks + 1)); cmp -s "$WORK/olinda_lua.hlod" "$WORK/olinda.hlod" || fail "strata.build and strata build made different terrains"
 expect_success "info terrain" "$STRATA" info "$WORK/olinda.hlod"
 checks=$((checks + 1)); grep -q "^georef .*UTM Zone 25, Southern Hemisphere" "$WORK/out.txt" || fail "info: no CRS: $(grep georef "$WORK/out.txt")"
 size=$(gdalinfo "$dem" | sed -n 's/^Size is \([0-9]*\), \([0-9]*\)$/\1 × \2/p')
