@@ -813,19 +813,23 @@ GridTopology decode_grid(std::span<const uint8_t> stream, uint32_t vertices, con
     CellRuns cells(cell_bytes, what);
     out.indices.resize(3 * size_t(end[7]));
     out.walk.reserve(vertices);
-    std::vector<uint32_t> above(width, kNone), here(width, kNone);
+    std::vector<uint32_t> two_above(width, kNone), above(width, kNone), here(width, kNone);
+    auto next_row = [&] { std::swap(two_above, above), std::swap(above, here); };
     uint32_t count = 0;
     for (uint32_t row = 0; row < height; ++row) {
         for (uint32_t c = 0; c < width; ++c) {
             here[c] = kNone;
             if (!samples.next()) continue;
             if (count == vertices) throw std::runtime_error(what + ": grid has more vertices than its count");
-            const uint32_t a = c > 0 ? here[c - 1] : kNone, b = above[c];
-            out.walk.push_back({count, a, b, a != kNone && b != kNone ? above[c - 1] : kNone});
+            FirstUse f{count, c > 0 ? here[c - 1] : kNone, above[c], kNone};
+            if (f.a != kNone && f.b != kNone) f.d = above[c - 1];
+            else if (f.a != kNone) f.b = f.a, f.d = c > 1 ? here[c - 2] : kNone;  // along the row: 2a − (a's own a)
+            else if (f.b != kNone) f.a = f.b, f.d = two_above[c];               // down the column
+            out.walk.push_back(f);
             here[c] = count++;
         }
         if (row == 0) {
-            above.swap(here);
+            next_row();
             continue;
         }
         for (uint32_t c = 0; c + 1 < width; ++c) {
@@ -845,7 +849,7 @@ GridTopology decode_grid(std::span<const uint8_t> stream, uint32_t vertices, con
                 corner[0] = min, corner[1] = turn ? side : max, corner[2] = turn ? max : side;
             }
         }
-        above.swap(here);
+        next_row();
     }
     if (!samples.ended() || !sample_bytes.at_end()) throw std::runtime_error(what + ": grid stream's sample runs overrun its grid");
     if (!cells.ended() || !cell_bytes.at_end()) throw std::runtime_error(what + ": grid stream longer than its grid");

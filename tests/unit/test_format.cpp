@@ -555,6 +555,22 @@ TEST(GridPayload, CostsFarLessThanTheMeshPayloadOfTheSameCube) {
     EXPECT_LT(encode_grid_cube(coarse.cube, coarse.grid).size() + 3 * g.cube.vertex_count() / 8, grid.size());
 }
 
+// On a plane every height is predicted exactly, along the first row and column too (the line through
+// the last two), but for the first vertex and the second of the row and of the column.
+TEST(GridPayload, APlaneCostsNoHeightResidualsButAtItsCorner) {
+    auto none = [](uint32_t, uint32_t) { return false; };
+    auto first = [](uint32_t, uint32_t, int) { return 0; };
+    const GridCube plane = terrain_cube(17, 13, 0, false, none, first, [](uint32_t c, uint32_t r) { return int(100 + 40 * c + 25 * r); });
+    const std::vector<uint8_t> payload = encode_grid_cube(plane.cube, plane.grid);
+    const std::vector<uint8_t> classes = unpacked_streams(payload)[kPositionStream];
+    const uint32_t n = plane.cube.vertex_count();
+    ASSERT_EQ(classes.size(), 3 * size_t(n));
+    const long heights = std::count_if(classes.begin() + 2 * n, classes.end(), [](uint8_t c) { return c != 0; });
+    EXPECT_EQ(heights, 3) << "nonzero height residuals (planar stream 1: the z classes last)";
+    const long across = std::count_if(classes.begin() + 1, classes.begin() + 2 * n, [](uint8_t c) { return c != 0; });
+    EXPECT_LE(across, 3) << "x and y follow the grid";
+}
+
 TEST(GridPayload, ABuildersMistakeIsALogicError) {
     GridCube g = rolling_cube(9, 2, false);
     GridCube swapped = g;
