@@ -47,9 +47,9 @@ void in_row_order(Cube& cube) {
 
 namespace {
 
-// One cube from its triangles (2·cell + t, row order): grouped by the child they came from, in
-// vertex-cache order, the vertices in first-use order. `number`: kUnnumbered per level vertex, and
-// left so.
+// One cube from its triangles (2·cell + t, row order): grouped by the child they came from, each group
+// in row order, the vertices in row order (as its grid payload lists them, FORMAT.md §5.1). `number`:
+// kUnnumbered per level vertex, and left so.
 Cube make_cube(CubeKey key, const std::vector<uint64_t>& triangles, const TerrainLevel& level, const TerrainLevel* finer,
                std::vector<uint32_t>& number) {
     Cube cube;

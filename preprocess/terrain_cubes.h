@@ -1,7 +1,7 @@
 // A terrain's levels cut into the octree's cubes and encoded (DESIGN.md §2): each triangle goes to the
 // cube the grid pyramid gave it (preprocess/terrain_pyramid.h), grouped by the child it came from; a
-// cube's vertices are in payload order with the parents its children need appended; each vertex names
-// its parent's place in the parent cube.
+// cube's vertices, with the parents its children need, are in row order (its grid payload's, FORMAT.md
+// §5.1); each vertex names its parent's place in the parent cube.
 #pragma once
 
 #include <functional>
@@ -18,8 +18,8 @@
 
 namespace strata::terrain {
 
-// One cube of one level while the model is assembled: its vertices (the level's ids) in payload order,
-// the parents its children need last.
+// One cube of one level while the model is assembled: its vertices (the level's ids) in row order, the
+// parents its children need among them.
 struct Cube {
     build::CubeKey key = 0;
     std::vector<uint64_t> vertices;

@@ -1,10 +1,10 @@
 #include "preprocess/terrain_pyramid.h"
 
-#include "preprocess/hlod_format.h"
-
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+
+#include "preprocess/hlod_format.h"
 
 namespace strata::terrain {
 
