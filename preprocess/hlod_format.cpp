@@ -859,23 +859,21 @@ GridTopology decode_grid(std::span<const uint8_t> stream, uint32_t vertices, con
     return out;
 }
 
-// The grid stream of a cube whose vertices stand at `grid.samples` (row-major, in vertex order) and
-// whose triangles are the grid's, grouped by child.
+// The grid stream of a cube whose vertices (at least one) stand at `grid.samples` (row-major, in vertex
+// order) and whose triangles are the grid's, grouped by child.
 std::vector<uint8_t> encode_grid(const CubeData& cube, const GridPlacement& grid) {
     const uint32_t n = cube.vertex_count();
     if (grid.samples.size() != n) throw std::logic_error("encode_grid_cube: a sample per vertex");
     uint32_t c0 = ~0u, r0 = ~0u, c1 = 0, r1 = 0;
     for (const auto& [c, r] : grid.samples) c0 = std::min(c0, c), c1 = std::max(c1, c), r0 = std::min(r0, r), r1 = std::max(r1, r);
-    if (n == 0) c0 = r0 = 0;
     const uint32_t width = c1 - c0 + 1, height = r1 - r0 + 1;
     if (width > kMaxGridSide || height > kMaxGridSide || grid.height_shift > kMaxHeightShift)
         throw std::logic_error("encode_grid_cube: a grid of " + std::to_string(width) + " × " + std::to_string(height) + " samples");
     std::vector<uint32_t> at(size_t(width) * height, kNone);
-    for (uint32_t v = 0; v < n; ++v) {
+    for (size_t v = 0, previous = 0; v < n; ++v) {
         const size_t sample = size_t(grid.samples[v][1] - r0) * width + (grid.samples[v][0] - c0);
-        if (v > 0 && sample <= size_t(grid.samples[v - 1][1] - r0) * width + (grid.samples[v - 1][0] - c0))
-            throw std::logic_error("encode_grid_cube: vertices not in row-major order");
-        at[sample] = v;
+        if (v > 0 && sample <= previous) throw std::logic_error("encode_grid_cube: vertices not in row-major order");
+        at[sample] = uint32_t(v), previous = sample;
     }
     std::vector<uint8_t> out;
     out.push_back(uint8_t(width)), out.push_back(uint8_t(width >> 8)), out.push_back(uint8_t(height)), out.push_back(uint8_t(height >> 8));

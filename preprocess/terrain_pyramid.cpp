@@ -132,16 +132,12 @@ std::vector<int16_t> lattice_normals(const TerrainLevel& level, const build::Fra
     return normals;
 }
 
-double snap_heights(TerrainLevel& level, double origin_z, double quantum) {
-    double moved = 0;
+void snap_heights(TerrainLevel& level, double origin_z, double quantum) {
     for (size_t v = 0; v < level.flags.size(); ++v) {
         if (!(level.flags[v] & (kNeeded | kSampleValid))) continue;
         double& z = level.position[3 * v + 2];
-        const double snapped = origin_z + std::round((z - origin_z) / quantum) * quantum;
-        moved = std::max(moved, std::abs(snapped - z));
-        z = snapped;
+        z = origin_z + std::round((z - origin_z) / quantum) * quantum;
     }
-    return moved;
 }
 
 }  // namespace strata::terrain

@@ -95,7 +95,7 @@ void mark_used(TerrainLevel& level);
 std::vector<int16_t> lattice_normals(const TerrainLevel& level, const build::Frame& f);
 
 // Moves every vertex's height to the nearest `origin_z + k·quantum` (its level's height lattice,
-// preprocess/terrain_build.h); returns the largest move.
-double snap_heights(TerrainLevel& level, double origin_z, double quantum);
+// preprocess/terrain_build.h).
+void snap_heights(TerrainLevel& level, double origin_z, double quantum);
 
 }  // namespace strata::terrain
