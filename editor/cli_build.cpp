@@ -118,15 +118,11 @@ int run_terrain(const BuildOptions& o, const std::vector<std::filesystem::path>&
     }
     TerrainSettings settings = o.terrain;
     settings.threads = o.settings.threads;
-    settings.frame = o.frame == "ecef" ? TerrainFrameKind::ecef : TerrainFrameKind::enu;
-    if (o.frame != "enu" && o.frame != "ecef") {
-        try {
-            TerrainFrame::check_crs(o.frame);
-        } catch (const InputError& e) {
-            std::fprintf(stderr, "strata build: %s\n", e.what());
-            return kUsage;
-        }
-        settings.frame_crs = o.frame;
+    try {
+        set_frame(settings, o.frame);
+    } catch (const InputError& e) {
+        std::fprintf(stderr, "strata build: %s\n", e.what());
+        return kUsage;
     }
     if (!o.fill_nodata.empty()) {
         char* end = nullptr;

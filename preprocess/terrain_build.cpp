@@ -477,6 +477,14 @@ HlodHeader terrain_header(const Grid& grid, const build::Frame& f, uint32_t cube
 
 }  // namespace
 
+void set_frame(TerrainSettings& settings, const std::string& frame) {
+    settings.frame = frame == "ecef" ? TerrainFrameKind::ecef : TerrainFrameKind::enu;
+    settings.frame_crs.clear();
+    if (frame == "enu" || frame == "ecef") return;
+    TerrainFrame::check_crs(frame);
+    settings.frame_crs = frame;
+}
+
 bool is_elevation_raster(const std::filesystem::path& file) {
     std::string ext = file.extension().string();
     std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });

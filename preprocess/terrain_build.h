@@ -49,6 +49,10 @@ struct TerrainSettings {
     std::optional<TextureSettings> texture;
 };
 
+// Sets the frame a `--frame` value names: enu, ecef, or any other text as a projected CRS in metres to
+// reproject into (TerrainFrame::check_crs: InputError naming it when it is not one).
+void set_frame(TerrainSettings& settings, const std::string& frame);
+
 // Builds `output` from the DEM `files` (one raster, or the tiles of one grid). The report's stage
 // seconds: read_seconds the first pass over the raster, partition_seconds the tiles (levels L … T),
 // simplify_seconds the coarse levels (T … 0), write_seconds the bounds and the file. Throws InputError naming the raster and the problem (not a DEM, no CRS, a geographic CRS, a unit it cannot convert, nodata

@@ -5,10 +5,10 @@
 #include <atomic>
 #include <chrono>
 #include <climits>
-#include <cmath>
 #include <condition_variable>
 #include <filesystem>
 #include <mutex>
+#include <span>
 #include <string>
 #include <thread>
 #include <vector>
@@ -44,6 +44,16 @@ struct BuildJob {
     uint64_t memory_limit = 0;
     std::string limit_name;  // where the limit came from, for the refusal's message
 };
+
+// Which of `keys` the options table at `index` holds.
+std::vector<std::string> given_options(lua_State* L, int index, std::span<const char* const> keys) {
+    std::vector<std::string> given;
+    for (const char* key : keys) {
+        if (lua::get_option(L, index, key)) given.emplace_back(key);
+        lua_pop(L, 1);
+    }
+    return given;
+}
 
 // The terrain options (strata build DEM's, as the CLI names them with dashes).
 void check_terrain_options(lua_State* L, int index, BuildJob& job) {
@@ -138,14 +148,8 @@ BuildJob check_job(lua_State* L, int index) {
                                "on_progress", "crs", "frame", "elevation_unit", "fill_nodata", "cube_cells", "height_tolerance",
                                "texture", "texture_bands", "texture_size"});
     BuildJob job;
-    for (const char* key : kMeshOptions) {
-        if (lua::get_option(L, index, key)) job.mesh_options.emplace_back(key);
-        lua_pop(L, 1);
-    }
-    for (const char* key : kTerrainOptions) {
-        if (lua::get_option(L, index, key)) job.terrain_options.emplace_back(key);
-        lua_pop(L, 1);
-    }
+    job.mesh_options = given_options(L, index, kMeshOptions);
+    job.terrain_options = given_options(L, index, kTerrainOptions);
     job.inputs = check_inputs(L, index);
     job.output = lua::opt_string(L, index, "output", "");
     if (job.inputs.empty()) luaL_error(L, "option 'input' (the scan to build) is required");
@@ -194,8 +198,7 @@ BuildReport build_terrain_job(const BuildJob& job, const std::vector<std::filesy
         throw InputError("option '" + job.mesh_options.front() + "' builds meshes; " + files.front().string() + " is an elevation raster");
     TerrainSettings settings = job.terrain;
     settings.memory = job.memory_limit;
-    if (job.frame == "ecef") settings.frame = TerrainFrameKind::ecef;
-    else if (job.frame != "enu") TerrainFrame::check_crs(job.frame), settings.frame_crs = job.frame;
+    set_frame(settings, job.frame);
     return build_terrain(files, job.output, settings, source_name(job.inputs, files.size()), progress);
 }
 
