@@ -29,6 +29,7 @@
 #include "nodes/geometry.h"
 #include "nodes/hlod_model.h"
 #include "preprocess/byte_size.h"
+#include "scripting/node_types.h"
 
 namespace strata {
 
@@ -38,16 +39,6 @@ Editor* the_editor = nullptr;  // ImGui's context is global: one editor at a tim
 
 double milliseconds_since(std::chrono::steady_clock::time_point start) {
     return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-}
-
-const char* type_name(const Node& node) {
-    if (dynamic_cast<const HlodModel*>(&node)) return "model";
-    if (dynamic_cast<const Geometry*>(&node)) return "mesh";
-    if (dynamic_cast<const Transform*>(&node)) return "transform";
-    if (dynamic_cast<const Group*>(&node)) return "group";
-    if (dynamic_cast<const DirectionalLight*>(&node)) return "light";
-    if (dynamic_cast<const AmbientLight*>(&node)) return "ambient";
-    return "node";
 }
 
 // ---- input: the navigator gets the mouse and keys ImGui does not want ----------------------------
@@ -478,7 +469,7 @@ void Editor::draw_outliner_node(const NodePtr& node, int depth) {
     if (ImGui::Checkbox("##visible", &visible)) node->set_visible(visible);
     ImGui::SameLine();
     const bool open = ImGui::TreeNodeEx("node", flags, "%s  [%s]", node->name().empty() ? "(unnamed)" : node->name().c_str(),
-                                        type_name(*node));
+                                        node_type_of(*node).name);
     if (ImGui::IsItemClicked() && !ImGui::IsItemToggledOpen()) selected_ = node;
     bool deleted = false;
     if (ImGui::BeginPopupContextItem()) {
@@ -507,37 +498,6 @@ void Editor::draw_outliner() {
     if (!save_message_.empty()) ImGui::TextWrapped("%s", save_message_.c_str());
 }
 
-namespace {
-
-// Translation, rotation (Euler degrees, XYZ) and uniform scale, as the Lua API composes them. Another
-// matrix (a stretch, a shear, a mirror from a scene script) would be lost by rebuilding it from these:
-// only its translation is edited.
-void draw_transform_fields(Transform& transform) {
-    const glm::dmat4& m = transform.matrix();
-    glm::dvec3 translation(m[3]);
-    if (!is_rotation_and_uniform_scale(m)) {
-        if (ImGui::InputScalarN("translate", ImGuiDataType_Double, &translation.x, 3, nullptr, nullptr, "%.4f")) {
-            glm::dmat4 moved = m;
-            moved[3] = glm::dvec4(translation, m[3][3]);
-            transform.set_matrix(moved);
-        }
-        ImGui::TextDisabled("general matrix: translation only");
-        return;
-    }
-    const double scale = glm::length(glm::dvec3(m[0]));
-    glm::dvec3 euler = glm::degrees(glm::eulerAngles(glm::quat_cast(glm::dmat3(m) / scale)));
-    double s = scale;
-    bool changed = ImGui::InputScalarN("translate", ImGuiDataType_Double, &translation.x, 3, nullptr, nullptr, "%.4f");
-    changed |= ImGui::InputScalarN("rotate °", ImGuiDataType_Double, &euler.x, 3, nullptr, nullptr, "%.2f");
-    changed |= ImGui::InputScalar("scale", ImGuiDataType_Double, &s, nullptr, nullptr, "%.4f");
-    if (changed && s > 0) {
-        const glm::dmat4 rotation = glm::mat4_cast(glm::dquat(glm::radians(euler)));
-        transform.set_matrix(glm::translate(glm::dmat4(1.0), translation) * rotation * glm::scale(glm::dmat4(1.0), glm::dvec3(s)));
-    }
-}
-
-}  // namespace
-
 void Editor::draw_inspector() {
     const NodePtr node = selected();
     if (!node) {
@@ -546,36 +506,11 @@ void Editor::draw_inspector() {
     }
     std::string name = node->name();
     if (ImGui::InputText("name", &name)) node->set_name(name);
-    ImGui::Text("type: %s", type_name(*node));
-    if (auto* transform = dynamic_cast<Transform*>(node.get())) draw_transform_fields(*transform);
-    if (auto* model = dynamic_cast<HlodModel*>(node.get())) {
-        // Detail by a screen-space error in pixels (Eq. 4.5 sets κ0 per view), or by κ0 itself.
-        int by_kappa0 = model->pixel_error() > 0 ? 0 : 1;
-        if (ImGui::RadioButton("pixel error", &by_kappa0, 0) && model->pixel_error() <= 0) model->set_pixel_error(1.0);
-        ImGui::SameLine();
-        if (ImGui::RadioButton("kappa0", &by_kappa0, 1) && model->pixel_error() > 0) model->set_kappa0(model->kappa0());
-        if (by_kappa0 == 0) {
-            float pixels = float(model->pixel_error());
-            if (ImGui::SliderFloat("##pixels", &pixels, 0.1f, 16.0f, "%.2f px", ImGuiSliderFlags_Logarithmic) && pixels > 0)
-                model->set_pixel_error(pixels);
-        } else {
-            float kappa0 = float(model->kappa0());
-            if (ImGui::SliderFloat("##kappa0", &kappa0, float(model->min_kappa0()), 32.0f, "kappa0 = %.2f", ImGuiSliderFlags_Logarithmic) &&
-                kappa0 > 0)
-                model->set_kappa0(kappa0);
-        }
-        bool morph = model->morph();
-        if (ImGui::Checkbox("morph", &morph)) model->set_morph(morph);
-        ImGui::SameLine();
-        bool boxes = model->show_cube_boxes();
-        if (ImGui::Checkbox("cube boxes", &boxes)) model->set_show_cube_boxes(boxes);
-        int view = int(model->debug_view());
-        if (ImGui::Combo("view", &view, "shaded\0colour by level\0wireframe\0residency\0")) model->set_debug_view(HlodDebugView(view));
-        ImGui::Text("%s", model->path().c_str());
-        ImGui::Text("%u levels, %zu cubes", model->header().max_level + 1, model->cubes().size());
-    }
-    if (auto* geometry = dynamic_cast<Geometry*>(node.get()))
-        ImGui::Text("%zu vertices, %zu triangles", geometry->mesh().vertex_count(), geometry->mesh().triangle_count());
+    const NodeType& type = node_type_of(*node);
+    ImGui::Text("type: %s", type.name);
+    ImGuiInspector fields;
+    for (const NodeType* t : type_chain(type))
+        if (t->inspect) t->inspect(*node, fields);
     ImGui::Separator();
     ImGui::TextDisabled("drawn this frame (whole scene)");
     ImGui::Text("%.3f M triangles, %llu cubes", stats_.triangles / 1e6, (unsigned long long)stats_.cubes);

@@ -57,15 +57,21 @@ void collect_completions(lua_State* L, const std::string& text) {
             if (end == std::string::npos) break;
             start = end + 1;
         }
-        // A userdata (a node, a camera): complete its methods.
+        // A userdata (a node, a camera): complete its methods, and those its methods table inherits
+        // (a transform's from groups', a group's from every node's).
         if (lua_isuserdata(L, -1) && luaL_getmetafield(L, -1, "__index") != LUA_TNIL) lua_remove(L, -2);
     }
-    if (lua_istable(L, -1)) {
+    for (int chain = 0; chain < 8 && lua_istable(L, -1); ++chain) {
         lua_pushnil(L);
         while (lua_next(L, -2)) {
             lua_pop(L, 1);
             if (lua_type(L, -1) == LUA_TSTRING) offer(lua_tostring(L, -1));
         }
+        if (head.empty() || !lua_getmetatable(L, -1)) break;
+        lua_pushliteral(L, "__index");
+        lua_rawget(L, -2);
+        lua_remove(L, -2);
+        lua_remove(L, -2);
     }
     lua_settop(L, top);
     std::sort(completions.begin(), completions.end());
@@ -80,7 +86,7 @@ void collect_node_names(lua_State* L, const std::string& text) {
     lua_pushglobaltable(L);
     lua_pushnil(L);
     while (lua_next(L, -2)) {
-        if (luaL_testudata(L, -1, kNodeType)) stack.push_back(static_cast<NodePtr*>(lua_touserdata(L, -1))->get());
+        if (const NodePtr node = test_node(L, -1)) stack.push_back(node.get());  // the global keeps it
         lua_pop(L, 1);
     }
     lua_pop(L, 1);

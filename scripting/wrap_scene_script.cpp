@@ -25,7 +25,7 @@ void push_part(lua_State* L, int index, const char* key) {
 
 NodePtr check_scene(lua_State* L, int index) {
     push_part(L, index, "scene");
-    NodePtr scene = lua::test_shared<Node>(L, -1);
+    NodePtr scene = test_node(L, -1);
     if (!scene) luaL_error(L, "'scene' must be a strata node (the root of the scene), got %s", luaL_typename(L, -1));
     lua_pop(L, 1);
     return scene;
