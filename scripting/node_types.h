@@ -32,6 +32,12 @@ struct NodeType {
     void (*settings)(const Node& node, const std::string& var, std::vector<std::string>& lines) = nullptr;
 };
 
+// NodeType::is for the nodes of C++ class T and those derived from it.
+template <class T>
+bool is_a(const Node& node) {
+    return dynamic_cast<const T*>(&node) != nullptr;
+}
+
 // The types, most derived first: node_type_of takes the first that matches.
 std::span<const NodeType* const> node_types();
 const NodeType& node_type_of(const Node& node);

@@ -73,7 +73,7 @@ const luaL_Reg kGeometryFunctions[] = {{"plane", new_plane}, {nullptr, nullptr}}
 const NodeType kGeometryType = {
     .name = "geometry",
     .base = &kNodeBaseType,
-    .is = [](const Node& node) { return dynamic_cast<const Geometry*>(&node) != nullptr; },
+    .is = is_a<Geometry>,
     .functions = kGeometryFunctions,
     .summary = geometry_summary,
     .inspect = inspect_geometry,

@@ -226,7 +226,7 @@ glm::dmat4 compose_transform(const glm::dvec3& translate, const glm::dquat& rota
 const NodeType kGroupType = {
     .name = "group",
     .base = &kNodeBaseType,
-    .is = [](const Node& node) { return dynamic_cast<const Group*>(&node) != nullptr; },
+    .is = is_a<Group>,
     .methods = kGroupMethods,
     .functions = kGroupFunctions,
     .summary = group_summary,
@@ -236,7 +236,7 @@ const NodeType kGroupType = {
 const NodeType kTransformType = {
     .name = "transform",
     .base = &kGroupType,
-    .is = [](const Node& node) { return dynamic_cast<const Transform*>(&node) != nullptr; },
+    .is = is_a<Transform>,
     .methods = kTransformMethods,
     .functions = kTransformFunctions,
     .summary = group_summary,

@@ -205,7 +205,7 @@ const luaL_Reg kHlodMethods[] = {{"set_lod", hlod_set},           {"info", hlod_
 const NodeType kHlodType = {
     .name = "hlod",
     .base = &kNodeBaseType,
-    .is = [](const Node& node) { return dynamic_cast<const HlodModel*>(&node) != nullptr; },
+    .is = is_a<HlodModel>,
     .methods = kHlodMethods,
     .summary = hlod_summary,
     .inspect = inspect_hlod,

@@ -56,7 +56,7 @@ const luaL_Reg kAmbientFunctions[] = {{"ambient", new_ambient}, {nullptr, nullpt
 const NodeType kDirectionalLightType = {
     .name = "light",
     .base = &kNodeBaseType,
-    .is = [](const Node& node) { return dynamic_cast<const DirectionalLight*>(&node) != nullptr; },
+    .is = is_a<DirectionalLight>,
     .functions = kLightFunctions,
     .constructor = light_constructor,
 };
@@ -64,7 +64,7 @@ const NodeType kDirectionalLightType = {
 const NodeType kAmbientLightType = {
     .name = "ambient",
     .base = &kNodeBaseType,
-    .is = [](const Node& node) { return dynamic_cast<const AmbientLight*>(&node) != nullptr; },
+    .is = is_a<AmbientLight>,
     .functions = kAmbientFunctions,
     .constructor = ambient_constructor,
 };
