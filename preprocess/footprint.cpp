@@ -9,18 +9,11 @@ namespace strata {
 
 namespace {
 
-using Wide = __int128;
+using Wide = WideInt;
 
 // Lattice points stay within ±2^(30 + kGridPointBits): products of two coordinate differences fit
 // 2^102 and an area sums 2^25 of them inside 128 bits.
 constexpr double kLargestCell = double(int64_t(1) << 30);
-
-Wide floor_div(Wide n, Wide d) {
-    Wide q = n / d;
-    if (n % d != 0 && ((n < 0) != (d < 0))) --q;
-    return q;
-}
-Wide ceil_div(Wide n, Wide d) { return -floor_div(-n, d); }
 
 std::string where(const GridPoint& p) {
     char text[96];
@@ -64,10 +57,10 @@ bool inside(const std::vector<GridPoint>& ring, GridPoint p) {
     return in;
 }
 
-// A ring that crosses or touches itself: any two edges but neighbours meeting, neighbours folding back
-// on each other, or a point repeated. Edges are bucketed by the cells they touch, so the pairs tested
-// are those near each other.
-void check_simple(const std::vector<GridPoint>& ring, std::string_view what) {
+}  // namespace
+
+// Edges are bucketed by the cells they touch, so the pairs tested are those near each other.
+void check_ring_simple(const std::vector<GridPoint>& ring, std::string_view what) {
     const size_t n = ring.size();
     double length = 0;
     for (size_t i = 0; i < n; ++i) {
@@ -97,8 +90,6 @@ void check_simple(const std::vector<GridPoint>& ring, std::string_view what) {
                                      " (boundary edges " + std::to_string(i) + " and " + std::to_string(j) + ")");
             }
 }
-
-}  // namespace
 
 GridPoint to_grid_point(glm::dvec2 p) {
     if (!(std::abs(p.x) <= kLargestCell && std::abs(p.y) <= kLargestCell))
@@ -235,7 +226,7 @@ Footprint make_footprint(const Mesh& mesh, const std::function<glm::dvec2(const 
         if (p.x < 0 || p.y < 0 || p.x > corner.x || p.y > corner.y)
             throw InputError(std::string(what) + ": the mesh reaches outside the terrain's raster (a boundary vertex at " + where(p) +
                              ", the raster has " + std::to_string(columns) + " columns and " + std::to_string(rows) + " rows)");
-    check_simple(footprint.points, what);
+    check_ring_simple(footprint.points, what);
     for (size_t i = 0; i < rings.size(); ++i) {
         if (i == outer) continue;
         if (!inside(footprint.points, rings[i].front()))

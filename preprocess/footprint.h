@@ -29,6 +29,15 @@ struct GridPoint {
     bool operator==(const GridPoint&) const = default;
 };
 
+// Exact arithmetic on lattice coordinates: products of two coordinates or differences fit 128 bits.
+using WideInt = __int128;
+inline WideInt floor_div(WideInt n, WideInt d) {
+    WideInt q = n / d;
+    if (n % d != 0 && ((n < 0) != (d < 0))) --q;
+    return q;
+}
+inline WideInt ceil_div(WideInt n, WideInt d) { return -floor_div(-n, d); }
+
 // The point nearest `p` (raster index space) on the lattice; std::runtime_error beyond ±2^40 cells.
 GridPoint to_grid_point(glm::dvec2 p);
 
@@ -76,6 +85,10 @@ struct CellCovers {
     }
 };
 CellCovers classify_cells(const Footprint& footprint, int64_t cell_size, int64_t columns, int64_t rows);
+
+// Throws InputError naming `what` when the closed ring crosses or touches itself: two edges but
+// neighbours meeting, neighbours folding back on each other, or a point repeated.
+void check_ring_simple(const std::vector<GridPoint>& ring, std::string_view what);
 
 // Calls `visit(x, y)` for every cell (of `cell_size` raster steps, uniform) whose closed square meets the
 // closed segment a–b: a cell once per segment. (The classification's PC test; the ring's self-crossing
