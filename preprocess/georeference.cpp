@@ -126,4 +126,13 @@ std::optional<std::array<double, 2>> Georeference::raster_position(double x, dou
     return std::array{column, row};
 }
 
+std::optional<std::array<double, 3>> Georeference::sample_position(double column, double row, double height) const {
+    if (!terrain_) return std::nullopt;
+    const TerrainGrid& t = *terrain_;
+    const double x = t.first_sample[0] + column * t.spacing[0];
+    const double y = t.rows_run_north ? t.first_sample[1] + row * t.spacing[1] : t.first_sample[1] - row * t.spacing[1];
+    if (t.frame == uint32_t(TerrainFrameKind::reprojected)) return crs_to_model(transform({x, y, height}, t.raster_crs, false));
+    return crs_to_model({x, y, height});
+}
+
 }  // namespace strata

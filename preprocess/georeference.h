@@ -41,6 +41,10 @@ public:
     // the up direction turns across the model, that depends on the height). Nothing for a model that is
     // not a terrain.
     std::optional<std::array<double, 2>> raster_position(double x, double y, double height) const;
+    // The other way: the model position of the terrain's sample at (column, row) with `height`, where the
+    // terrain's build put it (terrain_frame.h). Nothing for a model that is not a terrain; throws
+    // std::runtime_error when PROJ cannot map the sample (a reprojected terrain).
+    std::optional<std::array<double, 3>> sample_position(double column, double row, double height) const;
 
 private:
     struct Proj;

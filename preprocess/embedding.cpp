@@ -1,0 +1,111 @@
+#include "preprocess/embedding.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "preprocess/georeference.h"
+#include "preprocess/terrain_heights.h"
+
+namespace strata {
+
+TerrainSite TerrainSite::open(const std::filesystem::path& path) {
+    TerrainSite site;
+    auto file = std::make_shared<HlodFile>(path);
+    const HlodHeader& header = file->header();
+    const HlodSection* heights = file->find_section(kHeightsTag);
+    if (!header.terrain || !heights || header.crs.empty())
+        throw std::runtime_error(path.string() + ": not a terrain built from an elevation raster (it has no raster grid, heights or CRS)");
+    site.georeference = std::make_shared<Georeference>(header, path.string());
+    site.heights = std::make_shared<TerrainHeights>(file, *heights);
+    site.file = std::move(file);
+    return site;
+}
+
+uint32_t zone_level(const HlodHeader& terrain, double height_difference, double extent_cells, bool& capped) {
+    const uint32_t L = terrain.max_level;
+    // The finest m with ΔH ≤ 2·ε_q·s_(m−1).
+    uint32_t m = L;
+    while (m > 0 && height_difference > 2.0 * double(terrain.error_q) * terrain.cube_size(m - 1)) --m;
+    // Cells of at most about twice the footprint's extent: 2^(L−m) ≤ 2·extent.
+    uint32_t coarsest = L;
+    while (coarsest > 0 && double(uint64_t(1) << (L - coarsest + 1)) <= 2.0 * std::max(extent_cells, 1.0)) --coarsest;
+    capped = m < coarsest;
+    return std::max(m, coarsest);
+}
+
+EmbeddingPlan plan_embedding(const TerrainSite& terrain, const Mesh& mesh, const glm::dmat4& mesh_to_terrain, const std::string& what) {
+    const TerrainGrid& grid = terrain.grid();
+    const Georeference& geo = *terrain.georeference;
+    const int64_t columns = int64_t(grid.columns), rows = int64_t(grid.rows);
+    auto placed = [&](size_t v) {
+        const float* p = &mesh.positions[3 * v];
+        return glm::dvec3(mesh_to_terrain * glm::dvec4(mesh.origin[0] + double(p[0]), mesh.origin[1] + double(p[1]), mesh.origin[2] + double(p[2]), 1.0));
+    };
+    auto raster_at = [&](const glm::dvec3& at) {
+        const auto position = geo.raster_position(at.x, at.y, at.z);
+        if (!position) throw std::runtime_error("a point the terrain's CRS cannot map");
+        return glm::dvec2((*position)[0], (*position)[1]);
+    };
+
+    EmbeddingPlan plan;
+    plan.footprint = make_footprint(
+        mesh,
+        [&](const glm::dvec3& at) { return raster_at(glm::dvec3(mesh_to_terrain * glm::dvec4(at, 1.0))); }, columns, rows, what);
+    for (size_t v = 0; v < mesh.vertex_count(); ++v) {
+        const glm::dvec3 at = placed(v);
+        const glm::dvec2 cell = raster_at(at);
+        if (const std::optional<double> ground = terrain.heights->at(cell.x, cell.y))
+            plan.height_difference = std::max(plan.height_difference, std::abs(at.z - *ground));
+    }
+    GridPoint lo = plan.footprint.points.front(), hi = lo;
+    for (const GridPoint& p : plan.footprint.points) {
+        lo = {std::min(lo.x, p.x), std::min(lo.y, p.y)};
+        hi = {std::max(hi.x, p.x), std::max(hi.y, p.y)};
+    }
+    const double extent = double(std::max(hi.x - lo.x, hi.y - lo.y)) / double(kGridPointOne);
+    plan.zone_level = zone_level(terrain.header(), plan.height_difference, extent, plan.zone_capped);
+    plan.zone = classify_cells(plan.footprint, int64_t(1) << (terrain.header().max_level - plan.zone_level), columns, rows);
+    plan.skirt = build_skirt(plan.footprint, plan.zone, columns, rows, what);
+
+    // The skirt's vertices in the terrain's frame, relative to the first one (floats near zero).
+    std::vector<glm::dvec3> positions;
+    positions.reserve(plan.skirt.vertices.size());
+    for (const SkirtVertex& v : plan.skirt.vertices) {
+        switch (v.kind) {
+        case SkirtVertex::Kind::sample: {
+            const std::optional<double> h = terrain.heights->sample(uint64_t(v.a), uint64_t(v.b));
+            if (!h)
+                throw InputError(what + ": the embedding's zone covers a raster sample without an elevation (column " + std::to_string(v.a) +
+                                 ", row " + std::to_string(v.b) + "): fill the raster's holes (--fill-nodata) or place the mesh elsewhere");
+            const auto at = geo.sample_position(double(v.a), double(v.b), *h);
+            positions.emplace_back((*at)[0], (*at)[1], (*at)[2]);
+            break;
+        }
+        case SkirtVertex::Kind::boundary:
+            positions.push_back(placed(plan.footprint.ring[size_t(v.a)]));
+            break;
+        case SkirtVertex::Kind::crossing: {
+            const size_t n = plan.footprint.ring.size();
+            const glm::dvec3 a = placed(plan.footprint.ring[size_t(v.a)]), b = placed(plan.footprint.ring[(size_t(v.a) + 1) % n]);
+            positions.push_back(a + (b - a) * (double(v.num) / double(v.den)));
+            break;
+        }
+        }
+    }
+    Mesh& skirt = plan.skirt_mesh;
+    const glm::dvec3 origin = positions.empty() ? glm::dvec3(0) : positions.front();
+    skirt.origin = {origin.x, origin.y, origin.z};
+    skirt.positions.reserve(3 * positions.size());
+    for (const glm::dvec3& p : positions)
+        skirt.positions.insert(skirt.positions.end(), {float(p.x - origin.x), float(p.y - origin.y), float(p.z - origin.z)});
+    // Counter-clockwise in raster space is clockwise from above when rows run south (north-up rasters):
+    // the sign of the raster's axes in the model decides.
+    const auto p00 = geo.sample_position(0, 0, 0), p10 = geo.sample_position(1, 0, 0), p01 = geo.sample_position(0, 1, 0);
+    const double turn = ((*p10)[0] - (*p00)[0]) * ((*p01)[1] - (*p00)[1]) - ((*p10)[1] - (*p00)[1]) * ((*p01)[0] - (*p00)[0]);
+    skirt.indices = plan.skirt.triangles;
+    if (turn < 0)
+        for (size_t t = 0; t < skirt.indices.size(); t += 3) std::swap(skirt.indices[t + 1], skirt.indices[t + 2]);
+    return plan;
+}
+
+}  // namespace strata

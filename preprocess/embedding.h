@@ -1,0 +1,60 @@
+// Embedding a mesh in a terrain (HYBRID.md §2): where the mesh lies on the terrain's raster (its
+// footprint), the zone of grid cells it replaces, and the skirt that joins the ground to its boundary,
+// in the terrain's model frame with the raster's own heights.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "preprocess/footprint.h"
+#include "preprocess/hlod_format.h"
+#include "preprocess/mesh.h"
+#include "preprocess/skirt.h"
+
+namespace strata {
+
+class Georeference;
+class TerrainHeights;
+
+// What the embedding needs of a terrain .hlod: its header, where its samples lie, and their heights.
+struct TerrainSite {
+    std::shared_ptr<const HlodFile> file;
+    std::shared_ptr<const Georeference> georeference;
+    std::shared_ptr<const TerrainHeights> heights;
+
+    // Throws std::runtime_error naming the file when it is not a terrain (no TERR or HGHT, no CRS).
+    static TerrainSite open(const std::filesystem::path& path);
+    const HlodHeader& header() const { return file->header(); }
+    const TerrainGrid& grid() const { return *file->header().terrain; }
+};
+
+struct EmbeddingPlan {
+    Footprint footprint;
+    uint32_t zone_level = 0;  // m: the zone is made of level-m cells; below m the embedding is not drawn
+    CellCovers zone;          // the footprint's covers at level m: its PC and CC cells are the zone
+    Skirt skirt;              // in raster index space
+    // The skirt in the terrain's model frame: vertex v is skirt.vertices[v] (samples at the raster's
+    // heights, ring vertices at the mesh's, crossings on the mesh's boundary edges), triangles
+    // counter-clockwise seen from above.
+    Mesh skirt_mesh;
+    double height_difference = 0;  // ΔH: the largest |mesh height − ground height| over the mesh's vertices
+    bool zone_capped = false;      // m had to be finer than ΔH asks (HYBRID.md §2): the mesh appears at m
+};
+
+// Plans the embedding of `mesh` (positions in its own frame) placed by `mesh_to_terrain` into the
+// terrain's model frame. Throws InputError naming `what` for a mesh that cannot be embedded (its
+// footprint: footprint.h; the skirt: skirt.h; a zone over nodata samples or beyond the raster).
+EmbeddingPlan plan_embedding(const TerrainSite& terrain, const Mesh& mesh, const glm::dmat4& mesh_to_terrain, const std::string& what);
+
+// The coarsest level m whose zone may replace the grid: the embedding is dropped where the grid is drawn
+// coarser than m, which stays within the terrain's own screen-space bound when ΔH ≤ 2·ε_q·s_(m−1)
+// (HYBRID.md §2); no coarser than the level whose cells are about twice the footprint's extent
+// (`extent_cells` finest cells), so that the zone stays a few cells around it. `capped` says whether
+// that limit decided.
+uint32_t zone_level(const HlodHeader& terrain, double height_difference, double extent_cells, bool& capped);
+
+}  // namespace strata
