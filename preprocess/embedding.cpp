@@ -48,6 +48,10 @@ EmbeddingPlan plan_embedding(const TerrainSite& terrain, const Mesh& mesh, const
     };
 
     EmbeddingPlan plan;
+    if (boundary_loops(mesh, what).empty()) {
+        plan.standing = true;
+        return plan;
+    }
     plan.footprint = make_footprint(
         mesh,
         [&](const glm::dvec3& at) { return raster_at(glm::dvec3(mesh_to_terrain * glm::dvec4(at, 1.0))); }, columns, rows, what);

@@ -43,10 +43,13 @@ struct EmbeddingPlan {
     Mesh skirt_mesh;
     double height_difference = 0;  // ΔH: the largest |mesh height − ground height| over the mesh's vertices
     bool zone_capped = false;      // m had to be finer than ΔH asks (HYBRID.md §2): the mesh appears at m
+    // A closed mesh (a statue on its plinth: no open boundary) stands on the ground: the grid is kept
+    // whole under it and nothing is stitched; zone, skirt and footprint are empty.
+    bool standing = false;
 };
 
 // Plans the embedding of `mesh` (positions in its own frame) placed by `mesh_to_terrain` into the
-// terrain's model frame. Throws InputError naming `what` for a mesh that cannot be embedded (its
+// terrain's model frame. A closed mesh stands (above). Throws InputError naming `what` for a mesh that cannot be embedded (its
 // footprint: footprint.h; the skirt: skirt.h; a zone over nodata samples or beyond the raster).
 EmbeddingPlan plan_embedding(const TerrainSite& terrain, const Mesh& mesh, const glm::dmat4& mesh_to_terrain, const std::string& what);
 

@@ -155,6 +155,20 @@ TEST(Embedding, AMeshOverNodataOrOffTheRasterIsRefusedNamingIt) {
     EXPECT_THROW(TerrainSite::open(dir.path() / "missing.hlod"), std::runtime_error);
 }
 
+// A closed mesh (a statue on a plinth) has no boundary to join: it stands on the ground, which stays.
+TEST(Embedding, AClosedMeshStandsOnTheGroundWithNothingCut) {
+    const test::TempDir dir;
+    const TerrainSite t = TerrainSite::open(terrain(dir));
+    Mesh statue = test::icosphere(2, 20.0f);
+    statue.origin = {1400, 1500, 500};
+    const EmbeddingPlan plan = plan_embedding(t, statue, glm::dmat4(1.0), "statue.ply");
+    EXPECT_TRUE(plan.standing);
+    EXPECT_TRUE(plan.skirt_mesh.indices.empty());
+    EXPECT_TRUE(plan.footprint.ring.empty());
+    // With a boundary, the same place is cut.
+    EXPECT_FALSE(plan_embedding(t, site(t, 1400, 1500, 130, 0.0, 5), glm::dmat4(1.0), "site.ply").standing);
+}
+
 // Samples lie where the raster position of a model point says, in the tangent frames too.
 TEST(Embedding, SamplePositionsAndRasterPositionsAgreeInEveryFrame) {
     const test::TempDir dir;
