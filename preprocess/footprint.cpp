@@ -68,12 +68,12 @@ void check_ring_simple(const std::vector<GridPoint>& ring, std::string_view what
         if (a == b) throw InputError(std::string(what) + ": two boundary vertices fall on the same point of the grid (" + where(a) + ")");
         length += std::max(std::abs(double(b.x - a.x)), std::abs(double(b.y - a.y)));
     }
-    int64_t bucket = 1;  // in cells: about the mean edge length, a power of two
-    while (double(bucket) * double(kGridPointOne) * double(n) < length && bucket < (int64_t(1) << 30)) bucket *= 2;
+    int64_t bucket = 1;  // in lattice steps: about the mean edge length, a power of two
+    while (double(bucket) * double(n) < length && bucket < (int64_t(1) << 50)) bucket *= 2;
     std::unordered_map<uint64_t, std::vector<uint32_t>> edges_in;
     for (size_t i = 0; i < n; ++i)
-        cells_touched(ring[i], ring[(i + 1) % n], bucket, [&](int64_t x, int64_t y) {
-            edges_in[(uint64_t(uint32_t(x)) << 32) | uint32_t(y)].push_back(uint32_t(i));
+        squares_touched(ring[i], ring[(i + 1) % n], bucket, [&](int64_t x, int64_t y) {
+            edges_in[uint64_t(x) * 0x9E3779B97F4A7C15ull ^ uint64_t(y)].push_back(uint32_t(i));  // a clash only adds pairs
         });
     for (const auto& [cell, edges] : edges_in)
         for (size_t u = 0; u < edges.size(); ++u)
@@ -103,7 +103,11 @@ int orientation(GridPoint a, GridPoint b, GridPoint c) {
 }
 
 void cells_touched(GridPoint a, GridPoint b, int64_t cell_size, const std::function<void(int64_t, int64_t)>& visit) {
-    const Wide unit = Wide(cell_size) * kGridPointOne;
+    squares_touched(a, b, cell_size * kGridPointOne, visit);
+}
+
+void squares_touched(GridPoint a, GridPoint b, int64_t side, const std::function<void(int64_t, int64_t)>& visit) {
+    const Wide unit = side;
     if (b.x < a.x) std::swap(a, b);
     const Wide dx = b.x - a.x, dy = b.y - a.y;
     const int64_t first = int64_t(ceil_div(a.x, unit) - 1), last = int64_t(floor_div(b.x, unit));

@@ -94,5 +94,7 @@ void check_ring_simple(const std::vector<GridPoint>& ring, std::string_view what
 // closed segment a–b: a cell once per segment. (The classification's PC test; the ring's self-crossing
 // check buckets edges with it.)
 void cells_touched(GridPoint a, GridPoint b, int64_t cell_size, const std::function<void(int64_t x, int64_t y)>& visit);
+// The same for squares of `side` lattice steps (the grid of any bucketing, not only of cells).
+void squares_touched(GridPoint a, GridPoint b, int64_t side, const std::function<void(int64_t x, int64_t y)>& visit);
 
 }  // namespace strata

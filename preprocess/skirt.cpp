@@ -295,6 +295,11 @@ void SkirtBuilder::fail(Cell cell, const std::string& why) const {
 
 Skirt SkirtBuilder::build(const CellCovers& zone) {
     split_ring();
+    // The covers of the finest cells under the moved ring: a cell with no piece of it lies wholly inside
+    // or outside (one scanline a row, not a ring's length a cell).
+    Footprint moved;
+    moved.points = ring_;
+    const CellCovers finest = classify_cells(moved, 1, columns_, rows_);
     for (int64_t zy = zone.first_y; zy < zone.first_y + zone.height; ++zy)
         for (int64_t zx = zone.first_x; zx < zone.first_x + zone.width; ++zx) {
             if (zone.at(zx, zy) == CellCover::none) continue;
@@ -302,7 +307,8 @@ Skirt SkirtBuilder::build(const CellCovers& zone) {
                 for (int64_t x = zx * zone.size; x < std::min((zx + 1) * zone.size, columns_ - 1); ++x) {
                     const auto pieces = pieces_.find({x, y});
                     if (pieces != pieces_.end()) cut_cell({x, y}, pieces->second);
-                    else if (!inside_ring({x * kOne + kOne / 2, y * kOne + kOne / 2})) grid_cell({x, y});
+                    else if (finest.at(x, y) == CellCover::none) grid_cell({x, y});
+                    else if (finest.at(x, y) == CellCover::partly && !inside_ring({x * kOne + kOne / 2, y * kOne + kOne / 2})) grid_cell({x, y});
                 }
         }
     return std::move(skirt_);
