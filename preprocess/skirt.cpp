@@ -128,7 +128,7 @@ void SkirtBuilder::split_ring() {
         uint32_t from = uint32_t(e);
         WideInt n0 = 0, d0 = 1;
         for (size_t k = 0; k <= ts.size(); ++k) {
-            const auto [n1, d1] = k < ts.size() ? ts[k] : std::pair<WideInt, WideInt>{1, 1};
+            const WideInt n1 = k < ts.size() ? ts[k].first : 1, d1 = k < ts.size() ? ts[k].second : 1;
             uint32_t to = uint32_t((e + 1) % n);
             if (k < ts.size()) {
                 // Rounded to the lattice; exact on its grid line (the one it crosses is a multiple of kOne),
