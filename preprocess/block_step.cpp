@@ -57,6 +57,16 @@ private:
 
 const float* position_of(VertexRef r) { return &r.cube->positions[3 * size_t(r.v)]; }
 
+bool on_boundary(VertexRef r) { return !r.cube->boundary.empty() && r.cube->boundary[r.v]; }
+
+// Where a vertex is drawn, up to its lattice's rounding: a locked boundary's vertex snapped to level 0's
+// lattice. Collapse targets and parents are held to the travel bound there, so that it holds as decoded.
+std::array<double, 3> drawn_position(VertexRef r, const Frame& f) {
+    const float* x = position_of(r);
+    if (!on_boundary(r)) return {x[0], x[1], x[2]};
+    return {snapped_to_root_lattice(f, x[0], 0), snapped_to_root_lattice(f, x[1], 1), snapped_to_root_lattice(f, x[2], 2)};
+}
+
 bool same_wedge(VertexRef a, VertexRef b) {
     auto same = [](const auto& x, const auto& y, size_t i, size_t j, size_t n) {
         return x.empty() || std::memcmp(&x[n * i], &y[n * j], n * sizeof(x[0])) == 0;
@@ -76,9 +86,9 @@ uint64_t hash_wedge(VertexRef r) {
     return h;
 }
 
-// Welds the cubes, decides which points are locked (another block lists them) and every wedge's
-// normal: the scan's own at level L when it has them, else the area-weighted sum over the level's
-// triangles at the point (DESIGN.md §2: across cube and block borders).
+// Welds the cubes, decides which points are locked (another block lists them, or they lie on the locked
+// boundary) and every wedge's normal: the scan's own at level L when it has them, else the area-weighted
+// sum over the level's triangles at the point (DESIGN.md §2: across cube and block borders).
 BlockWeld weld_block(std::span<const CubeRecord* const> cubes, const BorderTable& border, CubeKey block) {
     BlockWeld w;
     uint32_t total = 0;
@@ -101,9 +111,11 @@ BlockWeld weld_block(std::span<const CubeRecord* const> cubes, const BorderTable
         add_area_normals(*cubes[c], [&](uint32_t v) { return w.wedge_point[w.vertex_wedge[w.first[c] + v]]; }, sums);
     w.point_locked.assign(w.point_count(), 0);
     for (uint32_t p = 0; p < w.point_count(); ++p) {
-        const BorderTable::Point* shared = border.find(position_bits(position_of(vertex[w.wedge_vertex[w.point_wedge[p]]])));
+        const VertexRef r = vertex[w.wedge_vertex[w.point_wedge[p]]];
+        w.point_locked[p] = on_boundary(r);  // every copy at the point carries the flag
+        const BorderTable::Point* shared = border.find(position_bits(position_of(r)));
         if (!shared) continue;
-        w.point_locked[p] = shared->locked_for(block);
+        w.point_locked[p] |= shared->locked_for(block);
         sums[p] = shared->normal_sum;
     }
     w.wedge_normal.resize(w.wedge_count());
@@ -115,9 +127,10 @@ BlockWeld weld_block(std::span<const CubeRecord* const> cubes, const BorderTable
     return w;
 }
 
-// A vertex's stored lattice coordinate (lattice_offset), which its cell's σ0 overhang keeps in range.
-uint16_t lattice(const Frame& f, float x, int axis, uint32_t level, uint32_t cell) {
-    const int64_t stored = lattice_offset(f, x, axis, level, cell);
+// A vertex's stored lattice coordinate (lattice_offset; boundary_lattice_offset on a locked boundary),
+// which its cell's σ0 overhang keeps in range.
+uint16_t lattice(const Frame& f, float x, int axis, uint32_t level, uint32_t cell, bool boundary) {
+    const int64_t stored = boundary ? boundary_lattice_offset(f, x, axis, level, cell) : lattice_offset(f, x, axis, level, cell);
     if (stored < 0 || stored > 0xFFFF)
         throw std::runtime_error("internal error: a level-" + std::to_string(level) +
                                  " vertex lies outside its cell's σ0 overhang");
@@ -134,8 +147,9 @@ EncodedCube encode(const CubeRecord& cube, uint32_t level, const BlockWeld& w, u
     data.vertices.positions.resize(3 * size_t(n));
     data.vertices.normals.resize(2 * size_t(n));
     for (uint32_t v = 0; v < n; ++v) {
+        const bool boundary = !cube.boundary.empty() && cube.boundary[v];
         for (int a = 0; a < 3; ++a)
-            data.vertices.positions[3 * size_t(v) + a] = lattice(f, cube.positions[3 * size_t(v) + a], a, level, cell[a]);
+            data.vertices.positions[3 * size_t(v) + a] = lattice(f, cube.positions[3 * size_t(v) + a], a, level, cell[a], boundary);
         const std::array<int16_t, 2>& normal = w.wedge_normal[w.vertex_wedge[first + v]];
         data.vertices.normals[2 * size_t(v)] = normal[0], data.vertices.normals[2 * size_t(v) + 1] = normal[1];
     }
@@ -167,8 +181,8 @@ BlockMesh block_mesh(std::span<const CubeRecord* const> cubes, const BlockWeld& 
     m.attribute_count = (any.colors.empty() ? 0 : 4) + (any.uvs.empty() ? 0 : 2) + (any.normals.empty() ? 0 : 3);
     m.point_positions.reserve(3 * size_t(w.point_count()));
     for (uint32_t p = 0; p < w.point_count(); ++p) {
-        const float* x = position_of(vertex[w.wedge_vertex[w.point_wedge[p]]]);
-        for (int a = 0; a < 3; ++a) m.point_positions.push_back(float((double(x[a]) - center[a]) / size));
+        const std::array<double, 3> x = drawn_position(vertex[w.wedge_vertex[w.point_wedge[p]]], f);
+        for (int a = 0; a < 3; ++a) m.point_positions.push_back(float((x[size_t(a)] - center[a]) / size));
     }
     m.point_locked = w.point_locked;
     m.wedge_point = w.wedge_point;
@@ -191,12 +205,12 @@ BlockMesh block_mesh(std::span<const CubeRecord* const> cubes, const BlockWeld& 
 // travel bound verify holds parents to; IndexMap::kMissing when none is that near. Without it an
 // extra would be its own parent, an extra again, level after level: the root of a billion-triangle
 // model held 207 840 vertices for 3 898 triangles.
-uint32_t nearest_used(const float* p, const std::vector<float>& used_positions, double reach) {
+uint32_t nearest_used(const std::array<double, 3>& p, const std::vector<std::array<double, 3>>& used_positions, double reach) {
     uint32_t best = IndexMap::kMissing;
     double best_squared = 0;
-    for (uint32_t i = 0; i < used_positions.size() / 3; ++i) {
-        const float* q = &used_positions[3 * size_t(i)];
-        const double d[3] = {double(q[0]) - p[0], double(q[1]) - p[1], double(q[2]) - p[2]};
+    for (uint32_t i = 0; i < used_positions.size(); ++i) {
+        const std::array<double, 3>& q = used_positions[i];
+        const double d[3] = {q[0] - p[0], q[1] - p[1], q[2] - p[2]};
         if (std::fabs(d[0]) > reach || std::fabs(d[1]) > reach || std::fabs(d[2]) > reach) continue;
         const double squared = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
         if (best == IndexMap::kMissing || squared < best_squared) best = i, best_squared = squared;
@@ -208,7 +222,7 @@ uint32_t nearest_used(const float* p, const std::vector<float>& used_positions, 
 // triangles, its vertices in payload order then the extras, and each child vertex's parent index.
 // `reach`: how far (d∞, frame units) a child's extra vertex may be from its parent.
 CubeRecord make_parent(std::span<const CubeRecord* const> cubes, std::span<const uint32_t> children, const BlockWeld& w,
-                       const SimplifyResult& result, double reach, std::vector<uint32_t>& parent_vertex) {
+                       const SimplifyResult& result, const Frame& f, double reach, std::vector<uint32_t>& parent_vertex) {
     const BlockVertices vertex(cubes, w);
     CubeRecord parent;
     parent.key = parent_key(cubes[children[0]]->key);
@@ -238,7 +252,7 @@ CubeRecord make_parent(std::span<const CubeRecord* const> cubes, std::span<const
     const uint32_t used = uint32_t(wedges.size());
     IndexMap index_of(wedges.size() + 64);
     for (uint32_t i = 0; i < used; ++i) index_of.find_or_insert(wedges[i], i);
-    std::vector<float> used_positions;  // filled when a child's extra first needs a parent
+    std::vector<std::array<double, 3>> used_positions;  // filled when a child's extra first needs a parent
     std::vector<uint8_t> drawn;
     for (uint32_t c : children) {
         const CubeRecord& child = *cubes[c];
@@ -249,11 +263,8 @@ CubeRecord make_parent(std::span<const CubeRecord* const> cubes, std::span<const
             uint32_t index = index_of.find(target);
             if (index == IndexMap::kMissing && !drawn[v]) {
                 if (used_positions.empty())
-                    for (uint32_t i = 0; i < used; ++i) {
-                        const float* x = position_of(vertex[w.wedge_vertex[wedges[i]]]);
-                        used_positions.insert(used_positions.end(), x, x + 3);
-                    }
-                index = nearest_used(position_of(vertex[w.first[c] + v]), used_positions, reach);
+                    for (uint32_t i = 0; i < used; ++i) used_positions.push_back(drawn_position(vertex[w.wedge_vertex[wedges[i]]], f));
+                index = nearest_used(drawn_position(vertex[w.first[c] + v], f), used_positions, reach);
             }
             if (index == IndexMap::kMissing) {  // an extra vertex
                 index = index_of.find_or_insert(target, uint32_t(wedges.size()));
@@ -269,7 +280,9 @@ CubeRecord make_parent(std::span<const CubeRecord* const> cubes, std::span<const
         parent.positions.insert(parent.positions.end(), position_of(r), position_of(r) + 3);
         if (!any.colors.empty()) parent.colors.insert(parent.colors.end(), &r.cube->colors[4 * size_t(r.v)], &r.cube->colors[4 * size_t(r.v) + 4]);
         if (!any.uvs.empty()) parent.uvs.insert(parent.uvs.end(), &r.cube->uvs[2 * size_t(r.v)], &r.cube->uvs[2 * size_t(r.v) + 2]);
+        parent.boundary.push_back(on_boundary(r));
     }
+    if (std::find(parent.boundary.begin(), parent.boundary.end(), 1) == parent.boundary.end()) parent.boundary.clear();
     return parent;
 }
 
@@ -303,7 +316,7 @@ BlockOutput simplify_block_cubes(std::span<const CubeRecord* const> cubes, uint3
         for (j = i; j < children.size() && parent_key(cubes[children[j]]->key) == key; ++j) {
         }
         out.parents.push_back(
-            make_parent(cubes, std::span(children).subspan(i, j - i), w, result, f.sigma0 * 0.5 * size, parent_vertex));
+            make_parent(cubes, std::span(children).subspan(i, j - i), w, result, f, f.sigma0 * 0.5 * size, parent_vertex));
         list_border_points(out.parents.back(), f, level - 1, out.border);
     }
     const StepBounds bounds = bound_step(cubes, out.parents, f.cube_size(level - 1));

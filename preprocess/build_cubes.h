@@ -54,6 +54,19 @@ inline int64_t lattice_offset(const Frame& f, double x, int axis, uint32_t level
     return std::llround((x - f.origin[axis]) * inverse_step) - (int64_t(cell) << kLatticeBits) + kLatticeBias;
 }
 
+// A locked boundary's vertex (BuildSettings::lock_boundary) lies on level 0's lattice at every level:
+// q0 = round((x − O)/h_0) once, and q = q0·2^l at level l, so that f32(q)·h_l is f32(q0)·h_0 scaled by
+// 2^l and back, both exact, and every level decodes it to the same float (FORMAT.md §6). Its float x
+// itself never changes: a boundary vertex is never collapsed, and its copies carry x from level to level.
+inline int64_t boundary_q0(const Frame& f, double x, int axis) { return lattice_offset(f, x, axis, 0, 0) - kLatticeBias; }
+inline int64_t boundary_lattice_offset(const Frame& f, double x, int axis, uint32_t level, uint32_t cell) {
+    return boundary_q0(f, x, axis) * (int64_t(1) << level) - (int64_t(cell) << kLatticeBits) + kLatticeBias;
+}
+// Where a boundary vertex is drawn (up to the decode's float rounding): x snapped to level 0's lattice.
+inline double snapped_to_root_lattice(const Frame& f, double x, int axis) {
+    return f.origin[axis] + double(boundary_q0(f, x, axis)) * (f.root_size / double(1 << kLatticeBits));
+}
+
 // (a + b + c) / 3 in double: the point whose cell holds a triangle (000 §3.2.3; triangles are never cut).
 inline std::array<double, 3> barycenter(const float* a, const float* b, const float* c) {
     return {(double(a[0]) + double(b[0]) + double(c[0])) / 3.0, (double(a[1]) + double(b[1]) + double(c[1])) / 3.0,
@@ -80,6 +93,7 @@ struct CubeRecord {
     std::vector<uint8_t> colors;             // 4 per vertex, or empty
     std::vector<float> uvs;                  // 2 per vertex, or empty
     std::vector<float> normals;              // 3 per vertex: the scan's own, at level L only; or empty
+    std::vector<uint8_t> boundary;           // 1 per vertex, 1 on the locked open boundary; empty: none is
     std::vector<uint32_t> triangles;         // 3 per triangle, into this cube's vertices, payload order
     std::array<uint32_t, 8> child_counts{};  // how the triangles split by the child they came from
 

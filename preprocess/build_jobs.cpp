@@ -62,25 +62,36 @@ std::vector<CubeKey> producers(const BuildPlan& plan, size_t stage, CubeKey bloc
 // Stage 0: a block's level-L cubes from its spilled triangles.
 void leaf_job(const BuildPlan& plan, const WorkPaths& work, RunSpill& spill, CubeKey block, bool sole_runner, DiskUsage& disk) {
     LeafBlock leaves = leaf_block(spill.read(block), CornerLayout{plan.kept}, plan.frame);
-    disk.add(write_cube_file(work.cube_file(0, block), std::move(leaves.cubes), plan.frame.max_level, leaves.border, plan.frame));
+    const std::vector<OpenEdge> odd = plan.settings.lock_boundary ? odd_edges(leaves.cubes) : std::vector<OpenEdge>();
+    disk.add(write_cube_file(work.cube_file(0, block), std::move(leaves.cubes), plan.frame.max_level, leaves.border, odd, plan.frame));
     // The run's disk goes back at once only when no other process can be running the job again, and
     // reading the holes as its triangles.
     if (sole_runner) spill.release(block);
 }
 
-// Stage s ≥ 1: one block of level l simplified into level l − 1.
+// Stage s ≥ 1: one block of level l simplified into level l − 1. Stage 1 of a build that locks the
+// boundary first finds which of the block's level-L vertices lie on it (open_boundary.h); the flags then
+// travel with the vertices' copies to every level.
 uint64_t simplify_job(const BuildPlan& plan, const WorkPaths& work, size_t stage, CubeKey block, DiskUsage& disk) {
     const uint32_t level = plan.stages[stage].level;
+    const bool find_boundary = stage == 1 && plan.settings.lock_boundary;
     std::vector<CubeRecord> records;
     std::vector<BorderEntry> listed;
+    std::vector<OpenEdge> odd;
     for (CubeKey producer : producers(plan, stage, block)) {
         const CubeFile file(work.cube_file(stage - 1, producer));
         std::vector<CubeRecord> cubes = file.cubes_of(block);
         std::move(cubes.begin(), cubes.end(), std::back_inserter(records));
         const std::vector<BorderEntry> entries = file.listings();
         listed.insert(listed.end(), entries.begin(), entries.end());
+        if (find_boundary) {
+            const std::vector<OpenEdge> edges = file.odd_edges();
+            odd.insert(odd.end(), edges.begin(), edges.end());
+        }
     }
+    const uint64_t listed_bytes = listed.size() * sizeof(BorderEntry) + odd.size() * sizeof(OpenEdge);
     std::sort(records.begin(), records.end(), [](const CubeRecord& a, const CubeRecord& b) { return a.key < b.key; });
+    if (find_boundary) mark_boundary(records, std::move(odd));
     BlockOutput result;
     if (!records.empty()) {
         std::vector<const CubeRecord*> cubes;
@@ -89,9 +100,9 @@ uint64_t simplify_job(const BuildPlan& plan, const WorkPaths& work, size_t stage
                                       plan.settings, plan.header.flags);
     }
     // The cube file first: the payload file says the job is finished.
-    disk.add(write_cube_file(work.cube_file(stage, block), std::move(result.parents), level - 1, result.border, plan.frame));
+    disk.add(write_cube_file(work.cube_file(stage, block), std::move(result.parents), level - 1, result.border, {}, plan.frame));
     disk.add(write_payload_file(work.payload_file(stage, block), result.encoded));
-    return listed.size() * sizeof(BorderEntry);
+    return listed_bytes;
 }
 
 std::string stage_name(const BuildPlan& plan, size_t stage) {
@@ -202,17 +213,27 @@ Assembly assemble(const BuildPlan& plan, const WorkPaths& work, const std::files
         }
     // The root: level 0's one cube, made by the last stage's one job, and every point level 0 lists.
     const size_t last = plan.stages.size() - 1;
+    // With L = 0 no simplifying stage found the boundary: the leaf job's one block is the whole model.
+    const bool find_boundary = last == 0 && plan.settings.lock_boundary;
     std::vector<CubeRecord> roots;
     std::vector<BorderEntry> listed;
+    std::vector<OpenEdge> odd;
     for (CubeKey block : plan.stages[last].blocks) {
         const CubeFile file(work.cube_file(last, block));
         for (CubeRecord& c : file.cubes_of(0)) roots.push_back(std::move(c));
         const std::vector<BorderEntry> entries = file.listings();
         listed.insert(listed.end(), entries.begin(), entries.end());
+        if (find_boundary) odd = file.odd_edges();
     }
     if (roots.size() != 1) throw std::logic_error("the build made " + std::to_string(roots.size()) + " root cubes");
+    if (find_boundary) mark_boundary(roots, std::move(odd));
+    std::vector<PositionBits> boundary;  // no level removes a boundary point: the root's are all of them
+    for (uint32_t v = 0; v < roots.front().boundary.size(); ++v)
+        if (roots.front().boundary[v]) boundary.push_back(position_bits(&roots.front().positions[3 * size_t(v)]));
+    std::sort(boundary.begin(), boundary.end());
+    result.boundary_points = uint64_t(std::unique(boundary.begin(), boundary.end()) - boundary.begin());
     add(encode_root(roots.front(), BorderTable(std::move(listed)), f, plan.header.flags));
-    const std::vector<float> bounds = final_bounds(errors, f);
+    const std::vector<float> bounds = final_bounds(errors, f, plan.settings.lock_boundary);
     for (size_t c = 0; c < bounds.size(); ++c) {
         writer.set_error(c, bounds[c]);
         result.error_q = std::max(result.error_q, round_up(bounds[c] / f.cube_size(errors[c].level)));

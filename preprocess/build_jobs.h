@@ -3,7 +3,8 @@
 // its bytes depend on nothing but the plan: so jobs may run in any process, be killed and run again,
 // or run twice, and the model comes out the same.
 //
-// Stage 0's job for block B reads B's triangles from the spill and writes B's level-L cubes. Stage
+// Stage 0's job for block B reads B's triangles from the spill and writes B's level-L cubes (and, when
+// the build locks the boundary, the edges B uses an odd number of times: open_boundary.h). Stage
 // s ≥ 1's job for level-l block B reads B's cubes and the points listed near B from the jobs of stage
 // s − 1 that made cubes within one cube of B (for s = 1 the 27 blocks around B; after that, per axis,
 // blocks 2B − 1 … 2B + 1 of level l + 1, since the block grid is offset by half a block), simplifies
@@ -62,6 +63,7 @@ struct Assembly {
     std::vector<LevelStats> levels;  // finest first
     float error_q = 0;
     uint64_t output_bytes = 0;
+    uint64_t boundary_points = 0;  // a locked boundary's points (the root holds them all)
 };
 
 // Writes the model from the finished jobs' payloads and the root (encoded here, from the last stage's

@@ -19,7 +19,7 @@ namespace strata::build {
 namespace {
 
 constexpr uint32_t kPlanMagic = 0x4C504A53;  // "SJPL"
-constexpr uint32_t kPlanVersion = 2;  // 2: the input's bounding box
+constexpr uint32_t kPlanVersion = 3;  // 2: the input's bounding box; 3: lock_boundary
 constexpr size_t kMaxStringBytes = size_t(1) << 20;
 
 // The level-(l−1) blocks that the parents of block `block`'s level-l cubes can lie in: up to two a side,
@@ -39,13 +39,13 @@ void add_parent_blocks(CubeKey block, uint32_t level, const Frame& f, std::vecto
 
 void put_settings(ByteWriter& out, const BuildSettings& s) {
     out.put(int32_t(s.levels)), out.put(int32_t(s.block)), out.put(s.ratio), out.put(s.sigma0), out.put(s.error);
-    out.put(int32_t(s.leaf_triangles));
+    out.put(int32_t(s.leaf_triangles)), out.put(uint8_t(s.lock_boundary));
 }
 
 BuildSettings get_settings(ByteReader& in) {
     BuildSettings s;
     s.levels = in.get<int32_t>(), s.block = in.get<int32_t>(), s.ratio = in.get<float>(), s.sigma0 = in.get<float>();
-    s.error = in.get<float>(), s.leaf_triangles = in.get<int32_t>();
+    s.error = in.get<float>(), s.leaf_triangles = in.get<int32_t>(), s.lock_boundary = in.get<uint8_t>();
     return s;
 }
 
@@ -127,6 +127,8 @@ std::string settings_differ(const BuildSettings& planned, const BuildSettings& n
                                  differ("--error", planned.error, now.error),
                                  differ("leaf size", planned.leaf_triangles, now.leaf_triangles)})
         if (!d.empty()) return d;
+    if (planned.lock_boundary != now.lock_boundary)
+        return planned.lock_boundary ? "--lock-boundary (now without it)" : "no --lock-boundary (now with it)";
     return {};
 }
 

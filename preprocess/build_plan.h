@@ -58,8 +58,8 @@ struct BuildPlan {
 // stage every block a parent of the stage before's cubes may lie in.
 void plan_stages(BuildPlan& plan, std::vector<CubeKey> leaf_blocks);
 
-// The first setting the output depends on (levels, block, ratio, σ0, error, leaf size) whose value
-// differs, as "--ratio 0.25 (now 0.3)"; empty when none does.
+// The first setting the output depends on (levels, block, ratio, σ0, error, leaf size, the boundary's
+// lock) whose value differs, as "--ratio 0.25 (now 0.3)"; empty when none does.
 std::string settings_differ(const BuildSettings& planned, const BuildSettings& now);
 
 // Writes `path` whole (temporary file, then rename); throws std::runtime_error naming it.

@@ -58,7 +58,7 @@ StepBounds bound_step(std::span<const CubeRecord* const> cubes, std::span<const 
     return out;
 }
 
-std::vector<float> final_bounds(std::span<const CubeErrors> cubes, const Frame& f) {
+std::vector<float> final_bounds(std::span<const CubeErrors> cubes, const Frame& f, bool locked_boundary) {
     using Key = std::array<uint32_t, 4>;
     std::map<Key, uint32_t> index;
     std::vector<std::vector<uint32_t>> by_level(f.max_level + 1);
@@ -69,12 +69,12 @@ std::vector<float> final_bounds(std::span<const CubeErrors> cubes, const Frame& 
     std::vector<double> coverage_error(cubes.size(), 0.0);  // E
     std::vector<float> out(cubes.size(), 0.0f);
     for (uint32_t l = f.max_level + 1; l-- > 0;) {
-        const double size = f.cube_size(l);
+        const double size = f.cube_size(l), rounding = lattice_rounding(f.root_size, locked_boundary ? f.root_size : size);
         double level_worst = 0;  // the largest D of the level: the reach of a cube whose E is too large
         for (uint32_t c : by_level[l]) level_worst = std::max(level_worst, double(cubes[c].coverage));
         for (uint32_t c : by_level[l]) {
             const CubeErrors& cube = cubes[c];
-            out[c] = std::max(out[c], round_up(std::max(double(cube.forward), coverage_error[c]) + lattice_rounding(f.root_size, size)));
+            out[c] = std::max(out[c], round_up(std::max(double(cube.forward), coverage_error[c]) + rounding));
             if (l == 0) continue;
             // The level-l surface within E(c) of S_c: S_c lies within σ0·s_L of c's cell, a level-l
             // triangle within σ0·s_l of its cube's, so past the 26 neighbours only if E(c) is that big.

@@ -43,8 +43,11 @@ struct CubeErrors {
     float coverage;  // D (0 at the root)
 };
 
-// e(c) per cube, in the input's order, for a model of frame `f`.
-std::vector<float> final_bounds(std::span<const CubeErrors> cubes, const Frame& f);
+// e(c) per cube, in the input's order, for a model of frame `f`. `locked_boundary`: the model's boundary
+// vertices lie on level 0's lattice at every level (BuildSettings::lock_boundary), so a vertex may be
+// drawn up to h_0/2 from its position, not h_l/2: every cube's rounding is level 0's (a cube's coverage
+// reaches its neighbours' triangles, which may hold such vertices where it holds none).
+std::vector<float> final_bounds(std::span<const CubeErrors> cubes, const Frame& f, bool locked_boundary = false);
 
 // How far a vertex of a cube of size `cube_size` may be drawn from the position it encodes (the
 // lattice's rounding and the decode's float arithmetic), in a model of root size `root_size`: every

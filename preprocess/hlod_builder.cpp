@@ -167,9 +167,12 @@ void choose_frame(const build::InputScan& scan, const BuildInput& input, const B
     // σ0 and L together: pick L, then the σ0 the data needs; never break constraint 1.
     const bool automatic = settings.levels < 0;
     uint32_t L = automatic ? build::choose_levels(scan, f, settings.leaf_triangles, kMaxLevels) : uint32_t(settings.levels);
+    // A locked boundary's vertices snap to level 0's lattice, each coordinate by up to h_0/2 (FORMAT.md
+    // §6): the mesh the levels hold then has edges up to h_0 longer, and vertices up to h_0/2 farther out.
+    const double snap = settings.lock_boundary ? f.root_size / double(1 << kLatticeBits) : 0.0;
+    const double edge = scan.longest_edge + snap;
     // At L = 0 every vertex lies in the root cell and nothing morphs: no edge bound applies there,
     // so capping L always ends in a model.
-    const double edge = scan.longest_edge;
     auto needed_sigma0 = [&](uint32_t levels) { return levels == 0 ? 0.0 : edge / f.cube_size(levels); };
     while (needed_sigma0(L) > kMaxSigma0) {
         if (!automatic || L == 0)
@@ -183,11 +186,13 @@ void choose_frame(const build::InputScan& scan, const BuildInput& input, const B
     f.max_level = L;
     f.sigma0 = std::max(settings.sigma0, float(needed_sigma0(L)));
     if (f.sigma0 > settings.sigma0)
-        plan.notes.push_back("σ0 raised to " + std::to_string(f.sigma0) + " by the input's longest edge");
+        plan.notes.push_back("σ0 raised to " + std::to_string(f.sigma0) + " by the input's longest edge" +
+                             (snap > 0 ? " and the boundary's snap to level 0's lattice" : ""));
     plan.frame = f;
 
     HlodHeader& header = plan.header;
-    header.flags = (input.model.kept.colors ? kHasColors : 0u) | (input.model.kept.uvs ? kHasUvs : 0u) | kErrorsAreBounds;
+    header.flags = (input.model.kept.colors ? kHasColors : 0u) | (input.model.kept.uvs ? kHasUvs : 0u) | kErrorsAreBounds |
+                   (settings.lock_boundary ? kLockedBoundary : 0u);
     const std::array<double, 3> origin = input.sources.front()->origin();
     for (int a = 0; a < 3; ++a) header.origin[a] = origin[size_t(a)] + f.origin[a];  // in double: survey coordinates
     header.has_bounds = true;
@@ -306,6 +311,7 @@ BuildReport assembled_report(const BuildPlan& plan, const build::Assembly& assem
     report.notes = plan.notes;
     report.input_triangles = plan.header.input_triangles;
     report.output_bytes = assembly.output_bytes;
+    report.boundary_points = assembly.boundary_points;
     report.jobs = plan.job_count();
     return report;
 }

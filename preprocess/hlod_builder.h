@@ -28,6 +28,11 @@ struct BuildSettings {
     float error = -1;         // ε_q: stop a level's collapses at ε_q·s_l; −1 for no limit
     int threads = 0;          // 0: every core
     int leaf_triangles = 4096;
+    // For a mesh to be embedded in a terrain: its open boundary (the edges an odd number of triangles
+    // use, by position: once, where the mesh is a surface) is never simplified, and each of its vertices
+    // is stored on level 0's lattice at every level, so every level draws the finest level's boundary
+    // to the bit (FORMAT.md §6 "Locked boundary").
+    bool lock_boundary = false;
     std::filesystem::path temp_dir;  // the build's temporary files; empty: beside the output
     // Bytes the build may hold for its buffers (a quarter for the vertex cache of streamed inputs, a
     // quarter, at most 256 MiB, for the triangle spill's and the border listings' buffers); 0: a quarter
@@ -57,6 +62,7 @@ struct BuildReport {
     uint64_t jobs = 0, jobs_resumed = 0;  // the plan's jobs, and how many a killed build had finished
     bool resumed = false;                 // the plan came from an earlier, killed build
     bool already_complete = false;        // --resume found the output complete and nothing to resume
+    uint64_t boundary_points = 0;  // with lock_boundary: the open boundary's points (seam copies as one)
     // Wall seconds per stage, for benchmarks: read (the first pass over the input: extent, counts),
     // partition (the second pass, and level L's cubes), simplify (each level's
     // blocks, normals and encoding), write (the root and the file's assembly).

@@ -39,6 +39,10 @@ enum HlodFlags : uint32_t {
     // Node errors are conservative bounds (FORMAT.md §4.2); models built before 2026-12 stored an
     // estimate instead.
     kErrorsAreBounds = 1u << 2,
+    // The model's open boundary is locked (BuildSettings::lock_boundary): every level has the finest
+    // level's boundary, each of its vertices on level 0's lattice, so it decodes to the same floats at
+    // every level (FORMAT.md §6). Readers that do not know the bit decode the model all the same.
+    kLockedBoundary = 1u << 3,
 };
 
 // A terrain built straight from an elevation raster (section TERR): the raster's grid as the model

@@ -81,6 +81,33 @@ struct Closure {
     std::string what() const { return defect.empty() ? "has a boundary edge" : defect; }
 };
 
+// A locked boundary (MODL flag bit 3), in memory that does not grow with the level: the XOR of a 64-bit
+// hash of every undirected edge, its ends identified by their decoded floats, is that of the edges an
+// odd number of triangles use (the boundary, on a surface), since an edge used twice cancels. Every level
+// must give level L's: the same edges, each end decoded to the same floats. Triangles with two corners
+// at one decoded position are skipped. A level's vertices that decode to one float are one point, at
+// every level alike for the boundary's, and merging a point all of whose edges are used an even number
+// of times leaves every count's parity as it was: a check without false alarms.
+uint64_t open_edges_hash(const HlodHeader& h, const HlodNode& n, const CubeData& cube) {
+    const uint32_t cell[3] = {n.i, n.j, n.k};
+    std::vector<LatticePoint> point(cube.vertex_count());  // a position's float bits, −0 as +0
+    for (uint32_t v = 0; v < cube.vertex_count(); ++v)
+        for (int a = 0; a < 3; ++a) {
+            const float x = decode_coordinate(h, a, n.level, cell[a], cube.vertices.positions[3 * v + a]) + 0.0f;
+            std::memcpy(&point[v][a], &x, 4);
+        }
+    uint64_t hash = 0;
+    for (size_t t = 0; t < cube.indices.size(); t += 3) {
+        const LatticePoint* f[3] = {&point[cube.indices[t]], &point[cube.indices[t + 1]], &point[cube.indices[t + 2]]};
+        if (*f[0] == *f[1] || *f[1] == *f[2] || *f[0] == *f[2]) continue;
+        for (int e = 0; e < 3; ++e) {
+            const LatticePoint &a = *f[e], &b = *f[(e + 1) % 3];
+            hash ^= a < b ? edge_hash(a, b) : edge_hash(b, a);
+        }
+    }
+    return hash;
+}
+
 // The cube whose children are being checked, decoded once for all its children.
 struct ParentCube {
     const HlodNode* node = nullptr;
@@ -335,6 +362,8 @@ VerifyReport Verifier::run() {
                                                          file_.nodes().size());
     // Level by level, coarse to fine, one cube decoded at a time besides the parent its siblings share.
     std::vector<Closure> closures(h_.max_level + 1);
+    const bool locked = h_.flags & kLockedBoundary;
+    std::vector<uint64_t> open_edges(h_.max_level + 1, 0);
     for (uint32_t l = 0; l <= h_.max_level; ++l) {
         progress_("verify", l, h_.max_level + 1, "level");
         for (const HlodNode* n : walk_order(l)) {
@@ -347,6 +376,7 @@ VerifyReport Verifier::run() {
             else check_against_parent(*n, cube, parent_of(*n));
             check_child_groups(*n, cube);
             add_to_closure(*n, cube, closures[l]);
+            if (locked) open_edges[l] ^= open_edges_hash(h_, *n, cube);
         }
     }
     // If level L is closed, the input was: every level must be closed too.
@@ -354,6 +384,11 @@ VerifyReport Verifier::run() {
     for (uint32_t l = 0; report_.watertight && l < h_.max_level; ++l)
         if (!closures[l].closed())
             fail("level " + std::to_string(l) + " " + closures[l].what() + ", though the full-resolution level is closed");
+    for (uint32_t l = 0; locked && l < h_.max_level; ++l)
+        if (open_edges[l] != open_edges[h_.max_level])
+            fail("level " + std::to_string(l) + "'s open boundary is not the full-resolution level's (other edges, or "
+                 "vertices decoding to other floats), though the model says its boundary is locked");
+    report_.boundary_locked = locked;
     // Payloads were checked one by one; this also covers the padding between levels.
     file_.check_section(*file_.find_section("PAYL"));
     // A terrain's heights: the whole section's checksum, and every block decodes.

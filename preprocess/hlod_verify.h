@@ -11,6 +11,7 @@ namespace strata {
 struct VerifyReport {
     uint64_t cubes = 0, vertices = 0, triangles = 0;
     bool watertight = false;  // level L has no boundary edge (and then, checked, neither has any level)
+    bool boundary_locked = false;  // the model says its boundary is locked, and every level has level L's
 };
 
 class VerifyError : public std::runtime_error {
@@ -22,8 +23,9 @@ public:
 // Checks: checksums and decoding of every payload; the octree (a root, a parent for every cube);
 // every vertex within σ0·s_l of its cell; d∞(v, P(v)) ≤ σ0·s_{l+1}; every parent copy equal to a
 // vertex of the parent cube; a cube's triangles mapped by P equal its parent's matching part up to
-// degenerate triangles and cyclic rotation; each level watertight if level L is; per-cube error and ε_q;
-// a terrain's heights (section HGHT) whole and decodable.
+// degenerate triangles and cyclic rotation; each level watertight if level L is; with a locked boundary
+// (MODL flag bit 3), each level's open edges decoding to level L's floats; per-cube error and ε_q; a
+// terrain's heights (section HGHT) whole and decodable.
 VerifyReport verify_hlod(const HlodFile& file, const Progress& progress = {});
 
 }  // namespace strata

@@ -18,9 +18,9 @@ namespace {
 
 constexpr uint32_t kCubeFileMagic = 0x46434A53;     // "SJCF"
 constexpr uint32_t kPayloadFileMagic = 0x46504A53;  // "SJPF"
-constexpr uint32_t kJobFileVersion = 2;
-constexpr size_t kBlockEntryBytes = 44, kListingEntryBytes = 28;  // a cube file's index entries
-enum RecordFlags : uint8_t { kColors = 1, kUvs = 2, kNormals = 4 };
+constexpr uint32_t kJobFileVersion = 3;  // 3: boundary flags and odd edges (lock_boundary)
+constexpr size_t kBlockEntryBytes = 44, kArrayEntryBytes = 28;  // a cube file's index entries
+enum RecordFlags : uint8_t { kColors = 1, kUvs = 2, kNormals = 4, kBoundary = 8 };
 
 [[noreturn]] void damaged(const std::filesystem::path& path, const std::string& what) {
     throw DamagedWork(path.string() + ": " + what +
@@ -42,11 +42,12 @@ void get_array(ByteReader& in, std::vector<T>& values, size_t count) {
 // A cube's bytes: key, error, counts, flags, child counts, then the arrays as they are in memory.
 void put_cube(ByteWriter& out, const CubeRecord& c) {
     out.put(c.key), out.put(c.error), out.put(c.vertex_count()), out.put(c.triangle_count());
-    out.put(uint32_t((c.colors.empty() ? 0 : kColors) | (c.uvs.empty() ? 0 : kUvs) | (c.normals.empty() ? 0 : kNormals)));
+    out.put(uint32_t((c.colors.empty() ? 0 : kColors) | (c.uvs.empty() ? 0 : kUvs) | (c.normals.empty() ? 0 : kNormals) |
+                     (c.boundary.empty() ? 0 : kBoundary)));
     out.put(uint32_t(0));
     for (uint32_t n : c.child_counts) out.put(n);
     put_array(out, c.positions), put_array(out, c.colors), put_array(out, c.uvs), put_array(out, c.normals);
-    put_array(out, c.triangles);
+    put_array(out, c.boundary), put_array(out, c.triangles);
 }
 
 CubeRecord get_cube(ByteReader& in) {
@@ -60,12 +61,14 @@ CubeRecord get_cube(ByteReader& in) {
     get_array(in, c.colors, flags & kColors ? 4 * vertices : 0);
     get_array(in, c.uvs, flags & kUvs ? 2 * vertices : 0);
     get_array(in, c.normals, flags & kNormals ? 3 * vertices : 0);
+    get_array(in, c.boundary, flags & kBoundary ? vertices : 0);
     get_array(in, c.triangles, 3 * triangles);
     return c;
 }
 
-// A cube file's head: 16 fixed bytes, the blocks' entries, the listings' entry, the head's CRC.
-uint64_t index_bytes(uint64_t blocks) { return 16 + blocks * kBlockEntryBytes + kListingEntryBytes + 4; }
+// A cube file's head: 16 fixed bytes, the blocks' entries, the listings' and the odd edges' entries, the
+// head's CRC.
+uint64_t index_bytes(uint64_t blocks) { return 16 + blocks * kBlockEntryBytes + 2 * kArrayEntryBytes + 4; }
 
 // Writes the parts one after the other as one file; returns its size.
 uint64_t commit(const std::filesystem::path& path, std::initializer_list<const std::vector<uint8_t>*> parts) {
@@ -91,9 +94,9 @@ int open_job_file(const std::filesystem::path& path) {
 }  // namespace
 
 // Layout: magic, version, level, block count; per block (key, offset, size, cubes, triangles, CRC);
-// the listings' (offset, size, count, CRC); the CRC of all that; then the sections.
+// the listings' and the odd edges' (offset, size, count, CRC); the CRC of all that; then the sections.
 uint64_t write_cube_file(const std::filesystem::path& path, std::vector<CubeRecord> cubes, uint32_t level,
-                         const std::vector<BorderEntry>& border, const Frame& f) {
+                         const std::vector<BorderEntry>& border, const std::vector<OpenEdge>& odd_edges, const Frame& f) {
     std::sort(cubes.begin(), cubes.end(), [&](const CubeRecord& a, const CubeRecord& b) {
         return std::pair(f.block_of(a.key), a.key) < std::pair(f.block_of(b.key), b.key);
     });
@@ -117,6 +120,8 @@ uint64_t write_cube_file(const std::filesystem::path& path, std::vector<CubeReco
     }
     const uint64_t listings_at = body.bytes.size();
     body.put_bytes(border.data(), border.size() * sizeof(BorderEntry));
+    const uint64_t edges_at = body.bytes.size();
+    body.put_bytes(odd_edges.data(), odd_edges.size() * sizeof(OpenEdge));
 
     ByteWriter head;
     head.put(kCubeFileMagic), head.put(kJobFileVersion), head.put(level), head.put(uint32_t(entries.size()));
@@ -125,8 +130,11 @@ uint64_t write_cube_file(const std::filesystem::path& path, std::vector<CubeReco
         head.put(e.block), head.put(head_bytes + e.offset), head.put(e.size), head.put(e.count), head.put(e.triangles);
         head.put(e.checksum);
     }
-    head.put(head_bytes + listings_at), head.put(uint64_t(border.size() * sizeof(BorderEntry))), head.put(uint64_t(border.size()));
-    head.put(crc32c(body.bytes.data() + listings_at, border.size() * sizeof(BorderEntry)));
+    auto put_array_entry = [&](uint64_t at, uint64_t size, uint64_t count) {
+        head.put(head_bytes + at), head.put(size), head.put(count), head.put(crc32c(body.bytes.data() + at, size));
+    };
+    put_array_entry(listings_at, border.size() * sizeof(BorderEntry), border.size());
+    put_array_entry(edges_at, odd_edges.size() * sizeof(OpenEdge), odd_edges.size());
     head.put(crc32c(head.bytes.data(), head.bytes.size()));
     return commit(path, {&head.bytes, &body.bytes});
 }
@@ -152,8 +160,10 @@ CubeFile::CubeFile(std::filesystem::path path) : path_(std::move(path)), file_(o
         s.section.triangles = in.get<uint64_t>(), s.section.checksum = in.get<uint32_t>();
         blocks_.push_back(s);
     }
-    listings_.offset = in.get<uint64_t>(), listings_.size = in.get<uint64_t>(), listings_.count = in.get<uint64_t>();
-    listings_.checksum = in.get<uint32_t>();
+    for (Section* s : {&listings_, &odd_edges_}) {
+        s->offset = in.get<uint64_t>(), s->size = in.get<uint64_t>(), s->count = in.get<uint64_t>();
+        s->checksum = in.get<uint32_t>();
+    }
 }
 
 std::vector<uint8_t> CubeFile::read_section(const Section& s) const {
@@ -184,13 +194,18 @@ uint64_t CubeFile::triangles_of(CubeKey block) const {
     return s ? s->triangles : 0;
 }
 
-std::vector<BorderEntry> CubeFile::listings() const {
-    if (listings_.size != listings_.count * sizeof(BorderEntry)) damaged(path_, "listing count disagrees with its size");
-    const std::vector<uint8_t> bytes = read_section(listings_);
-    std::vector<BorderEntry> entries(listings_.count);
+template <class T>
+std::vector<T> CubeFile::read_array(const Section& s, const char* what) const {
+    if (s.size != s.count * sizeof(T)) damaged(path_, std::string(what) + " count disagrees with its size");
+    const std::vector<uint8_t> bytes = read_section(s);
+    std::vector<T> entries(s.count);
     if (!bytes.empty()) std::memcpy(entries.data(), bytes.data(), bytes.size());
     return entries;
 }
+
+std::vector<BorderEntry> CubeFile::listings() const { return read_array<BorderEntry>(listings_, "listing"); }
+
+std::vector<OpenEdge> CubeFile::odd_edges() const { return read_array<OpenEdge>(odd_edges_, "odd edge"); }
 
 // Layout: magic, version, count; per cube its node's fields and payload size, then its payload; the
 // CRC of everything before it.

@@ -13,6 +13,7 @@
 #include "preprocess/border_table.h"
 #include "preprocess/build_cubes.h"
 #include "preprocess/hlod_format.h"
+#include "preprocess/open_boundary.h"
 
 namespace strata::build {
 
@@ -25,10 +26,11 @@ public:
 
 // Writes the level-`level` cubes one job made (a leaf job: its block's level-L cubes; the job of a
 // level-(l+1) block: the parents it made, which lie in up to eight level-l blocks), grouped by block
-// and in key order within one, and the points they list. Returns the file's size. Throws
-// std::runtime_error naming the file when the disk refuses it.
+// and in key order within one, the points they list, and (a leaf job locking the boundary) the edges
+// its block uses an odd number of times. Returns the file's size. Throws std::runtime_error naming the
+// file when the disk refuses it.
 uint64_t write_cube_file(const std::filesystem::path& path, std::vector<CubeRecord> cubes, uint32_t level,
-                         const std::vector<BorderEntry>& border, const Frame& frame);
+                         const std::vector<BorderEntry>& border, const std::vector<OpenEdge>& odd_edges, const Frame& frame);
 
 // An opened cube file: its index read and checked; sections are read on demand.
 class CubeFile {
@@ -43,6 +45,8 @@ public:
     uint64_t triangles_of(CubeKey block) const;
     // Every point the file's cubes list.
     std::vector<BorderEntry> listings() const;
+    // The edges its block's triangles use an odd number of times, as the leaf job listed them.
+    std::vector<OpenEdge> odd_edges() const;
 
 private:
     struct Section {
@@ -54,13 +58,15 @@ private:
         Section section;
     };
     std::vector<uint8_t> read_section(const Section& s) const;
+    template <class T>
+    std::vector<T> read_array(const Section& s, const char* what) const;
     const Section* find(CubeKey block) const;
 
     std::filesystem::path path_;
     FileHandle file_;  // open from the index to the last section read: one open a producer
     uint32_t level_ = 0;
     std::vector<BlockSection> blocks_;  // in block order
-    Section listings_;
+    Section listings_, odd_edges_;
 };
 
 // Writes the payloads one job encoded, in key order. Returns the file's size.

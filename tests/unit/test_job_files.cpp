@@ -24,6 +24,7 @@ CubeRecord record(CubeKey key, uint32_t vertices, uint32_t triangles, bool attri
             c.colors.insert(c.colors.end(), {uint8_t(v), uint8_t(key), 7, 255});
             c.uvs.insert(c.uvs.end(), {0.5f * float(v), 1.0f});
             c.normals.insert(c.normals.end(), {0, 0, float(v % 2 ? 1 : -1)});
+            c.boundary.push_back(uint8_t(v % 3 == 0));
         }
     }
     for (uint32_t t = 0; t < triangles; ++t) c.triangles.insert(c.triangles.end(), {t % vertices, (t + 1) % vertices, (t + 2) % vertices});
@@ -38,6 +39,7 @@ void expect_same(const CubeRecord& a, const CubeRecord& b) {
     EXPECT_EQ(a.colors, b.colors);
     EXPECT_EQ(a.uvs, b.uvs);
     EXPECT_EQ(a.normals, b.normals);
+    EXPECT_EQ(a.boundary, b.boundary);
     EXPECT_EQ(a.triangles, b.triangles);
     EXPECT_EQ(a.child_counts, b.child_counts);
 }
@@ -75,8 +77,13 @@ void flip_byte(const std::filesystem::path& path, uint64_t at) {
     file.put(c);
 }
 
+OpenEdge edge(float x) {
+    const float a[3] = {x, 0, 1}, b[3] = {x, 1, 0};
+    return OpenEdge{position_bits(a), position_bits(b)};
+}
+
 // A job's cubes come back by block (the blocks a consumer asks for, in key order), whatever order they
-// went in; the listings come back whole.
+// went in; the listings and the odd edges come back whole.
 TEST(CubeFile, CubesComeBackGroupedByBlockInKeyOrder) {
     test::TempDir dir;
     const Frame f = test_frame();
@@ -90,7 +97,8 @@ TEST(CubeFile, CubesComeBackGroupedByBlockInKeyOrder) {
     std::vector<BorderEntry> border;
     for (int e = 0; e < 40; ++e) border.push_back(listing(0.01f * float(e), CubeKey(e % 3), CubeKey(e)));
     const auto path = dir / "0000.cubes";
-    const uint64_t bytes = write_cube_file(path, cubes, 6, border, f);
+    const std::vector<OpenEdge> odd = {edge(0.25f), edge(0.5f), edge(2)};
+    const uint64_t bytes = write_cube_file(path, cubes, 6, border, odd, f);
     EXPECT_EQ(bytes, std::filesystem::file_size(path));
 
     const CubeFile file(path);
@@ -110,14 +118,16 @@ TEST(CubeFile, CubesComeBackGroupedByBlockInKeyOrder) {
     const std::vector<BorderEntry> listed = file.listings();
     ASSERT_EQ(listed.size(), border.size());
     EXPECT_EQ(std::memcmp(listed.data(), border.data(), border.size() * sizeof(BorderEntry)), 0);
+    EXPECT_EQ(file.odd_edges(), odd);
 }
 
 TEST(CubeFile, AnEmptyJobWritesAFileThatReadsEmpty) {
     test::TempDir dir;
-    write_cube_file(dir / "empty.cubes", {}, 3, {}, test_frame());
+    write_cube_file(dir / "empty.cubes", {}, 3, {}, {}, test_frame());
     const CubeFile file(dir / "empty.cubes");
     EXPECT_TRUE(file.cubes_of(0).empty());
     EXPECT_TRUE(file.listings().empty());
+    EXPECT_TRUE(file.odd_edges().empty());
 }
 
 TEST(CubeFile, DamageIsAnErrorNamingTheFile) {
@@ -125,13 +135,14 @@ TEST(CubeFile, DamageIsAnErrorNamingTheFile) {
     const Frame f = test_frame();
     const auto path = dir / "job.cubes";
     const std::vector<CubeRecord> cubes = {record(make_key(1, 1, 1), 9, 5, true)};
-    write_cube_file(path, cubes, 6, {listing(0.5f, 0, 1)}, f);
-    const uint64_t cube_at = 16 + 44 + 28 + 4 + 10;  // past the index of one block: inside the cube's section
+    write_cube_file(path, cubes, 6, {listing(0.5f, 0, 1)}, {edge(1)}, f);
+    const uint64_t cube_at = 16 + 44 + 2 * 28 + 4 + 10;  // past the index of one block: inside the cube's section
     flip_byte(path, cube_at);
     {
         const CubeFile file(path);  // the index is whole
         expect_throws_naming([&] { file.cubes_of(f.block_of(cubes[0].key)); }, path.string(), "checksum mismatch");
         EXPECT_EQ(file.listings().size(), 1u) << "the listings' section is whole";
+        EXPECT_EQ(file.odd_edges().size(), 1u) << "the odd edges' section is whole";
     }
     flip_byte(path, cube_at);
     flip_byte(path, 20);  // inside the index

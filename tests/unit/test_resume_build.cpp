@@ -5,6 +5,7 @@
 // runs it, makes the same bytes too.
 #include "preprocess/build_inputs.h"
 #include "preprocess/hlod_builder.h"
+#include "preprocess/hlod_verify.h"
 #include "preprocess/mesh_io.h"
 #include "tests/support/test_meshes.h"
 
@@ -144,6 +145,8 @@ TEST_F(ResumeBuild, ASettingThatChangesTheOutputIsRefusedByName) {
     refused(s, "--sigma0");
     s = small_settings(), s.error = 0.01f;
     refused(s, "--error -1 (now 0.01)");
+    s = small_settings(), s.lock_boundary = true;
+    refused(s, "no --lock-boundary (now with it)");
 
     // The input changed since: refused, naming it.
     std::filesystem::last_write_time(input(), std::filesystem::last_write_time(input()) + std::chrono::seconds(5));
@@ -156,6 +159,39 @@ TEST_F(ResumeBuild, ASettingThatChangesTheOutputIsRefusedByName) {
     }
     remove_build_leftovers(output(), {});
     EXPECT_FALSE(std::filesystem::exists(work()));
+}
+
+// A locked boundary is found by the first simplifying stage from lists the first stage's jobs left
+// (open_boundary.h): killed before, between or after them, a build resumes to the same bytes. The sphere
+// opened by a cap cut off at z > 0.6, whose rim crosses many of level 4's blocks.
+TEST_F(ResumeBuild, ALockedBoundaryResumesToTheBytesOfAnUninterruptedBuild) {
+    Mesh sphere = test::icosphere(6);
+    std::vector<uint32_t> kept;
+    for (size_t t = 0; t < sphere.indices.size(); t += 3) {
+        float z = 0;
+        for (int c = 0; c < 3; ++c) z += sphere.positions[3 * size_t(sphere.indices[t + c]) + 2] / 3;
+        if (z <= 0.6f) kept.insert(kept.end(), &sphere.indices[t], &sphere.indices[t] + 3);
+    }
+    sphere.indices = kept;
+    write_ply(input(), sphere);
+    BuildSettings s = small_settings();
+    s.lock_boundary = true;
+    const BuildReport reference_report = build(reference(), s);
+    EXPECT_GT(reference_report.boundary_points, 100u);
+    EXPECT_TRUE(verify_hlod(HlodFile(reference())).boundary_locked);
+    const std::vector<uint8_t> want = test::file_bytes(reference());
+    for (const auto& [stage, report] : std::vector<std::pair<std::string, int>>{
+             {"level cubes", 3}, {"level cubes", kStageDone}, {"simplify level 4", 2}, {"simplify level 3", 1}}) {
+        SCOPED_TRACE(stage + ", report " + std::to_string(report));
+        s.resume = false;
+        ASSERT_TRUE(build_killed_at(stage, report, s)) << "the build never reached " << stage;
+        s.resume = true;
+        const BuildReport resumed = build(output(), s);
+        EXPECT_TRUE(resumed.resumed);
+        EXPECT_EQ(resumed.boundary_points, reference_report.boundary_points);
+        EXPECT_EQ(test::file_bytes(output()), want);
+        std::filesystem::remove(output());
+    }
 }
 
 // Damage in the work folder is an error naming the file and saying to start over, not to resume.

@@ -94,7 +94,8 @@ std::vector<std::string> directory_entries(const std::filesystem::path& dir) {
     return names;
 }
 
-// Two small models built once: a closed sphere and an open grid with colours and UVs, both 3 levels.
+// Small models built once: a closed sphere and an open grid with colours and UVs, both 3 levels, and
+// the grid again with its boundary locked.
 class Verify : public ::testing::Test {
 protected:
     static void SetUpTestSuite() {
@@ -103,14 +104,18 @@ protected:
         s.levels = 2;
         build_hlod(test::icosphere(4), *dir_ / "sphere.hlod", s, "sphere");
         build_hlod(test::colored_grid(48), *dir_ / "grid.hlod", s, "grid");
+        s.lock_boundary = true;
+        build_hlod(test::colored_grid(48), *dir_ / "locked.hlod", s, "grid");
         sphere_ = new Model(*dir_ / "sphere.hlod");
         grid_ = new Model(*dir_ / "grid.hlod");
+        locked_grid_ = new Model(*dir_ / "locked.hlod");
     }
     static void TearDownTestSuite() {
         delete sphere_;
         delete grid_;
+        delete locked_grid_;
         delete dir_;
-        sphere_ = grid_ = nullptr;
+        sphere_ = grid_ = locked_grid_ = nullptr;
         dir_ = nullptr;
     }
 
@@ -133,6 +138,7 @@ protected:
     static test::TempDir* dir_;
     static Model* sphere_;
     static Model* grid_;
+    static Model* locked_grid_;
     test::TempDir dir;
     VerifyReport last_report;
     int files_ = 0;
@@ -141,6 +147,7 @@ protected:
 test::TempDir* Verify::dir_ = nullptr;
 Model* Verify::sphere_ = nullptr;
 Model* Verify::grid_ = nullptr;
+Model* Verify::locked_grid_ = nullptr;
 
 TEST_F(Verify, UntamperedRewriteVerifies) {
     Model sphere = *sphere_;
@@ -154,6 +161,27 @@ TEST_F(Verify, UntamperedRewriteVerifies) {
     EXPECT_FALSE(last_report.watertight);
     // The original files too, of course.
     EXPECT_NO_THROW(verify_hlod(HlodFile(*dir_ / "sphere.hlod")));
+}
+
+// A locked boundary (MODL flag bit 3): every level's open edges, decoded, are level L's.
+TEST_F(Verify, ALockedBoundaryThatMovedOrIsNotLocked) {
+    Model locked = *locked_grid_;
+    ASSERT_TRUE(locked.header.flags & kLockedBoundary);
+    EXPECT_EQ(verify(locked), "");
+    EXPECT_TRUE(last_report.boundary_locked);
+
+    // A boundary vertex of level 1 (on the grid's side x = 0) one lattice step along the side, in one cube.
+    const size_t c = locked.cube_at(1);
+    uint32_t v = 0;
+    while (v < locked.cubes[c].vertex_count() && locked.vertex(c, v)[0] != 0.0f) ++v;
+    ASSERT_LT(v, locked.cubes[c].vertex_count());
+    locked.cubes[c].vertices.positions[3 * v + 1] += 1;
+    EXPECT_THAT(verify(locked), HasSubstr("level 1's open boundary is not the full-resolution level's"));
+
+    // A model whose boundary was simplified, saying it is locked.
+    Model free = *grid_;
+    free.header.flags |= kLockedBoundary;
+    EXPECT_THAT(verify(free), HasSubstr("level 0's open boundary is not the full-resolution level's"));
 }
 
 TEST_F(Verify, VertexFarOutsideItsCell) {
