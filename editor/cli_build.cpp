@@ -116,6 +116,11 @@ int run_terrain(const BuildOptions& o, const std::vector<std::filesystem::path>&
         std::fprintf(stderr, "strata build: --plan and --resume build meshes; a terrain builds in one run\n");
         return kUsage;
     }
+    if (o.settings.lock_boundary) {
+        std::fprintf(stderr, "strata build: --lock-boundary locks a mesh's open boundary, for embedding it in a terrain; "
+                             "%s is an elevation raster\n", files.front().c_str());
+        return kUsage;
+    }
     TerrainSettings settings = o.terrain;
     settings.threads = o.settings.threads;
     try {
@@ -275,6 +280,9 @@ int run_build(const BuildOptions& o) {
             std::printf("%s: %llu triangles, %u levels, σ0 %.3g, ε_q %.3g, %.1f MB, %.2f s (%.2f M triangles/s)\n",
                         o.output.c_str(), (unsigned long long)triangles, report.max_level + 1, report.sigma0, report.error_q,
                         report.output_bytes / 1e6, seconds, triangles / seconds / 1e6);
+        if (!o.quiet && settings.lock_boundary)
+            std::printf("%s: the open boundary's %llu points locked at every level\n", o.output.c_str(),
+                        (unsigned long long)report.boundary_points);
         if (o.verbose) {
             print_levels(report);
             std::printf("  seconds: read %.2f, partition %.2f, simplify %.2f, write %.2f\n", report.read_seconds,
@@ -305,7 +313,8 @@ Command add_build(CLI::App& app) {
     sub->add_flag("--resume", o->settings.resume,
                   "Go on from what a killed or failed build of this output left (its finished blocks), making the "
                   "same bytes; refused, naming it, when a setting that changes the output (levels, block, ratio, "
-                  "sigma0, error) or an input differs. With nothing to resume it builds, or leaves a complete output");
+                  "sigma0, error, lock-boundary) or an input differs. With nothing to resume it builds, or leaves a "
+                  "complete output");
     sub->add_option("--plan", o->plan,
                     "Instead of building: read the input into DIR (new or empty) and list the build's jobs in "
                     "DIR/jobs.txt, for a cluster (--run-blocks, then --assemble)")
@@ -327,6 +336,11 @@ Command add_build(CLI::App& app) {
     sub->add_option("--sigma0", o->settings.sigma0, "Least σ0 (vertex travel bound, in cube sizes); raised if the input's edges need more")
         ->capture_default_str();
     sub->add_option("--error", o->settings.error, "Stop simplifying a level at this error, relative to the cube size (ε_q)");
+    sub->add_flag("--lock-boundary", o->settings.lock_boundary,
+                  "For a mesh to embed in a terrain: keep its open boundary (the edges an odd number of triangles "
+                  "use: one, on a surface) at every level, never simplified, each of its vertices on the coarsest "
+                  "level's lattice (within 2^-16 of the model's size of where it was), so every level draws the "
+                  "finest level's boundary to the bit");
     sub->add_option("--threads", o->settings.threads, "Worker threads (0: every core)")->capture_default_str();
     sub->add_option("--memory", o->memory,
                     "Memory for the build's buffers and any input read whole, in bytes or with a binary suffix K, M, "

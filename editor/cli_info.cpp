@@ -68,8 +68,9 @@ int run_info(const std::string& path) {
                 h.sigma0, h.error_q);
     std::printf("errors      %s\n", h.flags & kErrorsAreBounds ? "bounds (FORMAT.md §13)"
                                                                : "estimates (built before 2026-12: rebuild for bounds)");
-    std::printf("settings    ratio %.3g, error limit %s\n", h.ratio,
-                h.error_limit > 0 ? std::to_string(h.error_limit).c_str() : "none");
+    std::printf("settings    ratio %.3g, error limit %s%s\n", h.ratio,
+                h.error_limit > 0 ? std::to_string(h.error_limit).c_str() : "none",
+                h.flags & kLockedBoundary ? ", boundary locked" : "");
     std::printf("\n%5s %8s %12s %12s %12s %10s %12s\n", "level", "cubes", "vertices", "triangles", "bytes", "cube size",
                 "max error");
     uint64_t total_v = 0, total_t = 0, total_b = 0;

@@ -16,9 +16,10 @@ int run_verify(const std::string& path, bool quiet) {
         VerifyReport report = verify_hlod(file, bar.progress(install_interrupt_flag()));
         bar.finish();
         if (!quiet)
-            std::printf("%s: ok: %llu cubes, %llu vertices, %llu triangles%s\n", path.c_str(),
+            std::printf("%s: ok: %llu cubes, %llu vertices, %llu triangles%s%s\n", path.c_str(),
                         (unsigned long long)report.cubes, (unsigned long long)report.vertices,
-                        (unsigned long long)report.triangles, report.watertight ? ", every level closed" : "");
+                        (unsigned long long)report.triangles, report.watertight ? ", every level closed" : "",
+                        report.boundary_locked ? ", the boundary locked at every level" : "");
         return kOk;
     } catch (const Cancelled&) {
         bar.finish();

@@ -30,7 +30,7 @@ namespace {
 constexpr lua_Integer kMaxThreads = 1024;  // far beyond any machine's cores; a typo of 1e9 threads is refused
 
 // The options that build only meshes, and those that build only terrains (elevation rasters).
-constexpr const char* kMeshOptions[] = {"levels", "block", "ratio", "sigma0", "error", "temp", "resume"};
+constexpr const char* kMeshOptions[] = {"levels", "block", "ratio", "sigma0", "error", "temp", "resume", "lock_boundary"};
 constexpr const char* kTerrainOptions[] = {"crs",          "frame",   "elevation_unit", "fill_nodata",  "cube_cells",
                                            "height_tolerance", "texture", "texture_bands",  "texture_size"};
 
@@ -145,7 +145,7 @@ void check_memory_option(lua_State* L, int index, BuildJob& job) {
 BuildJob check_job(lua_State* L, int index) {
     luaL_checktype(L, index, LUA_TTABLE);
     lua::check_keys(L, index, {"input", "output", "levels", "block", "ratio", "sigma0", "error", "threads", "memory", "temp", "resume",
-                               "on_progress", "crs", "frame", "elevation_unit", "fill_nodata", "cube_cells", "height_tolerance",
+                               "lock_boundary", "on_progress", "crs", "frame", "elevation_unit", "fill_nodata", "cube_cells", "height_tolerance",
                                "texture", "texture_bands", "texture_size"});
     BuildJob job;
     job.mesh_options = given_options(L, index, kMeshOptions);
@@ -169,6 +169,7 @@ BuildJob check_job(lua_State* L, int index) {
     job.settings.threads = int(lua::opt_integer_in(L, index, "threads", 0, 0, kMaxThreads));
     job.settings.temp_dir = lua::opt_string(L, index, "temp", "");
     job.settings.resume = lua::opt_boolean(L, index, "resume", false);
+    job.settings.lock_boundary = lua::opt_boolean(L, index, "lock_boundary", false);
     check_terrain_options(L, index, job);
     job.terrain.threads = job.settings.threads;
     return job;
@@ -338,6 +339,10 @@ int build(lua_State* L) {
     lua_setfield(L, -2, "memory_estimate");
     lua_pushboolean(L, report.resumed || report.already_complete);
     lua_setfield(L, -2, "resumed");
+    if (job.settings.lock_boundary && !report.already_complete) {
+        lua_pushinteger(L, lua_Integer(report.boundary_points));
+        lua_setfield(L, -2, "boundary_points");
+    }
     if (report.height_quantum > 0) {  // a terrain
         lua_pushnumber(L, report.height_quantum);
         lua_setfield(L, -2, "height_quantum");

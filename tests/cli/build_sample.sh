@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # The bundled sample (a real scan, closed): builds, verifies with every level closed, describes itself,
-# and builds byte-identically on one thread and on all.
+# and builds byte-identically on one thread and on all; a piece of it (an open mesh) with its boundary
+# locked.
 source "$(dirname "$0")/common.sh"
 sample=$2/data/bunny.off
 [ -s "$sample" ] || { echo "sample missing: run scripts/setup.sh"; exit 1; }
@@ -45,6 +46,20 @@ expect_success "build from one list" "$STRATA" build @"$WORK/all.txt" -o "$WORK/
 expect_success "info list" "$STRATA" info "$WORK/all.hlod"
 checks=$((checks + 1)); grep -q "source      all.txt:" "$WORK/out.txt" || fail "info: the list's name is not the source"
 
+# A tile is open where it was cut: locked, every level keeps that rim (verify checks it), on any thread count.
+expect_success "build with the boundary locked" "$STRATA" build "$WORK/tile0.off" -o "$WORK/locked.hlod" --levels 2 --lock-boundary
+checks=$((checks + 1)); grep -q "locked.hlod: the open boundary's [1-9][0-9]* points locked at every level" "$WORK/out.txt" ||
+    fail "build --lock-boundary does not say what it locked: $(cat "$WORK/out.txt")"
+expect_success "verify the locked boundary" "$STRATA" verify "$WORK/locked.hlod"
+checks=$((checks + 1)); grep -q "the boundary locked at every level" "$WORK/out.txt" || fail "verify: $(cat "$WORK/out.txt")"
+expect_success "info of the locked boundary" "$STRATA" info "$WORK/locked.hlod"
+checks=$((checks + 1)); grep -q "^settings .*, boundary locked$" "$WORK/out.txt" || fail "info: $(grep settings "$WORK/out.txt")"
+expect_success "locked, on one thread" "$STRATA" build "$WORK/tile0.off" -o "$WORK/locked1.hlod" --levels 2 --lock-boundary --threads 1 -q
+checks=$((checks + 1)); cmp -s "$WORK/locked.hlod" "$WORK/locked1.hlod" || fail "a locked build depends on the thread count"
+expect_success "not locked" "$STRATA" build "$WORK/tile0.off" -o "$WORK/free.hlod" --levels 2 -q
+expect_success "verify the free boundary" "$STRATA" verify "$WORK/free.hlod"
+checks=$((checks + 1)); ! grep -q "locked" "$WORK/out.txt" || fail "verify says an unlocked boundary is locked"
+
 expect_success "build verbose" "$STRATA" build "$sample" -o "$WORK/verbose.hlod" -v --memory 1G
 checks=$((checks + 1)); grep -q "memory: about .* MiB for 75408 triangles in 1 file, 75408 of them read whole into memory (limit 1.0 GiB)" "$WORK/out.txt" ||
     fail "-v does not print the memory estimate: $(cat "$WORK/out.txt")"
@@ -61,4 +76,5 @@ expect_success "help" "$STRATA" --help
 expect_success "build help" "$STRATA" build --help
 checks=$((checks + 1)); grep -q -- "--sigma0" "$WORK/out.txt" || fail "build --help lacks --sigma0"
 checks=$((checks + 1)); grep -q -- "--memory" "$WORK/out.txt" || fail "build --help lacks --memory"
+checks=$((checks + 1)); grep -q -- "--lock-boundary" "$WORK/out.txt" || fail "build --help lacks --lock-boundary"
 finish

@@ -155,6 +155,8 @@ expect_failure "a band the image lacks" "olinda_l7.tif: has 6 bands, no band 9" 
 GDAL_PAM_ENABLED=NO gdal_translate -q -co PROFILE=BASELINE "$image" "$WORK/plain.tif"
 expect_failure "an image without georeference" "plain.tif: no georeference" "$STRATA" build "$dem" --texture "$WORK/plain.tif" -o "$WORK/x.hlod"
 expect_usage "a texture for a mesh" "drape imagery over a terrain" "$STRATA" build "$WORK/octa.off" --texture "$image" -o "$WORK/x.hlod"
+expect_usage "a terrain's boundary locked" "--lock-boundary locks a mesh's open boundary, for embedding it in a terrain; .*olinda_dem.tif is an elevation raster" \
+    "$STRATA" build "$dem" --lock-boundary -o "$WORK/x.hlod"
 expect_usage "a texture size that is not a power of two" "power of two" "$STRATA" build "$dem" --texture "$image" --texture-size 100 -o "$WORK/x.hlod"
 checks=$((checks + 1)); [ ! -e "$WORK/x.hlod" ] || fail "a refused texture left $WORK/x.hlod behind"
 finish

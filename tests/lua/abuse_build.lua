@@ -18,6 +18,7 @@ for _, key in ipairs({ "levels", "block", "threads" }) do
 end
 t.refuses("option 'threads' must be 0 to 1024", strata.build, { input = scan, output = output, threads = 1e9 })
 t.refuses("option 'resume' must be a boolean", strata.build, { input = scan, output = output, resume = "yes" })
+t.refuses("option 'lock_boundary' must be a boolean", strata.build, { input = scan, output = output, lock_boundary = 1 })
 for _, key in ipairs({ "ratio", "sigma0", "error" }) do
     t.refuses(("option '%s' must be a finite number within float range"):format(key), strata.build, { input = scan, output = output, [key] = 1e300 })
 end

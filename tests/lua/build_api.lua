@@ -27,6 +27,23 @@ local again = strata.build{ input = scan, output = stats.output, levels = 2, thr
 assert(again.resumed == true and read_all(stats.output) == before, "resume rebuilt a complete output")
 assert(stats.resumed == false)
 
+-- lock_boundary: an open 16 × 16 grid keeps its 64 boundary points at every level, and says so; a
+-- closed scan has none.
+local grid = assert(io.open(out .. "/grid.off", "w"))
+grid:write("OFF\n289 512 0\n")
+for y = 0, 16 do for x = 0, 16 do grid:write(x / 16, " ", y / 16, " ", 0.05 * math.sin(x) * math.cos(y), "\n") end end
+for y = 0, 15 do
+    for x = 0, 15 do
+        local a = y * 17 + x
+        grid:write("3 ", a, " ", a + 1, " ", a + 18, "\n3 ", a, " ", a + 18, " ", a + 17, "\n")
+    end
+end
+grid:close()
+local locked = strata.build{ input = out .. "/grid.off", output = out .. "/grid.hlod", levels = 2, lock_boundary = true }
+assert(locked.boundary_points == 64, tostring(locked.boundary_points))
+assert(strata.build{ input = scan, output = out .. "/closed.hlod", levels = 2, lock_boundary = true }.boundary_points == 0)
+assert(stats.boundary_points == nil, "a build without lock_boundary reports boundary points")
+
 -- Returning false cancels: an error, and no file.
 local ok, err = pcall(strata.build, { input = scan, output = out .. "/cancelled.hlod",
                                       on_progress = function() return false end })

@@ -46,6 +46,7 @@ local function refused(options, ...)
     for _, part in ipairs{...} do assert(err:find(part, 1, true), err) end
 end
 refused({ input = dem, output = out .. "/x.hlod", levels = 3 }, "option 'levels' builds meshes", "olinda_dem.tif")
+refused({ input = dem, output = out .. "/x.hlod", lock_boundary = true }, "option 'lock_boundary' builds meshes", "olinda_dem.tif")
 refused({ input = scan, output = out .. "/x.hlod", cube_cells = 16 }, "option 'cube_cells' builds terrains", "bunny.off")
 refused({ input = dem, output = out .. "/x.hlod", height_tolerance = 0 / 0 }, "height_tolerance")
 refused({ input = dem, output = out .. "/x.hlod", height_tolerance = -1 }, "height_tolerance")
