@@ -61,14 +61,10 @@ EmbeddingPlan plan_embedding(const TerrainSite& terrain, const Mesh& mesh, const
         if (const std::optional<double> ground = terrain.heights->at(cell.x, cell.y))
             plan.height_difference = std::max(plan.height_difference, std::abs(at.z - *ground));
     }
-    GridPoint lo = plan.footprint.points.front(), hi = lo;
-    for (const GridPoint& p : plan.footprint.points) {
-        lo = {std::min(lo.x, p.x), std::min(lo.y, p.y)};
-        hi = {std::max(hi.x, p.x), std::max(hi.y, p.y)};
-    }
+    const auto [lo, hi] = bounds(plan.footprint.points);
     const double extent = double(std::max(hi.x - lo.x, hi.y - lo.y)) / double(kGridPointOne);
     plan.zone_level = zone_level(terrain.header(), plan.height_difference, extent, plan.zone_capped);
-    plan.zone = classify_cells(plan.footprint, int64_t(1) << (terrain.header().max_level - plan.zone_level), columns, rows);
+    plan.zone = classify_cells(plan.footprint.points, int64_t(1) << (terrain.header().max_level - plan.zone_level), columns, rows);
     plan.skirt = build_skirt(plan.footprint, plan.zone, columns, rows, what);
 
     // The skirt's vertices in the terrain's frame, relative to the first one (floats near zero).

@@ -45,18 +45,6 @@ bool segments_meet(GridPoint a, GridPoint b, GridPoint c, GridPoint d) {
     return (o1 == 0 && within(a, b, c)) || (o2 == 0 && within(a, b, d)) || (o3 == 0 && within(c, d, a)) || (o4 == 0 && within(c, d, b));
 }
 
-// Whether `p`, on no edge of `ring`, lies inside it (crossing number along +x).
-bool inside(const std::vector<GridPoint>& ring, GridPoint p) {
-    bool in = false;
-    for (size_t i = 0; i < ring.size(); ++i) {
-        GridPoint a = ring[i], b = ring[(i + 1) % ring.size()];
-        if ((a.y > p.y) == (b.y > p.y)) continue;
-        if (a.y > b.y) std::swap(a, b);
-        if (orientation(a, b, p) > 0) in = !in;  // p left of the upward edge: the edge lies right of p
-    }
-    return in;
-}
-
 }  // namespace
 
 // Edges are bucketed by the cells they touch, so the pairs tested are those near each other.
@@ -233,7 +221,7 @@ Footprint make_footprint(const Mesh& mesh, const std::function<glm::dvec2(const 
     check_ring_simple(footprint.points, what);
     for (size_t i = 0; i < rings.size(); ++i) {
         if (i == outer) continue;
-        if (!inside(footprint.points, rings[i].front()))
+        if (!ring_contains(footprint.points, rings[i].front()))
             throw InputError(std::string(what) + ": the mesh has separate pieces (a boundary loop lies outside the outer one, near " +
                              where(rings[i].front()) + "): embed each piece on its own");
         ++footprint.inner_loops;
@@ -241,15 +229,40 @@ Footprint make_footprint(const Mesh& mesh, const std::function<glm::dvec2(const 
     return footprint;
 }
 
-CellCovers classify_cells(const Footprint& footprint, int64_t cell_size, int64_t columns, int64_t rows) {
-    const int64_t unit = cell_size * kGridPointOne;
-    const int64_t cells_x = std::max<int64_t>(1, (columns - 1 + cell_size - 1) / cell_size);
-    const int64_t cells_y = std::max<int64_t>(1, (rows - 1 + cell_size - 1) / cell_size);
-    GridPoint lo = footprint.points.front(), hi = lo;
-    for (const GridPoint& p : footprint.points) {
+bool ring_contains(const std::vector<GridPoint>& ring, GridPoint p) {
+    bool in = false;
+    for (size_t i = 0; i < ring.size(); ++i) {
+        GridPoint a = ring[i], b = ring[(i + 1) % ring.size()];
+        if ((a.y > p.y) == (b.y > p.y)) continue;
+        if (a.y > b.y) std::swap(a, b);
+        if (orientation(a, b, p) > 0) in = !in;  // p left of the upward edge: the edge lies right of p
+    }
+    return in;
+}
+
+std::pair<GridPoint, GridPoint> bounds(const std::vector<GridPoint>& points) {
+    GridPoint lo = points.front(), hi = lo;
+    for (const GridPoint& p : points) {
         lo = {std::min(lo.x, p.x), std::min(lo.y, p.y)};
         hi = {std::max(hi.x, p.x), std::max(hi.y, p.y)};
     }
+    return {lo, hi};
+}
+
+void for_each_finest_cell(const CellCovers& covers, int64_t columns, int64_t rows, const std::function<void(int64_t, int64_t)>& visit) {
+    for (int64_t cy = covers.first_y; cy < covers.first_y + covers.height; ++cy)
+        for (int64_t cx = covers.first_x; cx < covers.first_x + covers.width; ++cx) {
+            if (covers.at(cx, cy) == CellCover::none) continue;
+            for (int64_t y = cy * covers.size; y < std::min((cy + 1) * covers.size, rows - 1); ++y)
+                for (int64_t x = cx * covers.size; x < std::min((cx + 1) * covers.size, columns - 1); ++x) visit(x, y);
+        }
+}
+
+CellCovers classify_cells(const std::vector<GridPoint>& ring, int64_t cell_size, int64_t columns, int64_t rows) {
+    const int64_t unit = cell_size * kGridPointOne;
+    const int64_t cells_x = std::max<int64_t>(1, (columns - 1 + cell_size - 1) / cell_size);
+    const int64_t cells_y = std::max<int64_t>(1, (rows - 1 + cell_size - 1) / cell_size);
+    const auto [lo, hi] = bounds(ring);
     CellCovers covers;
     covers.size = cell_size;
     covers.first_x = std::max<int64_t>(0, int64_t(ceil_div(lo.x, unit)) - 1);
@@ -257,7 +270,6 @@ CellCovers classify_cells(const Footprint& footprint, int64_t cell_size, int64_t
     covers.width = std::min<int64_t>(cells_x, int64_t(floor_div(hi.x, unit)) + 1) - covers.first_x;
     covers.height = std::min<int64_t>(cells_y, int64_t(floor_div(hi.y, unit)) + 1) - covers.first_y;
     covers.cover.assign(size_t(covers.width * covers.height), CellCover::none);
-    const std::vector<GridPoint>& ring = footprint.points;
     const size_t n = ring.size();
     for (size_t i = 0; i < n; ++i)
         cells_touched(ring[i], ring[(i + 1) % n], cell_size, [&](int64_t x, int64_t y) {

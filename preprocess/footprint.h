@@ -13,6 +13,7 @@
 #include <functional>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include <glm/glm.hpp>
@@ -69,7 +70,7 @@ Footprint make_footprint(const Mesh& mesh, const std::function<glm::dvec2(const 
 
 enum class CellCover : uint8_t { none, partly, whole };  // NC, PC, CC
 
-// The cover of the cells of one level's grid around a footprint: cells `size` raster steps wide (2^(L−l)
+// The cover of the cells of one level's grid around a ring (a footprint's points): cells `size` raster steps wide (2^(L−l)
 // at level l; the last column and row of cells end at the raster's last sample), those in
 // [first_x, first_x + width) × [first_y, first_y + height) listed row by row; every cell outside is NC.
 // A cell is PC when its closed square meets the ring (a ring vertex on a grid line or corner makes
@@ -84,7 +85,17 @@ struct CellCovers {
         return cover[size_t((y - first_y) * width + (x - first_x))];
     }
 };
-CellCovers classify_cells(const Footprint& footprint, int64_t cell_size, int64_t columns, int64_t rows);
+CellCovers classify_cells(const std::vector<GridPoint>& ring, int64_t cell_size, int64_t columns, int64_t rows);
+
+// Calls `visit(x, y)` for every finest cell of the zone `covers` marks (PC or CC), row by row within
+// each of its cells, those past the raster's last sample left out.
+void for_each_finest_cell(const CellCovers& covers, int64_t columns, int64_t rows, const std::function<void(int64_t x, int64_t y)>& visit);
+
+// The corners of the box around `points` (not empty).
+std::pair<GridPoint, GridPoint> bounds(const std::vector<GridPoint>& points);
+
+// Whether `p`, on no edge of the closed `ring`, lies inside it (crossing number, exact).
+bool ring_contains(const std::vector<GridPoint>& ring, GridPoint p);
 
 // Throws InputError naming `what` when the closed ring crosses or touches itself: two edges but
 // neighbours meeting, neighbours folding back on each other, or a point repeated.

@@ -18,11 +18,7 @@ struct Sample {
 std::vector<std::vector<BorderStep>> zone_border(const CellCovers& zone, int64_t columns, int64_t rows) {
     // The zone's finest cells.
     std::set<Sample> cells;
-    for (int64_t zy = zone.first_y; zy < zone.first_y + zone.height; ++zy)
-        for (int64_t zx = zone.first_x; zx < zone.first_x + zone.width; ++zx)
-            if (zone.at(zx, zy) != CellCover::none)
-                for (int64_t y = zy * zone.size; y < std::min((zy + 1) * zone.size, rows - 1); ++y)
-                    for (int64_t x = zx * zone.size; x < std::min((zx + 1) * zone.size, columns - 1); ++x) cells.insert({x, y});
+    for_each_finest_cell(zone, columns, rows, [&](int64_t x, int64_t y) { cells.insert({x, y}); });
     // Its border's directed edges, the zone on their left, each with the cell beyond it.
     struct Edge {
         Sample to, outside;

@@ -67,7 +67,6 @@ private:
     void grid_cell(Cell cell);
     void cut_cell(Cell cell, const std::vector<Piece>& pieces);
     void ear_clip(std::vector<uint32_t> polygon, Cell cell);
-    bool inside_ring(GridPoint p) const;
     long double perimeter_at(Cell cell, uint32_t vertex) const;
     [[noreturn]] void fail(Cell cell, const std::string& why) const;
 
@@ -167,17 +166,6 @@ void SkirtBuilder::grid_cell(Cell cell) {
     const uint32_t lo = sample(cell.x, cell.y), hi = sample(cell.x + 1, cell.y + 1);
     const uint32_t right = sample(cell.x + 1, cell.y), up = sample(cell.x, cell.y + 1);
     skirt_.triangles.insert(skirt_.triangles.end(), {lo, right, hi, lo, hi, up});
-}
-
-bool SkirtBuilder::inside_ring(GridPoint p) const {
-    bool in = false;
-    for (size_t i = 0; i < ring_.size(); ++i) {
-        GridPoint a = ring_[i], b = ring_[(i + 1) % ring_.size()];
-        if ((a.y > p.y) == (b.y > p.y)) continue;
-        if (a.y > b.y) std::swap(a, b);
-        if (orientation(a, b, p) > 0) in = !in;
-    }
-    return in;
 }
 
 // Where a point on a cell's border lies along it, counter-clockwise from the lower corner: 0 … 4 (cell
@@ -297,20 +285,13 @@ Skirt SkirtBuilder::build(const CellCovers& zone) {
     split_ring();
     // The covers of the finest cells under the moved ring: a cell with no piece of it lies wholly inside
     // or outside (one scanline a row, not a ring's length a cell).
-    Footprint moved;
-    moved.points = ring_;
-    const CellCovers finest = classify_cells(moved, 1, columns_, rows_);
-    for (int64_t zy = zone.first_y; zy < zone.first_y + zone.height; ++zy)
-        for (int64_t zx = zone.first_x; zx < zone.first_x + zone.width; ++zx) {
-            if (zone.at(zx, zy) == CellCover::none) continue;
-            for (int64_t y = zy * zone.size; y < std::min((zy + 1) * zone.size, rows_ - 1); ++y)
-                for (int64_t x = zx * zone.size; x < std::min((zx + 1) * zone.size, columns_ - 1); ++x) {
-                    const auto pieces = pieces_.find({x, y});
-                    if (pieces != pieces_.end()) cut_cell({x, y}, pieces->second);
-                    else if (finest.at(x, y) == CellCover::none) grid_cell({x, y});
-                    else if (finest.at(x, y) == CellCover::partly && !inside_ring({x * kOne + kOne / 2, y * kOne + kOne / 2})) grid_cell({x, y});
-                }
-        }
+    const CellCovers finest = classify_cells(ring_, 1, columns_, rows_);
+    for_each_finest_cell(zone, columns_, rows_, [&](int64_t x, int64_t y) {
+        const auto pieces = pieces_.find({x, y});
+        if (pieces != pieces_.end()) cut_cell({x, y}, pieces->second);
+        else if (finest.at(x, y) == CellCover::none) grid_cell({x, y});
+        else if (finest.at(x, y) == CellCover::partly && !ring_contains(ring_, {x * kOne + kOne / 2, y * kOne + kOne / 2})) grid_cell({x, y});
+    });
     return std::move(skirt_);
 }
 

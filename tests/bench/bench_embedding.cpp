@@ -49,7 +49,7 @@ int main(int argc, char** argv) try {
         const Footprint footprint = make_footprint(mesh, [](const glm::dvec3& p) { return glm::dvec2(p.x, p.y); }, size, size, "ring");
         footprint_seconds.push_back(seconds_since(start));
         start = std::chrono::steady_clock::now();
-        skirt = build_skirt(footprint, classify_cells(footprint, zone_cells, size, size), size, size, "ring");
+        skirt = build_skirt(footprint, classify_cells(footprint.points, zone_cells, size, size), size, size, "ring");
         skirt_seconds.push_back(seconds_since(start));
     }
     size_t crossings = 0;

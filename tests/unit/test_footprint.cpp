@@ -192,7 +192,7 @@ CellCover brute_cover(const std::vector<GridPoint>& ring, int64_t x, int64_t y, 
 }
 
 void expect_covers_match_brute_force(const Footprint& footprint, int64_t size, int64_t raster) {
-    const CellCovers covers = classify_cells(footprint, size, raster, raster);
+    const CellCovers covers = classify_cells(footprint.points, size, raster, raster);
     const int64_t cells = (raster - 1 + size - 1) / size;
     size_t partly = 0, whole = 0;
     for (int64_t y = 0; y < cells; ++y)
@@ -208,7 +208,7 @@ void expect_covers_match_brute_force(const Footprint& footprint, int64_t size, i
 TEST(Footprint, CellsOnTheRingArePartlyCoveredAndThoseInsideWhollyEvenOnGridLines) {
     // Off the grid lines: a 3 × 3 square from 1.5 to 4.5, cells of one step.
     Footprint square = make_footprint(patch(1.5, 1.5, 3, 1), kIdentity, 10, 10, "square");
-    CellCovers covers = classify_cells(square, 1, 10, 10);
+    CellCovers covers = classify_cells(square.points, 1, 10, 10);
     for (int64_t y = 0; y < 9; ++y)
         for (int64_t x = 0; x < 9; ++x) {
             const bool ring = (x == 1 || x == 4 || y == 1 || y == 4) && x >= 1 && x <= 4 && y >= 1 && y <= 4;
@@ -218,7 +218,7 @@ TEST(Footprint, CellsOnTheRingArePartlyCoveredAndThoseInsideWhollyEvenOnGridLine
     // On the grid lines and corners: from 2 to 5; every cell the ring bounds is PC (inside
     // and out), only the centre cell is CC.
     square = make_footprint(patch(2, 2, 3, 1), kIdentity, 10, 10, "square");
-    covers = classify_cells(square, 1, 10, 10);
+    covers = classify_cells(square.points, 1, 10, 10);
     for (int64_t y = 0; y < 9; ++y)
         for (int64_t x = 0; x < 9; ++x) {
             const auto by_ring = [](int64_t v) { return v == 1 || v == 2 || v == 4 || v == 5; };

@@ -36,7 +36,7 @@ double cross(GridPoint a, GridPoint b, GridPoint c) {
 
 // Checks the tiling; returns the number of skirt triangles.
 size_t expect_tiles_the_zone(const Footprint& footprint, int64_t zone_size, int64_t raster) {
-    const CellCovers zone = classify_cells(footprint, zone_size, raster, raster);
+    const CellCovers zone = classify_cells(footprint.points, zone_size, raster, raster);
     const Skirt skirt = build_skirt(footprint, zone, raster, raster, "site");
     const auto& v = skirt.vertices;
     // Orientation, and the areas.
@@ -139,7 +139,7 @@ TEST(Skirt, TilesTheZoneOfWigglyRings) {
 TEST(Skirt, ARingInsideOneCellIsRefusedNamingIt) {
     const Footprint tiny = footprint_of({{5.2, 5.2}, {5.8, 5.2}, {5.5, 5.8}}, 20);
     try {
-        build_skirt(tiny, classify_cells(tiny, 4, 20, 20), 20, 20, "statue.ply");
+        build_skirt(tiny, classify_cells(tiny.points, 4, 20, 20), 20, 20, "statue.ply");
         FAIL() << "accepted";
     } catch (const InputError& e) {
         EXPECT_NE(std::string(e.what()).find("statue.ply: cannot cut the raster cell at column 5, row 5"), std::string::npos) << e.what();
