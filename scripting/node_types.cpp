@@ -53,10 +53,13 @@ int node_eq(lua_State* L) {
     return 1;
 }
 
-// A type's metatable: its methods as __index, whose own metatable sends what they lack to the base
-// type's methods; every one protected, named "strata.Node" to scripts.
+// A type's metatable, kept in the registry under the NodeType's address (a push finds it without
+// building a name): its methods as __index, whose own metatable sends what they lack to the base type's
+// methods; every one protected, named "strata.Node" to scripts.
 void register_type(lua_State* L, const NodeType& type) {
-    luaL_newmetatable(L, metatable_name(type).c_str());
+    lua_newtable(L);
+    lua_pushvalue(L, -1);
+    lua_rawsetp(L, LUA_REGISTRYINDEX, &type);
     lua_pushstring(L, kNodeTypeName);
     lua_setfield(L, -2, "__name");  // luaL_typeerror's "got strata.Node"
     lua_pushboolean(L, 1);
@@ -65,8 +68,8 @@ void register_type(lua_State* L, const NodeType& type) {
     if (type.methods) lua::set_functions(L, type.methods);
     if (type.base) {
         lua_createtable(L, 0, 2);
-        luaL_getmetatable(L, metatable_name(*type.base).c_str());
-        if (lua_getfield(L, -1, "__index") != LUA_TTABLE) luaL_error(L, "node type '%s' registered before its base", type.name);
+        if (lua_rawgetp(L, LUA_REGISTRYINDEX, type.base) != LUA_TTABLE || lua_getfield(L, -1, "__index") != LUA_TTABLE)
+            luaL_error(L, "node type '%s' registered before its base", type.name);
         lua_setfield(L, -3, "__index");
         lua_pop(L, 1);
         lua_pushstring(L, kNodeTypeName);
@@ -97,8 +100,6 @@ std::vector<const NodeType*> type_chain(const NodeType& type) {
     return chain;
 }
 
-std::string metatable_name(const NodeType& type) { return std::string(kNodeTypeName) + "." + type.name; }
-
 void register_node_types(lua_State* L) {
     for (auto type = kNodeTypes.rbegin(); type != kNodeTypes.rend(); ++type) {  // bases first
         register_type(L, **type);
@@ -108,9 +109,10 @@ void register_node_types(lua_State* L) {
 
 void push_node(lua_State* L, NodePtr node) {
     if (!node) return lua_pushnil(L);
-    const std::string metatable = metatable_name(node_type_of(*node));
+    const NodeType& type = node_type_of(*node);
     new (lua_newuserdatauv(L, sizeof(NodePtr), 0)) NodePtr(std::move(node));
-    luaL_setmetatable(L, metatable.c_str());
+    lua_rawgetp(L, LUA_REGISTRYINDEX, &type);
+    lua_setmetatable(L, -2);
 }
 
 const NodePtr& check_node(lua_State* L, int index) {

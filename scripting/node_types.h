@@ -44,11 +44,9 @@ const NodeType& node_type_of(const Node& node);
 // The type and its bases, the root ("node") first.
 std::vector<const NodeType*> type_chain(const NodeType& type);
 
-// Every type's metatable and constructors into the strata module (on top of the stack).
+// Every type's metatable and constructors into the strata module (on top of the stack). Every node's
+// metatable says "strata.Node" to getmetatable and in argument errors.
 void register_node_types(lua_State* L);
-// The registry name of a type's metatable ("strata.Node.hlod"); every node's metatable says
-// "strata.Node" to getmetatable and in argument errors.
-std::string metatable_name(const NodeType& type);
 
 // The types, each declared in its own file.
 extern const NodeType kNodeBaseType;      // wrap_scene.cpp
