@@ -26,11 +26,12 @@ uint32_t zone_level(const HlodHeader& terrain, double height_difference, double 
     // The finest m with ΔH ≤ 2·ε_q·s_(m−1).
     uint32_t m = L;
     while (m > 0 && height_difference > 2.0 * double(terrain.error_q) * terrain.cube_size(m - 1)) --m;
-    // Cells of at most about twice the footprint's extent: 2^(L−m) ≤ 2·extent.
+    // Zone cells (level m − 1's) of at most about twice the footprint's extent: 2^(L−m+1) ≤ 2·extent.
     uint32_t coarsest = L;
-    while (coarsest > 0 && double(uint64_t(1) << (L - coarsest + 1)) <= 2.0 * std::max(extent_cells, 1.0)) --coarsest;
+    while (coarsest > 1 && double(uint64_t(1) << (L - coarsest + 2)) <= 2.0 * std::max(extent_cells, 1.0)) --coarsest;
     capped = m < coarsest;
-    return std::max(m, coarsest);
+    // At least 1: the zone's cells are level m − 1's.
+    return std::max({m, coarsest, 1u});
 }
 
 EmbeddingPlan plan_embedding(const TerrainSite& terrain, const Mesh& mesh, const glm::dmat4& mesh_to_terrain, const std::string& what) {
@@ -64,7 +65,8 @@ EmbeddingPlan plan_embedding(const TerrainSite& terrain, const Mesh& mesh, const
     const auto [lo, hi] = bounds(plan.footprint.points);
     const double extent = double(std::max(hi.x - lo.x, hi.y - lo.y)) / double(kGridPointOne);
     plan.zone_level = zone_level(terrain.header(), plan.height_difference, extent, plan.zone_capped);
-    plan.zone = classify_cells(plan.footprint.points, int64_t(1) << (terrain.header().max_level - plan.zone_level), columns, rows);
+    if (terrain.header().max_level == 0) throw InputError(what + ": the terrain has a single level, too coarse to embed a mesh in");
+    plan.zone = classify_cells(plan.footprint.points, int64_t(1) << (terrain.header().max_level - plan.zone_level + 1), columns, rows);
     plan.skirt = build_skirt(plan.footprint, plan.zone, columns, rows, what);
 
     // The skirt's vertices in the terrain's frame, relative to the first one (floats near zero).

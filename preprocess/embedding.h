@@ -34,8 +34,13 @@ struct TerrainSite {
 
 struct EmbeddingPlan {
     Footprint footprint;
-    uint32_t zone_level = 0;  // m: the zone is made of level-m cells; below m the embedding is not drawn
-    CellCovers zone;          // the footprint's covers at level m: its PC and CC cells are the zone
+    // m ≥ 1: the embedding is drawn where the grid over its zone is at level m or finer, not below.
+    uint32_t zone_level = 0;
+    // The footprint's covers at level m − 1: its PC and CC cells are the zone. Its border lies on
+    // grid lines of level m − 1, which the grid's vertices at level m and finer only slide along as they
+    // morph (their parents are the samples at the lower index on each axis), so the ring seam follows
+    // them without folding.
+    CellCovers zone;
     Skirt skirt;              // in raster index space
     // The skirt in the terrain's model frame: vertex v is skirt.vertices[v] (samples at the raster's
     // heights, ring vertices at the mesh's, crossings on the mesh's boundary edges), triangles
@@ -56,8 +61,8 @@ EmbeddingPlan plan_embedding(const TerrainSite& terrain, const Mesh& mesh, const
 // The coarsest level m whose zone may replace the grid: the embedding is dropped where the grid is drawn
 // coarser than m, which stays within the terrain's own screen-space bound when ΔH ≤ 2·ε_q·s_(m−1)
 // (HYBRID.md §2); no coarser than the level whose cells are about twice the footprint's extent
-// (`extent_cells` finest cells), so that the zone stays a few cells around it. `capped` says whether
-// that limit decided.
+// (`extent_cells` finest cells), so that the zone stays a few cells around it; at least 1. `capped`
+// says whether that limit decided.
 uint32_t zone_level(const HlodHeader& terrain, double height_difference, double extent_cells, bool& capped);
 
 }  // namespace strata
