@@ -62,28 +62,30 @@ std::vector<std::vector<BorderStep>> zone_border(const CellCovers& zone, int64_t
     return loops;
 }
 
+void ring_seam_step(std::span<const BorderStep> loop, size_t i, uint32_t level, uint32_t finest, int64_t columns, int64_t rows,
+                    std::vector<std::array<SeamVertex, 3>>& out) {
+    const BorderStep& step = loop[i];
+    if (!step.seamed()) return;
+    const size_t n = loop.size();
+    const BorderStep& next = loop[(i + 1) % n];
+    const int64_t size = int64_t(1) << (finest - level);
+    // The step runs along a row or a column; t is the position along it. The level's samples there
+    // are the multiples of its cell size, and the raster's last one (terrain_pyramid.h).
+    const bool along_row = next.row == step.row;
+    const int64_t t0 = along_row ? step.column : step.row, t1 = along_row ? next.column : next.row;
+    const int64_t low = std::min(t0, t1) / size * size, high = std::min(low + size, (along_row ? columns : rows) - 1);
+    const int64_t start = t1 > t0 ? low : high, end = t1 > t0 ? high : low;
+    auto grid = [&](int64_t t) { return SeamVertex{true, along_row ? t : step.column, along_row ? step.row : t, level, 0}; };
+    const SeamVertex g0 = grid(start), here{false, step.column, step.row, 0, uint32_t(i)},
+                     there{false, next.column, next.row, 0, uint32_t((i + 1) % n)};
+    out.push_back({g0, there, here});
+    if (t1 == end) out.push_back({g0, grid(end), there});
+}
+
 std::vector<std::array<SeamVertex, 3>> ring_seam(std::span<const BorderStep> loop, std::span<const uint32_t> levels, uint32_t finest,
                                                  int64_t columns, int64_t rows) {
     std::vector<std::array<SeamVertex, 3>> triangles;
-    const size_t n = loop.size();
-    for (size_t i = 0; i < n; ++i) {
-        const BorderStep& step = loop[i];
-        if (!step.seamed()) continue;
-        const BorderStep& next = loop[(i + 1) % n];
-        const uint32_t level = levels[i];
-        const int64_t size = int64_t(1) << (finest - level);
-        // The step runs along a row or a column; t is the position along it. The level's samples there
-        // are the multiples of its cell size, and the raster's last one (terrain_pyramid.h).
-        const bool along_row = next.row == step.row;
-        const int64_t t0 = along_row ? step.column : step.row, t1 = along_row ? next.column : next.row;
-        const int64_t low = std::min(t0, t1) / size * size, high = std::min(low + size, (along_row ? columns : rows) - 1);
-        const int64_t start = t1 > t0 ? low : high, end = t1 > t0 ? high : low;
-        auto grid = [&](int64_t t) { return SeamVertex{true, along_row ? t : step.column, along_row ? step.row : t, level, 0}; };
-        const SeamVertex g0 = grid(start), here{false, step.column, step.row, 0, uint32_t(i)},
-                         there{false, next.column, next.row, 0, uint32_t((i + 1) % n)};
-        triangles.push_back({g0, there, here});
-        if (t1 == end) triangles.push_back({g0, grid(end), there});
-    }
+    for (size_t i = 0; i < loop.size(); ++i) ring_seam_step(loop, i, levels[i], finest, columns, rows, triangles);
     return triangles;
 }
 

@@ -47,5 +47,9 @@ struct SeamVertex {
 // Counter-clockwise in raster space, like the skirt's.
 std::vector<std::array<SeamVertex, 3>> ring_seam(std::span<const BorderStep> loop, std::span<const uint32_t> levels, uint32_t finest,
                                                  int64_t columns, int64_t rows);
+// One step's share of that (step `i` of `loop`, its outside cell drawn at `level`), appended to `out`:
+// nothing for an unseamed step.
+void ring_seam_step(std::span<const BorderStep> loop, size_t i, uint32_t level, uint32_t finest, int64_t columns, int64_t rows,
+                    std::vector<std::array<SeamVertex, 3>>& out);
 
 }  // namespace strata
