@@ -745,8 +745,10 @@ void HlodModel::morphed_positions(uint32_t c, const LatticeAnchor& anchor, const
         const glm::vec3 offset = glm::abs(w - anchor.eye);
         const float d = std::max(std::max(offset.x, offset.y), offset.z);
         const float lambda = morph_lambda(c, lattice_steps(cube, v), d, kappa);
-        // The ends exactly (Lemma 2 needs λ = 0 to give P(w) and λ = 1 to give w), GLSL's mix between.
-        out[v] = lambda >= 1.0f ? w : lambda <= 0.0f ? parent : parent * (1.0f - lambda) + w * lambda;
+        // The ends exactly (Lemma 2 needs λ = 0 to give P(w) and λ = 1 to give w), GLSL's mix between;
+        // a vertex at its parent's very position (a locked boundary's) stays there bit for bit, so that
+        // an embedding's seams do not depend on the level its site is drawn at.
+        out[v] = lambda >= 1.0f || parent == w ? w : lambda <= 0.0f ? parent : parent * (1.0f - lambda) + w * lambda;
     }
 }
 
@@ -790,7 +792,9 @@ void HlodModel::cull(CullVisitor& cull) {
         advance_fades(basis.capped);
         cull.count_fading(fading_.size());
     }
-    if (!selection_.empty()) cull.add(*this, selection_.data(), uint32_t(selection_.size()), std::move(morph));
+    if (selection_.empty()) return;
+    auto runs = hook_ ? hook_(selection_, morph) : nullptr;
+    cull.add(*this, selection_.data(), uint32_t(selection_.size()), std::make_shared<const DrawState>(DrawState{std::move(morph), std::move(runs)}));
 }
 
 }  // namespace strata

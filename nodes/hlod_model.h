@@ -10,6 +10,7 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <span>
 #include <string_view>
 #include <unordered_map>
 #include <vector>
@@ -228,6 +229,20 @@ public:
     const std::array<uint32_t, 27>& neighbours(uint32_t cube) const { return tree_->neighbours[cube]; }
     uint32_t parent(uint32_t cube) const { return tree_->parent[cube]; }
 
+    // What the owner of a model sees of each of its views and may hide in them (a terrain hides the
+    // cells under the meshes embedded in it: nodes/terrain.h). cull() and picking call the hook with the
+    // view's selection and the κ it morphs with; it returns, for each cube whose triangles it hides, the
+    // runs of the cube's index list drawn instead ({first index, index count}), or null to draw every
+    // cube whole.
+    using CubeRuns = std::unordered_map<uint32_t, std::vector<std::array<uint32_t, 2>>>;
+    using SelectionHook = std::function<std::shared_ptr<const CubeRuns>(std::span<const uint32_t> selection, const Kappas& morph)>;
+    void set_selection_hook(SelectionHook hook) { hook_ = std::move(hook); }
+    // What a draw item of the model carries: the κ it morphs with and the runs the hook gave.
+    struct DrawState {
+        Kappas morph;
+        std::shared_ptr<const CubeRuns> runs;
+    };
+
     bool morph() const { return morph_; }
     void set_morph(bool on) { morph_ = on; }
     HlodDebugView debug_view() const { return debug_view_; }
@@ -321,7 +336,8 @@ public:
         Kappas kappa;
         bool morph;
     };
-    MorphInputs morph_inputs(const PickContext& view) const;
+    // `drawn`, if given, receives the view's selection.
+    MorphInputs morph_inputs(const PickContext& view, std::vector<uint32_t>* drawn = nullptr) const;
     void drawn_positions(uint32_t cube, const MorphInputs& inputs, std::vector<glm::vec3>& out) const;
     // The level an orthographic camera draws: the coarsest whose error stays within the pixel error
     // (1 pixel when κ0 was set instead).
@@ -413,7 +429,8 @@ private:
     bool morph_ = true;
     HlodDebugView debug_view_ = HlodDebugView::none;
     bool show_boxes_ = false;
-    std::vector<uint32_t> selection_;  // scratch for cull(); a draw item's state is the κ it morphs with
+    std::vector<uint32_t> selection_;  // scratch for cull(); a draw item's state is a DrawState
+    SelectionHook hook_;
     bool capture_morph_ = false;
     std::unordered_map<uint32_t, std::vector<glm::vec4>> captured_;  // filled by draw() while capturing
     Kappas captured_kappas_;

@@ -141,6 +141,9 @@ vec3 octahedral_normal(uint bits) {
 }
 
 
+// An embedding's seams compute gl_Position from the same floats by the same expression (terrain_draw.cpp).
+invariant gl_Position;
+
 void main() {
     uint index = uint(gl_BaseInstanceARB);
     uvec4 cube = cubes[index];
@@ -154,8 +157,9 @@ void main() {
     vec3 offset = abs(w - eye);
     float d = max(max(offset.x, offset.y), offset.z);
     precise float lambda = morph ? morph_lambda(index, level, cube.yzw, q, d) : 1.0;
-    // The ends exactly (Lemma 2), the mix in between without fused multiply-adds, as on the CPU.
-    precise vec3 position = lambda >= 1.0 ? w : lambda <= 0.0 ? p : p * (1.0 - lambda) + w * lambda;
+    // The ends exactly (Lemma 2), the mix in between without fused multiply-adds, as on the CPU; a
+    // vertex at its parent's very position (a locked boundary's) stays there bit for bit.
+    precise vec3 position = lambda >= 1.0 || p == w ? w : lambda <= 0.0 ? p : p * (1.0 - lambda) + w * lambda;
     gl_Position = clip_from_anchor * vec4(position, 1.0);
     if (capture) captured[gl_VertexID] = vec4(position, lambda);
 
@@ -545,7 +549,7 @@ void set_view_uniforms(const HlodModel& model, const gl::Program& program, const
     program.set("anchor_rest", anchor.rest);
     // The κ the selection morphs with (capped band ends while cubes are missing); a new one for a new
     // image size, field of view, target or capping.
-    if (Kappas kappas = std::static_pointer_cast<const CubeKappas>(item.state); kappas != gpu.kappas) {
+    if (Kappas kappas = std::static_pointer_cast<const HlodModel::DrawState>(item.state)->morph; kappas != gpu.kappas) {
         upload_kappas(gpu, std::move(kappas));
     }
     const HlodHeader& h = model.header();
@@ -630,6 +634,8 @@ void HlodModel::draw(DrawContext& context, const DrawItem& item) {
     // runs of consecutive cubes on one page. The order is what the frame depends on where triangles
     // tie in depth (cube borders), so it must not follow where the pool happened to place the cubes:
     // a capture gives the same bytes whatever the cache held before.
+    // A cube whose triangles the selection hook hides draws the runs it keeps, a command each.
+    const DrawState& state = *std::static_pointer_cast<const DrawState>(item.state);
     std::vector<IndexedDrawCommand> commands;
     commands.reserve(item.count);
     gpu.runs.clear();
@@ -640,9 +646,21 @@ void HlodModel::draw(DrawContext& context, const DrawItem& item) {
         const PlacedCube& parent_placed = parent == kNoCube || !cubes.placed[parent].texture ? placed : cubes.placed[parent];
         const HlodGpu::Run run{placed.block.page, placed.texture.page, parent_placed.texture.page, 0};
         if (gpu.runs.empty() || !gpu.runs.back().same_pages(run)) gpu.runs.push_back(run);
-        ++gpu.runs.back().commands;
-        commands.push_back(placed.command);
-        context.stats.triangles += placed.command.count / 3;
+        const auto kept = state.runs ? state.runs->find(c) : CubeRuns::const_iterator{};
+        if (state.runs && kept != state.runs->end()) {
+            for (const auto& part : kept->second) {
+                IndexedDrawCommand command = placed.command;
+                command.first_index += part[0];
+                command.count = part[1];
+                commands.push_back(command);
+                ++gpu.runs.back().commands;
+                context.stats.triangles += command.count / 3;
+            }
+        } else {
+            commands.push_back(placed.command);
+            ++gpu.runs.back().commands;
+            context.stats.triangles += placed.command.count / 3;
+        }
     }
     if (!commands.empty()) {
         reserve(gpu.commands, commands.size() * sizeof(IndexedDrawCommand));
@@ -652,7 +670,7 @@ void HlodModel::draw(DrawContext& context, const DrawItem& item) {
     context.stats.bytes_resident += bytes_to_count(gpu, cubes, pool, context.cache);
     if (capture_morph_) {
         captured_.clear();
-        captured_kappas_ = std::static_pointer_cast<const CubeKappas>(item.state);
+        captured_kappas_ = state.morph;
     }
     DrawCall call{.program = programs.surface, .wireframe = debug_view_ == HlodDebugView::wireframe};
     call.storage[1] = &cubes.cubes, call.storage[8] = &cubes.links, call.storage[10] = &cubes.color_offsets;

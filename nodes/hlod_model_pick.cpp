@@ -21,11 +21,11 @@ struct Candidate {
 
 }  // namespace
 
-HlodModel::MorphInputs HlodModel::morph_inputs(const PickContext& view) const {
+HlodModel::MorphInputs HlodModel::morph_inputs(const PickContext& view, std::vector<uint32_t>* drawn) const {
     // The κ the view's selection morphs with, band ends of capped cubes included.
     Kappas kappa;
-    std::vector<uint32_t> drawn;
-    select(view_for(view.camera, view.local_eye()), drawn, &kappa);
+    std::vector<uint32_t> selection;
+    select(view_for(view.camera, view.local_eye()), drawn ? *drawn : selection, &kappa);
     return {anchor_for(view.world_from_node, view.eye_world), std::move(kappa), morphs_for(view.camera)};
 }
 
@@ -42,7 +42,9 @@ void HlodModel::drawn_positions(uint32_t c, const MorphInputs& inputs, std::vect
 std::optional<SurfaceHit> HlodModel::intersect(const Ray& ray, const PickContext& context) const {
     const Camera& camera = context.camera;
     const HlodView view = view_for(camera, context.local_eye());
-    const MorphInputs inputs = morph_inputs(context);
+    std::vector<uint32_t> drawn;
+    const MorphInputs inputs = morph_inputs(context, &drawn);
+    const std::shared_ptr<const CubeRuns> runs = hook_ ? hook_(drawn, inputs.kappa) : nullptr;
     // The lattice frame is the node's frame shifted by −O, the drawn positions' by −O − E: the same
     // parameter t names the same point in all three.
     Ray lattice_ray = ray;
@@ -71,7 +73,18 @@ std::optional<SurfaceHit> HlodModel::intersect(const Ray& ray, const PickContext
             continue;
         }
         drawn_positions(next.cube, inputs, positions);
-        const auto hit = nearest_triangle(anchored_ray, cube.data->indices, [&](uint32_t v) { return glm::dvec3(positions[v]); });
+        const std::span<const uint32_t> indices = cube.data->indices;
+        const auto hidden = runs ? runs->find(next.cube) : CubeRuns::const_iterator{};
+        std::optional<SurfaceHit> hit;
+        auto test = [&](std::span<const uint32_t> triangles) {
+            const auto found = nearest_triangle(anchored_ray, triangles, [&](uint32_t v) { return glm::dvec3(positions[v]); });
+            if (found && (!hit || found->t < hit->t)) hit = found;
+        };
+        if (runs && hidden != runs->end()) {
+            for (const auto& run : hidden->second) test(indices.subspan(run[0], run[1]));
+        } else {
+            test(indices);
+        }
         if (!hit) continue;
         // Drawn here without being suitable: a stand-in, or capped beside one.
         nearest = SurfaceHit{hit->t, hit->normal, next.cube, !suitable(next.cube, view)};

@@ -59,7 +59,7 @@ Culled cull_frame(Node& root, const HlodModel& model, const Camera& camera, bool
     Culled out{{}, model.kappas_for(camera), camera.position - model.origin(), cull.stats().stand_ins, cull.stats().fading};
     for (const DrawItem& item : list.opaque) {
         out.cubes.assign(list.item_data.begin() + item.first, list.item_data.begin() + item.first + item.count);
-        out.kappa = std::static_pointer_cast<const CubeKappas>(item.state);
+        out.kappa = std::static_pointer_cast<const HlodModel::DrawState>(item.state)->morph;
     }
     return out;
 }
