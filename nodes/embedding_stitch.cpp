@@ -190,26 +190,35 @@ void EmbeddingStitch::match_site(const std::string& what) {
         }
     }
     if (site_boundary_.empty()) throw std::runtime_error(what + ": no boundary of the site meets its skirt");
-    // The crossings: the skirt's inner boundary runs against the site's, from the copy of a vertex's
-    // next back to the copy of the vertex itself.
+    // The crossings. The skirt's inner boundary runs against the site's when both face up (from the copy
+    // of a vertex's next back to the copy of the vertex), with it when the site's faces are wound the
+    // other way.
     const size_t n = site_boundary_.size();
     std::unordered_map<uint32_t, uint64_t> key_of_point;
     for (const auto& [key, point] : skirt_point_) key_of_point[point] = key;
     std::unordered_map<uint32_t, uint32_t> vertex_of_point;
     for (uint32_t v = 0; v < n; ++v) vertex_of_point[site_boundary_[v].skirt_point] = v;
-    for (uint32_t v = 0; v < n; ++v) {
-        const uint32_t end = site_boundary_[v].skirt_point;
-        uint32_t at = site_boundary_[(v + 1) % n].skirt_point;
-        for (size_t guard = 0;; ++guard) {
+    // The points strictly between the copies of `from` and `to` along the skirt's boundary, or nullopt
+    // when another of the site's vertices comes first.
+    auto between = [&](uint32_t from, uint32_t to) -> std::optional<std::vector<uint32_t>> {
+        std::vector<uint32_t> points;
+        for (uint32_t at = from;;) {
             const auto next = skirt_next_.find(key_of_point.at(at));
-            if (next == skirt_next_.end() || guard > skirt_inner_.size())
+            if (next == skirt_next_.end() || points.size() > skirt_inner_.size())
                 throw std::runtime_error(what + ": its skirt's inner boundary is not closed");
             at = skirt_point_.at(next->second);
-            if (at == end) break;
-            if (vertex_of_point.count(at)) throw std::runtime_error(what + ": its skirt's inner boundary runs another way than the site's");
-            site_boundary_[v].crossings.push_back(at);
+            if (at == to) return points;
+            if (vertex_of_point.count(at)) return std::nullopt;
+            points.push_back(at);
         }
-        std::reverse(site_boundary_[v].crossings.begin(), site_boundary_[v].crossings.end());  // from the vertex's side
+    };
+    const bool against = between(site_boundary_[1 % n].skirt_point, site_boundary_[0].skirt_point).has_value();
+    for (uint32_t v = 0; v < n; ++v) {
+        const uint32_t here = site_boundary_[v].skirt_point, there = site_boundary_[(v + 1) % n].skirt_point;
+        std::optional<std::vector<uint32_t>> points = against ? between(there, here) : between(here, there);
+        if (!points) throw std::runtime_error(what + ": its skirt's inner boundary does not follow the site's");
+        if (against) std::reverse(points->begin(), points->end());
+        site_boundary_[v].crossings = std::move(*points);  // from the vertex's side
     }
 }
 
@@ -241,9 +250,29 @@ const EmbeddingStitch::TerrainCube& EmbeddingStitch::terrain_cube(uint32_t c) co
     const HlodCube& cube = terrain.cubes()[c];
     const uint32_t level = cube.node.level;
     const glm::dmat4 to_node = terrain.lattice_to_node();
+    TerrainCube out;
+    // The zone's finest cells' box, grown by one cell: triangles meeting it are near.
+    const CellCovers& zone = models_.zone;
+    const int64_t x0 = zone.first_x * zone.size - 1, y0 = zone.first_y * zone.size - 1;
+    const int64_t x1 = (zone.first_x + zone.width) * zone.size + 1, y1 = (zone.first_y + zone.height) * zone.size + 1;
+    // Most cubes lie far from the zone: their cell's corners say so without a look at their vertices
+    // (a zone cell more of margin for a frame whose raster is not a plane of the model's).
+    {
+        const Box box = terrain.cull_box(cube.node);
+        double lo[2] = {1e300, 1e300}, hi[2] = {-1e300, -1e300};
+        for (int corner = 0; corner < 4; ++corner) {
+            const glm::dvec3 at = glm::dvec3(to_node * glm::dvec4(corner & 1 ? box.hi.x : box.lo.x, corner & 2 ? box.hi.y : box.lo.y, box.lo.z, 1.0));
+            if (const auto raster = geo.raster_position(at.x, at.y, at.z))
+                for (int a = 0; a < 2; ++a) lo[a] = std::min(lo[a], (*raster)[a]), hi[a] = std::max(hi[a], (*raster)[a]);
+        }
+        const double margin = double(zone.size);
+        if (hi[0] + margin < double(x0) || lo[0] - margin > double(x1) || hi[1] + margin < double(y0) || lo[1] - margin > double(y1)) {
+            out.kept.push_back({0, uint32_t(cube.data->indices.size())});
+            return terrain_cubes_.emplace(c, std::move(out)).first->second;
+        }
+    }
     // Each vertex's sample.
     std::vector<std::array<int64_t, 2>> sample(cube.data->vertex_count());
-    TerrainCube out;
     for (uint32_t v = 0; v < sample.size(); ++v) {
         const glm::dvec3 at = glm::dvec3(to_node * glm::dvec4(glm::dvec3(terrain.vertex_position(cube, v)), 1.0));
         const auto raster = geo.raster_position(at.x, at.y, at.z);
@@ -252,10 +281,6 @@ const EmbeddingStitch::TerrainCube& EmbeddingStitch::terrain_cube(uint32_t c) co
         if (const auto border = border_sample_.find(sample_key(sample[v][0], sample[v][1])); raster && border != border_sample_.end())
             out.border_samples.push_back({v, border->second});
     }
-    // The zone's finest cells' box, grown by one cell: triangles meeting it are near.
-    const CellCovers& zone = models_.zone;
-    const int64_t x0 = zone.first_x * zone.size - 1, y0 = zone.first_y * zone.size - 1;
-    const int64_t x1 = (zone.first_x + zone.width) * zone.size + 1, y1 = (zone.first_y + zone.height) * zone.size + 1;
     const auto& indices = cube.data->indices;
     const bool maskable = level >= models_.drawn_from;
     for (uint32_t t = 0; t + 2 < indices.size(); t += 3) {
@@ -276,7 +301,10 @@ const EmbeddingStitch::TerrainCube& EmbeddingStitch::terrain_cube(uint32_t c) co
                     out.steps.insert(out.steps.end(), claim->second.begin(), claim->second.end());
             }
         }
-        if (hidden) continue;
+        if (hidden) {
+            out.hides = true;
+            continue;
+        }
         if (!out.kept.empty() && out.kept.back()[0] + out.kept.back()[1] == t)
             out.kept.back()[1] += 3;
         else

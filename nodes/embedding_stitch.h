@@ -62,6 +62,7 @@ public:
     // What a terrain cube contributes, computed once per cube (its data must be resident).
     struct TerrainCube {
         bool near_zone = false;  // one of its triangles reaches into the zone or the finest cells beside it
+        bool hides = false;      // some of its triangles lie in the zone (kept is not the whole list)
         // Its triangles outside the zone, as runs of its index list: {first index, index count}. The
         // whole list for a cube coarser than m, which the zone never hides.
         std::vector<std::array<uint32_t, 2>> kept;

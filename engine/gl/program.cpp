@@ -95,6 +95,9 @@ void Program::set(GLint location, const glm::mat3& value) const {
 void Program::set(GLint location, const glm::mat4& value) const {
     glProgramUniformMatrix4fv(id(), location, 1, GL_FALSE, glm::value_ptr(value));
 }
+void Program::set(GLint location, std::span<const glm::mat4> values) const {
+    glProgramUniformMatrix4fv(id(), location, GLsizei(values.size()), GL_FALSE, glm::value_ptr(values.front()));
+}
 void Program::set(GLint location, std::span<const float> values) const {
     glProgramUniform1fv(id(), location, GLsizei(values.size()), values.data());
 }

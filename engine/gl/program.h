@@ -44,6 +44,7 @@ public:
     void set(GLint location, const glm::mat3& value) const;
     void set(GLint location, const glm::mat4& value) const;
     void set(GLint location, std::span<const float> values) const;  // a float array uniform, from its first element
+    void set(GLint location, std::span<const glm::mat4> values) const;  // a mat4 array uniform, likewise
     void set(GLint location, const glm::ivec3& value) const;
     template <class T>
     void set(std::string_view uniform, const T& value) const {

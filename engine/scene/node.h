@@ -102,9 +102,11 @@ public:
 
 protected:
     Box compute_bound() const override;
+    // Hands every child to the visitor, in order; a group that shows its children only at times
+    // (nodes/terrain.h) overrides it.
+    void traverse(NodeVisitor& visitor) override;
 
 private:
-    void traverse(NodeVisitor& visitor) override;
     // Whether adding `child` here would make a cycle: it is this group or one of its ancestors.
     bool would_contain_itself(const Node& child) const;
 

@@ -12,7 +12,13 @@
 #include <random>
 #include <set>
 
+#include "engine/gl/context.h"
+#include "engine/gl/framebuffer.h"
+#include "engine/io/image.h"
+#include "engine/render/renderer.h"
+#include "engine/scene/light.h"
 #include "nodes/embedding_stitch.h"
+#include "nodes/terrain.h"
 #include "preprocess/embedding.h"
 #include "preprocess/georeference.h"
 #include "preprocess/hlod_builder.h"
@@ -108,10 +114,12 @@ protected:
         models.site = site_ = HlodModel::load(dir_->path() / "site.hlod");
         models.drawn_from = plan.zone_level;
         models.zone = plan.zone;
-        stitch_ = std::make_unique<EmbeddingStitch>(std::move(models), "site");
+        stitch_ = std::make_unique<EmbeddingStitch>(models, "site");
+        models_ = std::move(models);
     }
     static void TearDownTestSuite() {
         stitch_.reset();
+        models_ = {};
         terrain_.reset(), skirt_.reset(), site_.reset();
         dir_.reset();
     }
@@ -134,6 +142,7 @@ protected:
     static inline std::unique_ptr<test::TempDir> dir_ = std::make_unique<test::TempDir>();
     static inline std::shared_ptr<HlodModel> terrain_, skirt_, site_;
     static inline std::unique_ptr<EmbeddingStitch> stitch_;
+    static inline EmbeddedModels models_;
 };
 
 // A drawn vertex: its owner and its float bits (as the owner's shader computes it from its anchor).
@@ -264,6 +273,120 @@ TEST_F(HybridStitch, TheGroundTheSkirtTheSiteAndTheSeamsAreOneSurfaceAtEveryLeve
     // The controls: without the seams the join is open, without the mask the zone is drawn twice.
     EXPECT_EQ(without_seams_open, embedded);
     EXPECT_EQ(without_mask_thrice, embedded);
+}
+
+// T8: the boundary seam does not depend on the level the site is drawn at: its site side is the same
+// floats (the locked boundary's, which the morph leaves where they are) whatever the site's pixel error.
+TEST_F(HybridStitch, TheBoundarySeamIsTheSameAtEveryLevelOfTheSite) {
+    Camera camera;
+    camera.width = 1920, camera.height = 1080, camera.fov_y_degrees = 60;
+    const glm::dvec3 eye{1400 + 700, 1500 + 300, 700};
+    const glm::dmat4 identity(1.0);
+    terrain_->set_pixel_error(0.05);  // the ground fine enough around the zone to draw the embedding
+    const ViewOf terrain = view_of(*terrain_, camera, identity, eye), skirt = view_of(*skirt_, camera, identity, eye);
+    ASSERT_TRUE(stitch_->drawn_with(terrain.cubes));
+    std::vector<std::vector<Key>> sides;
+    std::set<std::set<uint32_t>> levels_drawn;
+    for (const double pixels : {0.01, 0.1, 1.0, 10.0, 100.0, 1000.0}) {
+        site_->set_pixel_error(pixels);
+        const ViewOf site = view_of(*site_, camera, identity, eye);
+        std::set<uint32_t> levels;
+        for (const uint32_t c : site.cubes) levels.insert(site_->cubes()[c].node.level);
+        levels_drawn.insert(levels);
+        std::vector<StitchTriangle> seams;
+        stitch_->seams(terrain.view(), skirt.view(), site.view(), seams);
+        std::vector<Key> side;
+        for (const StitchTriangle& t : seams)
+            for (const StitchVertex& v : t)
+                if (v.owner == StitchOwner::site) side.push_back(key_of(v.owner, v.position));
+        std::sort(side.begin(), side.end());
+        side.erase(std::unique(side.begin(), side.end()), side.end());
+        EXPECT_EQ(side.size(), stitch_->boundary_vertices());
+        sides.push_back(std::move(side));
+    }
+    site_->set_kappa0(2.0), terrain_->set_kappa0(2.0);
+    EXPECT_GE(levels_drawn.size(), 3u) << "the site should be drawn at different levels; it has " << site_->header().max_level + 1;
+    for (size_t k = 1; k < sides.size(); ++k) EXPECT_EQ(sides[k], sides[0]);
+}
+
+// Drawn with real OpenGL, a magenta clear colour behind: over 60 views around the site, near and far,
+// grazing and from above, no pixel that the ground alone covers shows the background with the
+// embedding in it (the seams weld on the GPU as on the CPU twin); without the seams it shows through.
+TEST_F(HybridStitch, NoBackgroundShowsThroughTheJoinInAnyView) {
+    const auto context = gl::create_headless_context();
+    auto scene = [&](bool embedded) {
+        auto root = std::make_shared<Group>();
+        auto light = std::make_shared<DirectionalLight>();
+        root->add(light);
+        auto ground = HlodModel::load(dir_->path() / "dem.hlod");
+        auto terrain = std::make_shared<Terrain>(ground);
+        if (embedded)
+            terrain->embed(HlodModel::load(dir_->path() / "skirt.hlod"), HlodModel::load(dir_->path() / "site.hlod"), glm::dmat4(1.0),
+                           models_.drawn_from, models_.zone, "site");
+        root->add(terrain);
+        for (const auto& model : {ground}) model->set_pixel_error(2.0);
+        for (const auto& e : terrain->embeddings()) e->skirt()->set_pixel_error(2.0), e->site()->set_pixel_error(2.0);
+        return std::make_pair(root, terrain);
+    };
+    const auto [plain, plain_terrain] = scene(false);
+    const auto [joined, joined_terrain] = scene(true);
+    const auto embedding = joined_terrain->embeddings().at(0);
+    const NodePtr seams = embedding->children().back();
+    RenderSettings settings;
+    settings.background = {1.0f, 0.0f, 1.0f, 1.0f};
+    Renderer renderer;
+    gl::Framebuffer target({.width = 320, .height = 200, .samples = 1, .node_id = true});
+    Camera camera;
+    camera.width = 320, camera.height = 200, camera.fov_y_degrees = 50;
+    auto background = [&](Node& root) {
+        renderer.render(root, camera, target, settings);
+        const Image image = renderer.read_image(target);
+        std::vector<uint8_t> out(image.pixel_count());
+        for (size_t p = 0; p < out.size(); ++p) out[p] = image.node_id[p] == 0;
+        return out;
+    };
+    std::mt19937 rng(99);
+    std::uniform_real_distribution<double> unit(0, 1);
+    size_t views = 0, drawn = 0, through = 0, through_without_seams = 0;
+    for (int i = 0; i < 64; ++i) {
+        // From 60 m to 1.5 km off, from grazing (2 m over the ground) to steep, looking at the site's
+        // border.
+        const double distance = 60 * std::pow(25.0, unit(rng)), angle = 2 * M_PI * unit(rng);
+        const double height = i % 4 == 0 ? 2.0 : distance * (0.05 + 0.8 * unit(rng));
+        const glm::dvec3 target_at{1400 + 150 * std::cos(angle + 2.0), 1500 + 150 * std::sin(angle + 2.0), 460};
+        glm::dvec3 eye = target_at + glm::dvec3(distance * std::cos(angle), distance * std::sin(angle), 0);
+        // A grazing eye stays off the zone: 2 m over the ground there is under the site.
+        if (i % 4 == 0 && glm::length(glm::dvec2(eye) - glm::dvec2(1400, 1500)) < 450)
+            eye = glm::dvec3(1400, 1500, 0) + 450.0 * glm::dvec3(std::cos(angle), std::sin(angle), 0);
+        camera.look_at({eye.x, eye.y, *terrain_->height_at(eye.x, eye.y) + height}, target_at, {0, 0, 1});
+        const std::vector<uint8_t> alone = background(*plain);
+        // Background where the ground alone covers a pixel and its eight neighbours (a pixel on the
+        // ground's outline may fall either way: the zone's finer skirt is not the grid's silhouette).
+        auto through_join = [&](const std::vector<uint8_t>& with) {
+            size_t count = 0;
+            for (int y = 1; y + 1 < camera.height; ++y)
+                for (int x = 1; x + 1 < camera.width; ++x) {
+                    bool covered = true;
+                    for (int dy = -1; dy <= 1; ++dy)
+                        for (int dx = -1; dx <= 1; ++dx) covered = covered && !alone[size_t((y + dy) * camera.width + x + dx)];
+                    count += covered && with[size_t(y * camera.width + x)];
+                }
+            return count;
+        };
+        const size_t shown = through_join(background(*joined));
+        ++views;
+        if (!embedding->drawn()) continue;
+        ++drawn;
+        EXPECT_EQ(shown, 0u) << "view " << i << ": background through the join";
+        through += shown;
+        seams->set_visible(false);
+        through_without_seams += through_join(background(*joined));
+        seams->set_visible(true);
+    }
+    EXPECT_GE(views, 60u);
+    EXPECT_GT(drawn, 40u);
+    EXPECT_EQ(through, 0u);
+    EXPECT_GT(through_without_seams, 0u);
 }
 
 }  // namespace

@@ -1,0 +1,123 @@
+#include "nodes/terrain.h"
+
+#include <algorithm>
+#include <stdexcept>
+
+#include "engine/scene/cull_visitor.h"
+#include "engine/scene/visitor.h"
+
+namespace strata {
+
+namespace {
+
+using Runs = std::vector<std::array<uint32_t, 2>>;  // {first index, index count}, in order
+
+// What both of two lists of runs keep.
+Runs common_runs(const Runs& a, const Runs& b) {
+    Runs out;
+    size_t i = 0, j = 0;
+    while (i < a.size() && j < b.size()) {
+        const uint32_t first = std::max(a[i][0], b[j][0]);
+        const uint32_t end_a = a[i][0] + a[i][1], end_b = b[j][0] + b[j][1];
+        if (first < std::min(end_a, end_b)) out.push_back({first, std::min(end_a, end_b) - first});
+        (end_a < end_b ? i : j)++;
+    }
+    return out;
+}
+
+}  // namespace
+
+Embedding::Embedding(EmbeddedModels models, const std::string& name)
+    : stitch_(models, name),
+      skirt_(std::const_pointer_cast<HlodModel>(models.skirt)),
+      site_(std::const_pointer_cast<HlodModel>(models.site)),
+      placement_(std::make_shared<Transform>()) {
+    set_name(name);
+    placement_->set_matrix(models.site_to_terrain);
+    placement_->add(site_);
+    add(skirt_);
+    add(placement_);
+    add(std::make_shared<EmbeddingSeams>(*this));
+    // The skirt's and the site's selections, for the seams.
+    skirt_->set_selection_hook([this](std::span<const uint32_t> cubes, const Kappas& kappa) {
+        selections_.skirt = {{cubes.begin(), cubes.end()}, kappa};
+        return std::shared_ptr<const HlodModel::CubeRuns>();
+    });
+    site_->set_selection_hook([this](std::span<const uint32_t> cubes, const Kappas& kappa) {
+        selections_.site = {{cubes.begin(), cubes.end()}, kappa};
+        return std::shared_ptr<const HlodModel::CubeRuns>();
+    });
+}
+
+Embedding::~Embedding() {
+    skirt_->set_selection_hook(nullptr);
+    site_->set_selection_hook(nullptr);
+}
+
+void Embedding::begin_view() {
+    selections_ = {};
+    drawn_ = false;
+}
+
+void Embedding::traverse(NodeVisitor& visitor) {
+    if (drawn_) Group::traverse(visitor);
+}
+
+void Embedding::take_ground_selection(std::span<const uint32_t> cubes, const Kappas& kappa, HlodModel::CubeRuns& hidden) {
+    selections_.terrain = {{cubes.begin(), cubes.end()}, kappa};
+    drawn_ = stitch_.drawn_with(cubes);
+    if (!drawn_) return;
+    for (const uint32_t c : cubes) {
+        const EmbeddingStitch::TerrainCube& cube = stitch_.terrain_cube(c);
+        if (!cube.hides) continue;
+        const auto [entry, added] = hidden.try_emplace(c, cube.kept);
+        if (!added) entry->second = common_runs(entry->second, cube.kept);  // under two embeddings
+    }
+}
+
+void EmbeddingSeams::cull(CullVisitor& cull) {
+    const Embedding::ViewSelections& views = embedding_.selections();
+    if (!embedding_.drawn() || !views.terrain.kappa || !views.skirt.kappa || !views.site.kappa) return;
+    cull.add(*this, nullptr, 0, std::make_shared<const Embedding::ViewSelections>(views));
+}
+
+Box EmbeddingSeams::compute_bound() const { return embedding_.skirt()->bound(); }
+
+Terrain::Terrain(std::shared_ptr<HlodModel> ground) : ground_(std::move(ground)) {
+    if (!ground_->header().terrain || !ground_->georeference())
+        throw std::runtime_error(ground_->path().string() + ": not a terrain built from an elevation raster, which meshes can be embedded in");
+    add(ground_);
+    ground_->set_selection_hook([this](std::span<const uint32_t> cubes, const Kappas& kappa) { return take_ground_selection(cubes, kappa); });
+}
+
+Terrain::~Terrain() { ground_->set_selection_hook(nullptr); }
+
+std::shared_ptr<Embedding> Terrain::embed(std::shared_ptr<HlodModel> skirt, std::shared_ptr<HlodModel> site, const glm::dmat4& site_to_terrain,
+                                          uint32_t drawn_from, CellCovers zone, const std::string& name) {
+    EmbeddedModels models{ground_, std::move(skirt), std::move(site), site_to_terrain, drawn_from, std::move(zone)};
+    auto embedding = std::make_shared<Embedding>(std::move(models), name);
+    add(embedding);
+    return embedding;
+}
+
+bool Terrain::remove_embedding(const Embedding* embedding) { return remove(embedding); }
+
+std::vector<std::shared_ptr<Embedding>> Terrain::embeddings() const {
+    std::vector<std::shared_ptr<Embedding>> out;
+    for (const NodePtr& child : children())
+        if (auto embedding = std::dynamic_pointer_cast<Embedding>(child)) out.push_back(std::move(embedding));
+    return out;
+}
+
+void Terrain::traverse(NodeVisitor& visitor) {
+    for (const auto& embedding : embeddings()) embedding->begin_view();
+    Group::traverse(visitor);
+}
+
+std::shared_ptr<const HlodModel::CubeRuns> Terrain::take_ground_selection(std::span<const uint32_t> cubes, const Kappas& kappa) {
+    auto hidden = std::make_shared<HlodModel::CubeRuns>();
+    for (const auto& embedding : embeddings()) embedding->take_ground_selection(cubes, kappa, *hidden);
+    return hidden->empty() ? nullptr : hidden;
+}
+
+}  // namespace strata

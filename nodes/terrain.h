@@ -1,0 +1,102 @@
+// A terrain with meshes embedded in it (thesis 003; preprocess/HYBRID.md): the ground's HLOD model and,
+// per embedding, the skirt that joins the ground to the site, the site under its placement, and the
+// seams that weld the three per view (nodes/embedding_stitch.h). Where a view draws the ground over an
+// embedding's zone at the embedding's level m or finer, the ground hides the zone's cells and the
+// embedding is drawn; elsewhere the ground covers the zone as it is and the embedding is not drawn.
+//
+//   Terrain ─┬─ HlodModel (the ground)
+//            └─ Embedding ─┬─ HlodModel (the skirt, in the ground's frame)
+//                          ├─ Transform (the placement) ── HlodModel (the site)
+//                          └─ EmbeddingSeams
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "engine/scene/drawable.h"
+#include "engine/scene/node.h"
+#include "nodes/embedding_stitch.h"
+#include "nodes/hlod_model.h"
+
+namespace strata {
+
+// One embedding: a group whose children visitors see only while the view the terrain was last culled
+// or picked for draws it.
+class Embedding : public Group {
+public:
+    Embedding(EmbeddedModels models, const std::string& name);
+    ~Embedding() override;
+    const EmbeddingStitch& stitch() const { return stitch_; }
+    const std::shared_ptr<HlodModel>& skirt() const { return skirt_; }
+    const std::shared_ptr<HlodModel>& site() const { return site_; }
+    const std::shared_ptr<Transform>& placement() const { return placement_; }
+    // Whether the last view drew it.
+    bool drawn() const { return drawn_; }
+
+    // What one view selected of a model, and the κ it morphs with.
+    struct Selection {
+        std::vector<uint32_t> cubes;
+        Kappas kappa;
+    };
+    // What the view being culled selected of the ground, the skirt and the site (kappa null until it has).
+    struct ViewSelections {
+        Selection terrain, skirt, site;
+    };
+    const ViewSelections& selections() const { return selections_; }
+
+protected:
+    void traverse(NodeVisitor& visitor) override;
+
+private:
+    friend class Terrain;
+    // A new view: nothing selected yet, not drawn.
+    void begin_view();
+    // The ground's selection for the view: whether it draws the embedding; the cubes' runs it hides.
+    void take_ground_selection(std::span<const uint32_t> cubes, const Kappas& kappa, HlodModel::CubeRuns& hidden);
+
+    EmbeddingStitch stitch_;
+    std::shared_ptr<HlodModel> skirt_, site_;
+    std::shared_ptr<Transform> placement_;
+    ViewSelections selections_;
+    bool drawn_ = false;
+};
+
+// The seams of an embedding, drawn from the selections its models made for the view (the CPU twin
+// emits them; each vertex drawn through its owner's transform and anchor, as its owner draws it).
+class EmbeddingSeams : public Drawable {
+public:
+    explicit EmbeddingSeams(const Embedding& embedding) : embedding_(embedding) {}
+    void cull(CullVisitor& cull) override;
+    void draw(DrawContext& context, const DrawItem& item) override;
+
+protected:
+    Box compute_bound() const override;
+
+private:
+    const Embedding& embedding_;  // its parent, which owns it
+};
+
+class Terrain : public Group {
+public:
+    explicit Terrain(std::shared_ptr<HlodModel> ground);
+    ~Terrain() override;
+    const std::shared_ptr<HlodModel>& ground() const { return ground_; }
+
+    // Embeds `site`, placed by `site_to_terrain` (its node frame to the ground's), joined by `skirt` over
+    // the zone the embedding's preprocessing chose (drawn from level `drawn_from`, `zone` its covers at
+    // the level before). Throws std::runtime_error naming `name` when they do not fit together.
+    std::shared_ptr<Embedding> embed(std::shared_ptr<HlodModel> skirt, std::shared_ptr<HlodModel> site, const glm::dmat4& site_to_terrain,
+                                     uint32_t drawn_from, CellCovers zone, const std::string& name);
+    bool remove_embedding(const Embedding* embedding);
+    std::vector<std::shared_ptr<Embedding>> embeddings() const;
+
+protected:
+    void traverse(NodeVisitor& visitor) override;
+
+private:
+    std::shared_ptr<const HlodModel::CubeRuns> take_ground_selection(std::span<const uint32_t> cubes, const Kappas& kappa);
+    std::shared_ptr<HlodModel> ground_;
+};
+
+}  // namespace strata
