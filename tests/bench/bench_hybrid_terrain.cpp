@@ -1,0 +1,210 @@
+// The hybrid terrain benchmark (issue 18 §4): a real scan embedded in a real DEM and drawn with real
+// OpenGL. The scan is the bundled bunny (data/bunny.off, 75 000 triangles) opened at its base, stood
+// up, scaled to SITE metres and set on the ground at the centre of data/olinda_dem.tif (111 × 111
+// samples, 90 m); the terrain, the site and the skirt are built as .hlod (the site and the skirt with
+// locked boundaries). Views circle the site at distances from a site's width to ten, at 1280×720 and
+// 1 px. Per view: triangles drawn and the frame's time, the seams' share of both (the stitch's CPU
+// twin, timed alone for the view's selections, against the frame), and the same views drawn at full
+// resolution (every cube of the terrain's finest level, the site's finest level; nothing embedded: the
+// scan drawn over the full grid). Medians over the views; each time the median of 3 renders. Asserts
+// nothing.
+//
+//   bench_hybrid_terrain [VIEWS [SITE]]      (defaults 24 600)
+//
+// A frame's time is the renderer's, from the start of culling to glFinish() returning (llvmpipe
+// rasterizes on the CPU: its threads share this machine's cores).
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+
+#include <glm/gtc/constants.hpp>
+
+#include "engine/gl/context.h"
+#include "engine/gl/framebuffer.h"
+#include "engine/render/renderer.h"
+#include "engine/scene/light.h"
+#include "nodes/terrain.h"
+#include "preprocess/embedding.h"
+#include "preprocess/georeference.h"
+#include "preprocess/hlod_builder.h"
+#include "preprocess/mesh_io.h"
+#include "preprocess/terrain_build.h"
+#include "preprocess/terrain_heights.h"
+#include "tests/bench/bench_stats.h"
+#include "tests/support/test_meshes.h"
+
+namespace {
+
+using namespace strata;
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
+
+// The bunny opened at its base (the faces of its lowest 6 %), turned from y up to z up, `width` metres
+// wide, its base's mean height on the ground's at (x, y).
+Mesh site_on_ground(const TerrainSite& terrain, const std::filesystem::path& scan, double x, double y, double width) {
+    const Mesh bunny = read_mesh(scan);
+    glm::dvec3 lo(1e300), hi(-1e300);
+    for (size_t v = 0; v < bunny.vertex_count(); ++v) {
+        const glm::dvec3 p(bunny.positions[3 * v], bunny.positions[3 * v + 1], bunny.positions[3 * v + 2]);
+        lo = glm::min(lo, p), hi = glm::max(hi, p);
+    }
+    const double cut = lo.y + 0.06 * (hi.y - lo.y), scale = width / std::max(hi.x - lo.x, hi.z - lo.z);
+    Mesh site;
+    site.origin = {x, y, 0};
+    for (size_t v = 0; v < bunny.vertex_count(); ++v) {
+        const float* p = &bunny.positions[3 * v];
+        site.positions.insert(site.positions.end(), {float((p[0] - 0.5 * (lo.x + hi.x)) * scale), float(-(p[2] - 0.5 * (lo.z + hi.z)) * scale),
+                                                     float((p[1] - cut) * scale)});
+    }
+    for (size_t t = 0; t < bunny.indices.size(); t += 3) {
+        const uint32_t* f = &bunny.indices[t];
+        if (bunny.positions[3 * f[0] + 1] < cut && bunny.positions[3 * f[1] + 1] < cut && bunny.positions[3 * f[2] + 1] < cut) continue;
+        site.indices.insert(site.indices.end(), {f[0], f[1], f[2]});
+    }
+    // Set on the ground: its base (the cut) at the ground's mean height under it.
+    const Georeference& geo = *terrain.georeference;
+    double ground = 0;
+    int samples = 0;
+    for (size_t v = 0; v < site.vertex_count(); ++v) {
+        if (site.positions[3 * v + 2] > 0.02 * width) continue;
+        const auto cell = geo.raster_position(x + site.positions[3 * v], y + site.positions[3 * v + 1], 0);
+        if (const auto h = cell ? terrain.heights->at((*cell)[0], (*cell)[1]) : std::nullopt) ground += *h, ++samples;
+    }
+    site.origin[2] = samples ? ground / samples : 0;
+    return site;
+}
+
+// Builds with the most levels (up to 5) that the mesh's longest edges allow.
+void build_locked(Mesh mesh, const std::filesystem::path& out, const char* what) {
+    for (int levels = 5;; --levels) {
+        try {
+            BuildSettings settings;
+            settings.lock_boundary = true;
+            settings.levels = levels;
+            build_hlod(Mesh(mesh), out, settings, what);
+            return;
+        } catch (const std::exception&) {
+            if (levels == 0) throw;
+        }
+    }
+}
+
+struct Frame {
+    double seconds = 0;
+    uint64_t triangles = 0;
+};
+
+Frame render(Renderer& renderer, Node& scene, const Camera& camera, gl::Framebuffer& target) {
+    std::vector<double> times;
+    uint64_t triangles = 0;
+    for (int run = 0; run < 3; ++run) {
+        const auto start = Clock::now();
+        triangles = renderer.render(scene, camera, target).triangles;
+        times.push_back(seconds_since(start));
+    }
+    return {bench::median(times), triangles};
+}
+
+}  // namespace
+
+int main(int argc, char** argv) try {
+    const int views = argc > 1 ? std::atoi(argv[1]) : 24;
+    const double width = argc > 2 ? std::atof(argv[2]) : 600;
+    const auto data = std::filesystem::path(STRATA_SOURCE_DIR) / "data";
+    if (views < 1 || !(width > 0)) {
+        std::fprintf(stderr, "usage: bench_hybrid_terrain [VIEWS >= 1 [SITE > 0 metres]]\n");
+        return 2;
+    }
+    if (!std::filesystem::exists(data / "olinda_dem.tif") || !std::filesystem::exists(data / "bunny.off")) {
+        std::fprintf(stderr, "bench_hybrid_terrain: data/olinda_dem.tif or data/bunny.off missing: run scripts/setup.sh\n");
+        return 1;
+    }
+    const test::TempDir dir;
+    auto start = Clock::now();
+    TerrainSettings terrain_settings;
+    terrain_settings.cube_cells = 16;
+    build_terrain({data / "olinda_dem.tif"}, dir / "terrain.hlod", terrain_settings, "olinda_dem.tif");
+    const double terrain_seconds = seconds_since(start);
+    const TerrainSite terrain = TerrainSite::open(dir / "terrain.hlod");
+    const auto centre = terrain.georeference->sample_position(55, 55, 0);
+    const double cx = (*centre)[0], cy = (*centre)[1];
+    Mesh site = site_on_ground(terrain, data / "bunny.off", cx, cy, width);
+    start = Clock::now();
+    const EmbeddingPlan plan = plan_embedding(terrain, site, glm::dmat4(1.0), "bunny.off");
+    const double plan_seconds = seconds_since(start);
+    start = Clock::now();
+    build_locked(Mesh(plan.skirt_mesh), dir / "skirt.hlod", "skirt");
+    const double skirt_seconds = seconds_since(start);
+    build_locked(std::move(site), dir / "site.hlod", "bunny.off");
+
+    const auto context = gl::create_headless_context();
+    auto ground = HlodModel::load(dir / "terrain.hlod");
+    auto hybrid = std::make_shared<Terrain>(ground);
+    const auto embedding = hybrid->embed(HlodModel::load(dir / "skirt.hlod"), HlodModel::load(dir / "site.hlod"), glm::dmat4(1.0),
+                                         plan.zone_level, plan.zone, "bunny.off");
+    auto scene = std::make_shared<Group>();
+    scene->add(std::make_shared<DirectionalLight>());
+    scene->add(hybrid);
+    // Full resolution: the grid's finest level everywhere and the scan's finest level, no embedding.
+    auto full_ground = HlodModel::load(dir / "terrain.hlod");
+    auto full_site = HlodModel::load(dir / "site.hlod");
+    auto full = std::make_shared<Group>();
+    full->add(std::make_shared<DirectionalLight>());
+    full->add(full_ground), full->add(full_site);
+    for (const auto& m : {ground, embedding->skirt(), embedding->site()}) m->set_pixel_error(1.0);
+    full_ground->set_kappa0(1e9), full_site->set_kappa0(1e9);
+
+    Camera camera;
+    camera.width = 1280, camera.height = 720, camera.fov_y_degrees = 50;
+    gl::Framebuffer target({.width = 1280, .height = 720, .samples = 1});
+    Renderer renderer;
+    std::vector<double> frame, stitch_time_share, stitch_triangle_share, fewer, faster, stitch_ms;
+    size_t drawn = 0;
+    for (int i = 0; i < views; ++i) {
+        const double distance = width * std::pow(10.0, double(i % 6) / 5.0), angle = 2 * glm::pi<double>() * i / views;
+        const glm::dvec3 at{cx, cy, plan.skirt_mesh.origin[2] + 0.2 * width};
+        const glm::dvec3 eye = at + glm::dvec3(distance * std::cos(angle), distance * std::sin(angle), 0.35 * distance);
+        camera.look_at(eye, at, {0, 0, 1});
+        const Frame hybrid_frame = render(renderer, *scene, camera, target);
+        const Frame full_frame = render(renderer, *full, camera, target);
+        frame.push_back(hybrid_frame.seconds * 1e3);
+        fewer.push_back(double(full_frame.triangles) / double(hybrid_frame.triangles));
+        faster.push_back(full_frame.seconds / hybrid_frame.seconds);
+        if (!embedding->drawn()) continue;
+        ++drawn;
+        // The seams alone for this view's selections, as EmbeddingSeams::draw computes them.
+        const auto& s = embedding->selections();
+        const glm::dmat4 identity(1.0);
+        HlodModel::MorphInputs inputs[3];
+        const HlodModel* owners[3] = {ground.get(), embedding->skirt().get(), embedding->site().get()};
+        const Kappas kappas[3] = {s.terrain.kappa, s.skirt.kappa, s.site.kappa};
+        for (int o = 0; o < 3; ++o) inputs[o] = {owners[o]->anchor_for(identity, camera.position), kappas[o], true};
+        std::vector<StitchTriangle> seams;
+        std::vector<double> times;
+        for (int run = 0; run < 3; ++run) {
+            seams.clear();
+            const auto t0 = Clock::now();
+            embedding->stitch().seams({s.terrain.cubes, &inputs[0]}, {s.skirt.cubes, &inputs[1]}, {s.site.cubes, &inputs[2]}, seams);
+            times.push_back(seconds_since(t0));
+        }
+        stitch_ms.push_back(bench::median(times) * 1e3);
+        stitch_time_share.push_back(bench::median(times) / hybrid_frame.seconds);
+        stitch_triangle_share.push_back(double(seams.size()) / double(hybrid_frame.triangles));
+    }
+    std::printf("terrain %s: %llu × %llu samples, built in %.2f s; site %.0f m wide, %zu boundary vertices; zone level %u%s, ΔH %.1f m\n",
+                "olinda_dem.tif", (unsigned long long)terrain.grid().columns, (unsigned long long)terrain.grid().rows, terrain_seconds, width, embedding->stitch().boundary_vertices(),
+                plan.zone_level, plan.zone_capped ? " (capped)" : "", plan.height_difference);
+    std::printf("embedding: plan %.3f s, skirt build %.3f s, skirt %zu triangles, %zu border steps\n", plan_seconds, skirt_seconds,
+                plan.skirt_mesh.triangle_count(), embedding->stitch().border_steps());
+    std::printf("%d views at 1280×720, 1 px (embedding drawn in %zu), medians:\n", views, drawn);
+    std::printf("  frame %.1f ms; stitch %.3f ms = %.2f %% of the frame; seam triangles %.2f %% of those drawn\n", bench::median(frame),
+                bench::median(stitch_ms), 100 * bench::median(stitch_time_share), 100 * bench::median(stitch_triangle_share));
+    std::printf("  against the full-resolution grid and scan: %.1f× fewer triangles, %.2f× faster\n", bench::median(fewer), bench::median(faster));
+    return 0;
+} catch (const std::exception& e) {
+    std::fprintf(stderr, "bench_hybrid_terrain: %s\n", e.what());
+    return 1;
+}
