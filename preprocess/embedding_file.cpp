@@ -355,6 +355,7 @@ struct RemovedOnExit {
 EmbedReport build_embedding(const fs::path& terrain_path, const fs::path& site_path, const fs::path& output, const EmbedSettings& settings,
                             const Progress& progress) {
     const auto start = std::chrono::steady_clock::now();
+    check_output_folder(output);
     const TerrainSite terrain = TerrainSite::open(terrain_path);
     const SiteModel site = open_site(site_path);
     const std::string what = site_path.string();

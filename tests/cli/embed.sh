@@ -65,7 +65,7 @@ expect_failure "a site off the raster" "site.hlod: placed at .* it lies wholly o
     "$STRATA" embed "$WORK/olinda.hlod" "$WORK/site.hlod" -o "$x" --at -30,-8
 expect_failure "a site reaching off the raster" "site.hlod: the mesh reaches outside the terrain's raster" \
     "$STRATA" embed "$WORK/olinda.hlod" "$WORK/site.hlod" -o "$x" --at -34.9152,-7.9507
-expect_failure "an unwritable output" "$WORK/nowhere/x.hlod" "$STRATA" embed "$WORK/olinda.hlod" "$WORK/site.hlod" -o "$WORK/nowhere/x.hlod" --at "$at"
+expect_failure "an unwritable output" "$WORK/nowhere/x.hlod: cannot create the output file" "$STRATA" embed "$WORK/olinda.hlod" "$WORK/site.hlod" -o "$WORK/nowhere/x.hlod" --at "$at"
 checks=$((checks + 1)); [ -z "$(ls "$WORK" | grep '^x.hlod')" ] || fail "a refused embedding left $(ls "$WORK" | grep '^x.hlod')"
 
 # A byte flipped in EMBD: info and verify name the file and the section.
