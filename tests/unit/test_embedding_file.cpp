@@ -5,6 +5,7 @@
 // section are refused by name. A closed site stands, in a file without cubes.
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <cmath>
 #include <cstring>
 #include <fstream>
@@ -325,6 +326,26 @@ TEST(EmbeddingFile, AnOpenSiteWhoseBoundaryIsNotLockedIsRefused) {
     }
     for (const fs::directory_entry& entry : fs::directory_iterator(dir.path()))
         EXPECT_NE(entry.path().filename().string().rfind("out.hlod", 0), 0u) << entry.path() << " was left behind";
+}
+
+// Cancelled (Ctrl-C), an embedding leaves nothing behind: no output, no intermediate skirt, no work folder.
+TEST(EmbeddingFile, ACancelledEmbeddingLeavesNothing) {
+    const test::TempDir dir;
+    const fs::path dem = terrain(dir, "dem");
+    const fs::path site = build_site(dir, "site", patch(40, 300, 0), true);
+    const fs::path out = dir.path() / "out" / "embedded.hlod";
+    fs::create_directories(out.parent_path());
+    for (const size_t after : {size_t(1), size_t(3), size_t(8)}) {  // at several points of the work
+        std::atomic<bool> cancel{false};
+        size_t calls = 0;
+        Progress progress;
+        progress.cancel = &cancel;
+        progress.report = [&](std::string_view, double, double, std::string_view) {
+            if (++calls >= after) cancel = true;
+        };
+        EXPECT_THROW(build_embedding(dem, site, out, at(lon_lat(dem, 1400, 1500)), progress), Cancelled) << after;
+        EXPECT_TRUE(fs::is_empty(out.parent_path())) << fs::directory_iterator(out.parent_path())->path();
+    }
 }
 
 TEST(EmbeddingFile, ACorruptSectionIsRefusedNamingTheFile) {
