@@ -101,7 +101,7 @@ EmbeddingRecord decode_embedding(std::span<const uint8_t> bytes, const std::stri
         // Every cell of the box starts before the raster's last sample.
         const auto inside = [&](int64_t first, int64_t count, uint64_t samples) {
             return first >= 0 && count > 0 && count <= int64_t(samples) && first <= int64_t(samples) &&
-                   (first + count - 1) * z.size < int64_t(samples) - 1;
+                   WideInt(first + count - 1) * z.size < WideInt(samples) - 1;  // 128 bits: no overflow
         };
         if (!inside(z.first_x, z.width, r.columns) || !inside(z.first_y, z.height, r.rows))
             throw std::runtime_error(what + ": the zone (cells " + std::to_string(z.first_x) + " … " + std::to_string(z.first_x + z.width - 1) +
