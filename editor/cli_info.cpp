@@ -3,10 +3,12 @@
 // checks the payloads).
 #include "editor/commands.h"
 #include "preprocess/elevation_raster.h"
+#include "preprocess/embedding_file.h"
 #include "preprocess/cube_textures.h"
 #include "preprocess/hlod_format.h"
 #include "preprocess/terrain_heights.h"
 
+#include <cmath>
 #include <cstdio>
 #include <memory>
 
@@ -44,6 +46,26 @@ void print_terrain(const std::shared_ptr<const HlodFile>& file) {
                 double(section->size) / 1e6, double(section->size) / samples);
 }
 
+// An embedding file's section EMBD (FORMAT.md §4.10): which terrain and site, where, and the zone.
+void print_embedding(const HlodFile& file) {
+    const EmbeddingRecord r = read_embedding(file);
+    std::printf("embedding   %s on terrain %s (fingerprints %08x, %08x)\n", r.site_file.c_str(), r.terrain_file.c_str(),
+                r.site_fingerprint, r.terrain_fingerprint);
+    if (r.standing) {
+        std::printf("            standing: a closed mesh on the ground, nothing cut\n");
+    } else {
+        std::printf("zone        level %u of 0 … %u, cells of %lld samples, %lld × %lld from cell (%lld, %lld): %zu partly, %zu wholly covered%s\n",
+                    r.zone_level, r.terrain_levels, (long long)r.zone.size, (long long)r.zone.width, (long long)r.zone.height,
+                    (long long)r.zone.first_x, (long long)r.zone.first_y, r.cells(CellCover::partly), r.cells(CellCover::whole),
+                    r.zone_capped ? " (capped)" : "");
+        std::printf("            ΔH %.3f m, %llu boundary vertices, raster %llu × %llu\n", r.height_difference,
+                    (unsigned long long)r.boundary_vertices, (unsigned long long)r.columns, (unsigned long long)r.rows);
+    }
+    const glm::dmat4& m = r.placement;
+    std::printf("placement   site → terrain: translation (%.10g, %.10g, %.10g), scale %.6g, heading %.4g°\n", m[3][0], m[3][1], m[3][2],
+                std::cbrt(glm::determinant(glm::dmat3(m))), std::atan2(-m[0][1], m[0][0]) * 180.0 / M_PI);
+}
+
 int run_info(const std::string& path) {
     const auto shared_file = std::make_shared<const HlodFile>(path);
     const HlodFile& file = *shared_file;
@@ -58,6 +80,7 @@ int run_info(const std::string& path) {
         std::printf("georef      %s, %s (%.17g, %.17g, %.17g)\n", describe_crs(h.crs).c_str(),
                     h.terrain && h.terrain->tangent_frame() ? "tangent point" : "model origin at", h.geo_origin[0], h.geo_origin[1], h.geo_origin[2]);
     if (h.terrain) print_terrain(shared_file);
+    if (file.find_section(kEmbeddingTag)) print_embedding(file);
     if (const HlodSection* section = file.find_section(kTexturesTag)) {  // FORMAT.md §4.9
         const CubeTextures textures(shared_file, *section, file.nodes().size());
         const uint32_t size = textures.layout().size;

@@ -39,6 +39,7 @@ struct Command {
 };
 
 Command add_build(CLI::App& app);
+Command add_embed(CLI::App& app);
 Command add_info(CLI::App& app);
 Command add_verify(CLI::App& app);
 Command add_render(CLI::App& app);

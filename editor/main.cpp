@@ -11,7 +11,7 @@ int main(int argc, char** argv) {
     CLI::App app{"Strata: hierarchical level-of-detail models of huge 3D scans."};
     app.require_subcommand(1);
     app.set_version_flag("--version", "strata 0.1.0");
-    std::vector<Command> commands = {add_build(app), add_info(app), add_verify(app), add_render(app), add_view(app), add_run(app), add_shell(app)};
+    std::vector<Command> commands = {add_build(app), add_embed(app), add_info(app), add_verify(app), add_render(app), add_view(app), add_run(app), add_shell(app)};
     try {
         app.parse(argc, argv);
     } catch (const CLI::CallForHelp& e) {

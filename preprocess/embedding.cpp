@@ -34,19 +34,43 @@ uint32_t zone_level(const HlodHeader& terrain, double height_difference, double 
     return std::max({m, coarsest, 1u});
 }
 
+namespace {
+
+glm::dvec3 placed_vertex(const Mesh& mesh, const glm::dmat4& mesh_to_terrain, size_t v) {
+    const float* p = &mesh.positions[3 * v];
+    return glm::dvec3(mesh_to_terrain * glm::dvec4(mesh.origin[0] + double(p[0]), mesh.origin[1] + double(p[1]), mesh.origin[2] + double(p[2]), 1.0));
+}
+
+glm::dvec2 raster_at(const Georeference& geo, const glm::dvec3& at) {
+    const auto position = geo.raster_position(at.x, at.y, at.z);
+    if (!position) throw std::runtime_error("a point the terrain's CRS cannot map");
+    return glm::dvec2((*position)[0], (*position)[1]);
+}
+
+}  // namespace
+
+double height_difference(const TerrainSite& terrain, const Mesh& mesh, const glm::dmat4& mesh_to_terrain) {
+    double most = 0;
+    for (size_t v = 0; v < mesh.vertex_count(); ++v) {
+        const glm::dvec3 at = placed_vertex(mesh, mesh_to_terrain, v);
+        const glm::dvec2 cell = raster_at(*terrain.georeference, at);
+        if (const std::optional<double> ground = terrain.heights->at(cell.x, cell.y)) most = std::max(most, std::abs(at.z - *ground));
+    }
+    return most;
+}
+
 EmbeddingPlan plan_embedding(const TerrainSite& terrain, const Mesh& mesh, const glm::dmat4& mesh_to_terrain, const std::string& what) {
+    // A closed mesh stands: ΔH is not needed (nor measured, as before).
+    if (boundary_loops(mesh, what).empty()) return plan_embedding(terrain, mesh, mesh_to_terrain, 0.0, what);
+    return plan_embedding(terrain, mesh, mesh_to_terrain, height_difference(terrain, mesh, mesh_to_terrain), what);
+}
+
+EmbeddingPlan plan_embedding(const TerrainSite& terrain, const Mesh& mesh, const glm::dmat4& mesh_to_terrain, double height_difference,
+                             const std::string& what) {
     const TerrainGrid& grid = terrain.grid();
     const Georeference& geo = *terrain.georeference;
     const int64_t columns = int64_t(grid.columns), rows = int64_t(grid.rows);
-    auto placed = [&](size_t v) {
-        const float* p = &mesh.positions[3 * v];
-        return glm::dvec3(mesh_to_terrain * glm::dvec4(mesh.origin[0] + double(p[0]), mesh.origin[1] + double(p[1]), mesh.origin[2] + double(p[2]), 1.0));
-    };
-    auto raster_at = [&](const glm::dvec3& at) {
-        const auto position = geo.raster_position(at.x, at.y, at.z);
-        if (!position) throw std::runtime_error("a point the terrain's CRS cannot map");
-        return glm::dvec2((*position)[0], (*position)[1]);
-    };
+    auto placed = [&](size_t v) { return placed_vertex(mesh, mesh_to_terrain, v); };
 
     EmbeddingPlan plan;
     if (boundary_loops(mesh, what).empty()) {
@@ -55,13 +79,8 @@ EmbeddingPlan plan_embedding(const TerrainSite& terrain, const Mesh& mesh, const
     }
     plan.footprint = make_footprint(
         mesh,
-        [&](const glm::dvec3& at) { return raster_at(glm::dvec3(mesh_to_terrain * glm::dvec4(at, 1.0))); }, columns, rows, what);
-    for (size_t v = 0; v < mesh.vertex_count(); ++v) {
-        const glm::dvec3 at = placed(v);
-        const glm::dvec2 cell = raster_at(at);
-        if (const std::optional<double> ground = terrain.heights->at(cell.x, cell.y))
-            plan.height_difference = std::max(plan.height_difference, std::abs(at.z - *ground));
-    }
+        [&](const glm::dvec3& at) { return raster_at(geo, glm::dvec3(mesh_to_terrain * glm::dvec4(at, 1.0))); }, columns, rows, what);
+    plan.height_difference = height_difference;
     const auto [lo, hi] = bounds(plan.footprint.points);
     const double extent = double(std::max(hi.x - lo.x, hi.y - lo.y)) / double(kGridPointOne);
     plan.zone_level = zone_level(terrain.header(), plan.height_difference, extent, plan.zone_capped);

@@ -57,6 +57,15 @@ struct EmbeddingPlan {
 // terrain's model frame. A closed mesh stands (above). Throws InputError naming `what` for a mesh that cannot be embedded (its
 // footprint: footprint.h; the skirt: skirt.h; a zone over nodata samples or beyond the raster).
 EmbeddingPlan plan_embedding(const TerrainSite& terrain, const Mesh& mesh, const glm::dmat4& mesh_to_terrain, const std::string& what);
+// The same with ΔH given: `mesh` need only hold the boundary right (a locked model's coarsest level,
+// whose open boundary is the finest level's, embedding_file.h), ΔH measured over every vertex of the
+// finest level apart (height_difference, a cube at a time).
+EmbeddingPlan plan_embedding(const TerrainSite& terrain, const Mesh& mesh, const glm::dmat4& mesh_to_terrain, double height_difference,
+                             const std::string& what);
+
+// ΔH of `mesh`'s vertices placed by `mesh_to_terrain`: the largest |height − ground height| over those
+// the raster has a height under (0 for none).
+double height_difference(const TerrainSite& terrain, const Mesh& mesh, const glm::dmat4& mesh_to_terrain);
 
 // The coarsest level m whose zone may replace the grid: the embedding is dropped where the grid is drawn
 // coarser than m, which stays within the terrain's own screen-space bound when ΔH ≤ 2·ε_q·s_(m−1)

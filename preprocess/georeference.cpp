@@ -32,6 +32,25 @@ struct Georeference::Proj {
     std::string last_error() const { return proj_context_errno_string(context, proj_context_errno(context)); }
 };
 
+std::string vertical_datum(const std::string& crs) {
+    PJ_CONTEXT* context = proj_context_create();
+    proj_log_level(context, PJ_LOG_NONE);
+    PJ* pj = proj_create(context, crs.c_str());
+    std::string name;
+    const bool read = pj != nullptr;
+    if (read && proj_get_type(pj) == PJ_TYPE_COMPOUND_CRS)
+        if (PJ* vertical = proj_crs_get_sub_crs(context, pj, 1)) {
+            if (const char* text = proj_get_name(vertical)) name = text;
+            proj_destroy(vertical);
+        }
+    if (read && proj_get_type(pj) == PJ_TYPE_VERTICAL_CRS)
+        if (const char* text = proj_get_name(pj)) name = text;
+    proj_destroy(pj);
+    proj_context_destroy(context);
+    if (!read) throw std::runtime_error("PROJ cannot read the CRS '" + crs + "'");
+    return name;
+}
+
 Georeference::Georeference(const HlodHeader& header, std::string name)
     : name_(std::move(name)), crs_(header.crs), terrain_(header.terrain), proj_(std::make_unique<Proj>()) {
     if (crs_.empty()) throw std::runtime_error(name_ + ": the model has no georeference (it was built from a file without a CRS)");

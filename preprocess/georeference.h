@@ -17,6 +17,10 @@
 
 namespace strata {
 
+// The name of a compound CRS's vertical CRS (heights above a geoid, "EGM96 height"), or "" for a CRS
+// whose heights are the ellipsoid's or unsaid. Throws std::runtime_error when PROJ cannot read `crs`.
+std::string vertical_datum(const std::string& crs);
+
 class Georeference {
 public:
     // `name` (the model's file) names the errors. Throws std::runtime_error when the model has no CRS.

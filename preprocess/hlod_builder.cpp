@@ -141,16 +141,6 @@ void remove_dead_writers(const std::filesystem::path& output, std::vector<std::f
     }
 }
 
-// The output's folder must take a file before a build spends hours on it (the writer only opens the
-// output at the end). Throws std::runtime_error naming the output.
-void check_output_folder(const std::filesystem::path& output) {
-    const std::filesystem::path folder = folder_or_here(output.parent_path());
-    struct stat st {};
-    const int error = ::stat(folder.c_str(), &st) != 0 ? errno : !S_ISDIR(st.st_mode) ? ENOTDIR
-                                                          : ::access(folder.c_str(), W_OK) != 0 ? errno : 0;
-    if (error) throw std::runtime_error(output.string() + ": cannot create the output file (" + std::strerror(error) + ")");
-}
-
 // ---- the plan: two passes over the input ----------------------------------------------------------
 
 // Pass 1 and the choices made from it: the frame, L and σ0 (DESIGN.md §2), and the header.
@@ -357,6 +347,14 @@ void remove_work_folder(const std::filesystem::path& dir) {
 }
 
 }  // namespace
+
+void check_output_folder(const std::filesystem::path& output) {
+    const std::filesystem::path folder = folder_or_here(output.parent_path());
+    struct stat st {};
+    const int error = ::stat(folder.c_str(), &st) != 0 ? errno : !S_ISDIR(st.st_mode) ? ENOTDIR
+                                                          : ::access(folder.c_str(), W_OK) != 0 ? errno : 0;
+    if (error) throw std::runtime_error(output.string() + ": cannot create the output file (" + std::strerror(error) + ")");
+}
 
 std::filesystem::path temp_folder(const std::filesystem::path& output, const std::filesystem::path& temp_dir) {
     return folder_or_here(temp_dir.empty() ? output.parent_path() : temp_dir);

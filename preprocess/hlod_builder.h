@@ -133,6 +133,10 @@ JobRunReport run_build_jobs(const std::filesystem::path& dir, uint64_t first, ui
 BuildReport assemble_build(const std::filesystem::path& dir, const std::filesystem::path& output,
                            const Progress& progress = {});
 
+// The output's folder must take a file before a build spends hours on it (the writer only opens the
+// output at the end). Throws std::runtime_error naming the output.
+void check_output_folder(const std::filesystem::path& output);
+
 // The folder a build of `output` keeps its work folder in: `temp_dir`, or else the output's own
 // folder ("." for a bare file name).
 std::filesystem::path temp_folder(const std::filesystem::path& output, const std::filesystem::path& temp_dir);

@@ -1244,6 +1244,7 @@ void HlodWriter::finish(HlodHeader header) {
         written += size;
         n = end;
     }
+    pad_to(file_size);  // a model without cubes (a standing site's embedding) ends at PAYL's empty start
     errno = 0;
     if (::fsync(out.get()) != 0 || out.release() != 0) throw std::runtime_error(io_error(path_, "write failed"));
     std::error_code ec;

@@ -7,6 +7,7 @@
 #include <tuple>
 #include <unordered_map>
 
+#include "preprocess/embedding_file.h"
 #include "preprocess/error_bound.h"
 #include "preprocess/cube_textures.h"
 #include "preprocess/terrain_heights.h"
@@ -353,6 +354,17 @@ void Verifier::add_to_closure(const HlodNode& n, const CubeData& cube, Closure& 
 }
 
 VerifyReport Verifier::run() {
+    // An embedding (FORMAT.md §4.10): its section parses and fits the raster; a standing site's has no cube.
+    if (file_.find_section(kEmbeddingTag)) {
+        const EmbeddingRecord embedding = read_embedding(file_);
+        report_.embedding = true;
+        if (embedding.standing != (h_.node_count == 0))
+            fail(embedding.standing ? "a standing site's embedding with cubes" : "an embedding without a skirt, though its site is not standing");
+        if (embedding.standing) {
+            file_.check_section(*file_.find_section("PAYL"));
+            return report_;
+        }
+    }
     if (h_.node_count == 0) fail("no cubes");
     check_node_table();
     check_payload_layout();

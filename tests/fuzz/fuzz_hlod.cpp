@@ -1,6 +1,6 @@
 // Fuzz target: the .hlod reader (preprocess/hlod_format.cpp) as `strata verify` and the viewer use it:
 // open the file (header, section table, MODL, NODE, GEOR, TERR), decode every cube's payload, then check the
-// model as `strata verify` does (a terrain's heights, HGHT, and textures, TXTR, included). Properties: every failure is a std::runtime_error naming the file;
+// model as `strata verify` does (a terrain's heights, HGHT, textures, TXTR, and an embedding's section, EMBD, included). Properties: every failure is a std::runtime_error naming the file;
 // nothing crashes or allocates without bound.
 //
 // The input is a .hlod file. A mutated byte would almost always break a CRC-32C (or the file size the

@@ -13,6 +13,9 @@
 #include "engine/path/camera_path.h"
 #include "engine/path/osg_path.h"
 #include "preprocess/cube_textures.h"
+#include "preprocess/embedding.h"
+#include "preprocess/embedding_file.h"
+#include "preprocess/georeference.h"
 #include "preprocess/hlod_builder.h"
 #include "preprocess/hlod_format.h"
 #include "preprocess/mesh_io.h"
@@ -188,6 +191,27 @@ void terrain_seed(const fs::path& dem, const fs::path& out) {
     strata::build_terrain({dem}, out, settings, "dem.tif");
     fs::remove(dem);
 }
+
+// Embedding files (section EMBD, FORMAT.md §4.10) on that terrain: a 20 m patch between its nodata samples
+// (a skirt and a zone), and a closed site that stands (a model without cubes).
+void embedding_seeds(const fs::path& terrain, const fs::path& dir) {
+    strata::BuildSettings settings;
+    settings.threads = 1;
+    settings.lock_boundary = true;
+    Mesh patch = strata::test::seamed_grid(4, 0);
+    for (size_t v = 0; v < patch.vertex_count(); ++v)
+        for (int a = 0; a < 2; ++a) patch.positions[3 * v + size_t(a)] *= 20.0f;
+    strata::build_hlod(std::move(patch), dir / "patch.site", settings, "patch.obj");
+    strata::build_hlod(strata::test::icosphere(1, 3.0f), dir / "statue.site", settings, "statue.ply");
+    strata::EmbedSettings embed;
+    embed.threads = 1;
+    const strata::TerrainSite site = strata::TerrainSite::open(terrain);
+    const std::array<double, 3> at = site.georeference->to_geo({300, 225, 0});  // column 10, row 8.5
+    embed.placement.at = std::array<double, 2>{at[0], at[1]};
+    strata::build_embedding(terrain, dir / "patch.site", dir / "embedding", embed);
+    strata::build_embedding(terrain, dir / "statue.site", dir / "embedding_standing", embed);
+    fs::remove(dir / "patch.site"), fs::remove(dir / "statue.site");
+}
 #endif
 
 void hlod_seeds(const fs::path& dir) {
@@ -204,6 +228,7 @@ void hlod_seeds(const fs::path& dir) {
     georeferenced_copy(dir / "hlod/grid", dir / "hlod/grid_terrain_enu", 1);
 #if STRATA_SEEDS_WITH_GDAL
     terrain_seed(dir / "hlod/dem.tif", dir / "hlod/terrain");
+    embedding_seeds(dir / "hlod/terrain", dir / "hlod");
 #endif
 }
 

@@ -1,0 +1,429 @@
+#include "preprocess/embedding_file.h"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <limits>
+
+#include "preprocess/byte_packing.h"
+#include "preprocess/embedding.h"
+#include "preprocess/georeference.h"
+#include "preprocess/hlod_builder.h"
+#include "preprocess/parallel.h"
+#include "preprocess/terrain_heights.h"
+
+namespace strata {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr uint32_t kStanding = 1u << 0, kCapped = 1u << 1;
+constexpr uint32_t kMaxPathBytes = 4096;
+constexpr uint64_t kMaxZoneCells = uint64_t(1) << 32;
+
+std::string hex(uint32_t value) {
+    char text[16];
+    std::snprintf(text, sizeof text, "%08x", value);
+    return text;
+}
+
+}  // namespace
+
+size_t EmbeddingRecord::cells(CellCover cover) const { return size_t(std::count(zone.cover.begin(), zone.cover.end(), cover)); }
+
+// ---- EMBD's bytes (FORMAT.md §4.10) ---------------------------------------------------------------
+
+std::vector<uint8_t> encode_embedding(const EmbeddingRecord& r) {
+    ByteWriter w;
+    w.put(r.version);
+    w.put(uint32_t((r.standing ? kStanding : 0u) | (r.zone_capped ? kCapped : 0u)));
+    w.put(r.terrain_levels);
+    w.put(r.zone_level);
+    w.put(r.height_difference);
+    for (int c = 0; c < 4; ++c)
+        for (int row = 0; row < 4; ++row) w.put(r.placement[c][row]);
+    w.put(r.columns), w.put(r.rows);
+    w.put(r.boundary_vertices);
+    w.put(r.terrain_fingerprint), w.put(r.site_fingerprint);
+    w.put(r.zone.size);
+    w.put(r.zone.first_x), w.put(r.zone.first_y), w.put(r.zone.width), w.put(r.zone.height);
+    w.put_string(r.terrain_file);
+    w.put_string(r.site_file);
+    std::vector<uint8_t> covers((r.zone.cover.size() + 3) / 4, 0);
+    for (size_t c = 0; c < r.zone.cover.size(); ++c) covers[c / 4] |= uint8_t(uint8_t(r.zone.cover[c]) << (2 * (c % 4)));
+    w.put_bytes(covers.data(), covers.size());
+    return std::move(w.bytes);
+}
+
+EmbeddingRecord decode_embedding(std::span<const uint8_t> bytes, const std::string& what) {
+    ByteReader in(bytes, what);
+    EmbeddingRecord r;
+    r.version = in.get<uint32_t>();
+    if (r.version != kEmbeddingVersion)
+        throw std::runtime_error(what + ": version " + std::to_string(r.version) + ", which this Strata does not read (it reads " +
+                                 std::to_string(kEmbeddingVersion) + "); embed the site again with strata embed");
+    const uint32_t flags = in.get<uint32_t>();
+    r.standing = flags & kStanding, r.zone_capped = flags & kCapped;
+    r.terrain_levels = in.get<uint32_t>();
+    r.zone_level = in.get<uint32_t>();
+    r.height_difference = in.get<double>();
+    bool finite = std::isfinite(r.height_difference) && r.height_difference >= 0;
+    for (int c = 0; c < 4; ++c)
+        for (int row = 0; row < 4; ++row) finite &= std::isfinite(r.placement[c][row] = in.get<double>());
+    r.columns = in.get<uint64_t>(), r.rows = in.get<uint64_t>();
+    r.boundary_vertices = in.get<uint64_t>();
+    r.terrain_fingerprint = in.get<uint32_t>(), r.site_fingerprint = in.get<uint32_t>();
+    r.zone.size = in.get<int64_t>();
+    r.zone.first_x = in.get<int64_t>(), r.zone.first_y = in.get<int64_t>();
+    r.zone.width = in.get<int64_t>(), r.zone.height = in.get<int64_t>();
+    r.terrain_file = in.get_string(kMaxPathBytes);
+    r.site_file = in.get_string(kMaxPathBytes);
+    if ((flags & ~(kStanding | kCapped)) != 0) throw std::runtime_error(what + ": unknown flags " + std::to_string(flags));
+    if (!finite) throw std::runtime_error(what + ": the placement or ΔH is not finite");
+    if (r.columns < 2 || r.rows < 2 || r.columns > (uint64_t(1) << 32) || r.rows > (uint64_t(1) << 32))
+        throw std::runtime_error(what + ": a raster of " + std::to_string(r.columns) + " × " + std::to_string(r.rows) + " samples");
+    if (r.terrain_levels > 31 || r.zone_level > r.terrain_levels)
+        throw std::runtime_error(what + ": zone level " + std::to_string(r.zone_level) + " of a terrain with levels 0 … " +
+                                 std::to_string(r.terrain_levels));
+    const CellCovers& z = r.zone;
+    if (r.standing) {
+        if (z.width != 0 || z.height != 0) throw std::runtime_error(what + ": a standing site with a zone");
+    } else {
+        if (z.size != int64_t(1) << (r.terrain_levels - r.zone_level))
+            throw std::runtime_error(what + ": zone cells of " + std::to_string(z.size) + " raster steps, not level " +
+                                     std::to_string(r.zone_level) + "'s " + std::to_string(int64_t(1) << (r.terrain_levels - r.zone_level)));
+        // Every cell of the box starts before the raster's last sample.
+        const auto inside = [&](int64_t first, int64_t count, uint64_t samples) {
+            return first >= 0 && count > 0 && count <= int64_t(samples) && first <= int64_t(samples) &&
+                   WideInt(first + count - 1) * z.size < WideInt(samples) - 1;  // 128 bits: no overflow
+        };
+        if (!inside(z.first_x, z.width, r.columns) || !inside(z.first_y, z.height, r.rows))
+            throw std::runtime_error(what + ": the zone (cells " + std::to_string(z.first_x) + " … " + std::to_string(z.first_x + z.width - 1) +
+                                     " × " + std::to_string(z.first_y) + " … " + std::to_string(z.first_y + z.height - 1) + " of " +
+                                     std::to_string(z.size) + " steps) lies outside the raster");
+    }
+    const uint64_t cells = uint64_t(z.width) * uint64_t(z.height);
+    if (cells > kMaxZoneCells) throw std::runtime_error(what + ": a zone of " + std::to_string(cells) + " cells");
+    const std::span<const uint8_t> covers = in.get_bytes(size_t((cells + 3) / 4));
+    if (!in.at_end()) throw std::runtime_error(what + ": " + std::to_string(bytes.size() - in.position()) + " bytes past its end");
+    r.zone.cover.resize(size_t(cells));
+    for (size_t c = 0; c < cells; ++c) {
+        const uint8_t value = (covers[c / 4] >> (2 * (c % 4))) & 3u;
+        if (value > uint8_t(CellCover::whole)) throw std::runtime_error(what + ": cell " + std::to_string(c) + " has cover 3");
+        r.zone.cover[c] = CellCover(value);
+    }
+    if (cells % 4 && (covers.back() >> (2 * (cells % 4))) != 0) throw std::runtime_error(what + ": bits set past the zone's last cell");
+    return r;
+}
+
+EmbeddingRecord read_embedding(const HlodFile& file) {
+    const std::string name = file.path().string();
+    const HlodSection* section = file.find_section(kEmbeddingTag);
+    if (!section) throw std::runtime_error(name + ": not an embedding (it has no section 'EMBD'; strata embed makes one)");
+    const std::vector<uint8_t> bytes = file.read_section_part(*section, 0, section->size, "bytes");
+    if (crc32c(bytes.data(), bytes.size()) != section->checksum)
+        throw std::runtime_error(name + ": section 'EMBD' checksum mismatch (the file is corrupt)");
+    return decode_embedding(bytes, name + ": section 'EMBD'");
+}
+
+uint32_t model_fingerprint(const HlodFile& file) {
+    ByteWriter sums;
+    for (const char* tag : {"MODL", "NODE", "GEOR", "TERR"})
+        for (const HlodSection& s : file.sections())
+            if (std::memcmp(s.tag.data(), tag, 4) == 0) sums.put(s.checksum);
+    return crc32c(sums.bytes.data(), sums.bytes.size());
+}
+
+fs::path embedded_path(const fs::path& embedding_file, const std::string& stored) {
+    const fs::path p(stored);
+    return p.is_absolute() || !embedding_file.has_parent_path() ? p : embedding_file.parent_path() / p;
+}
+
+namespace {
+
+void check_embedded(const std::string& kind, const std::string& stored, uint32_t fingerprint, const fs::path& embedding_file,
+                    const HlodFile& model) {
+    const uint32_t found = model_fingerprint(model);
+    if (found != fingerprint)
+        throw std::runtime_error(embedding_file.string() + ": made for the " + kind + " " + stored + " (fingerprint " + hex(fingerprint) +
+                                 "), but " + model.path().string() + " is another model (fingerprint " + hex(found) +
+                                 "); embed the site again on it with strata embed");
+}
+
+// How the embedding file names `file`: from its own folder where it can, else in full.
+std::string stored_path(const fs::path& file, const fs::path& output) {
+    std::error_code ec;
+    fs::path whole = fs::weakly_canonical(fs::absolute(file), ec);
+    if (ec) whole = fs::absolute(file);
+    fs::path folder = fs::weakly_canonical(fs::absolute(output).parent_path(), ec);
+    if (ec) folder = fs::absolute(output).parent_path();
+    const fs::path relative = whole.lexically_relative(folder);
+    return relative.empty() ? whole.string() : relative.generic_string();
+}
+
+}  // namespace
+
+void check_embedded_terrain(const EmbeddingRecord& record, const fs::path& embedding_file, const HlodFile& terrain) {
+    check_embedded("terrain", record.terrain_file, record.terrain_fingerprint, embedding_file, terrain);
+}
+
+void check_embedded_site(const EmbeddingRecord& record, const fs::path& embedding_file, const HlodFile& site) {
+    check_embedded("site", record.site_file, record.site_fingerprint, embedding_file, site);
+}
+
+// ---- the site ------------------------------------------------------------------------------------
+
+Mesh cube_mesh(const HlodHeader& h, const HlodNode& node, const CubeData& cube) {
+    Mesh mesh;
+    mesh.origin = {h.origin[0], h.origin[1], h.origin[2]};
+    const uint32_t cell[3] = {node.i, node.j, node.k};
+    const float step = h.lattice_step(node.level);
+    mesh.positions.resize(cube.vertices.positions.size());
+    for (size_t v = 0; v < cube.vertex_count(); ++v)
+        for (int a = 0; a < 3; ++a) {
+            // decode_coordinate's product (the shader's), added to the origin in double.
+            const int32_t q = int32_t(cube.vertices.positions[3 * v + size_t(a)]) + int32_t(cell[a] << kLatticeBits) - kLatticeBias;
+            const float product = float(q) * step;
+            mesh.positions[3 * v + size_t(a)] = product;
+        }
+    mesh.indices = cube.indices;
+    return mesh;
+}
+
+SiteModel open_site(const fs::path& path) {
+    SiteModel site;
+    site.file = std::make_shared<const HlodFile>(path);
+    const HlodFile& file = *site.file;
+    const std::string name = path.string();
+    const auto root = std::find_if(file.nodes().begin(), file.nodes().end(), [](const HlodNode& n) { return n.level == 0; });
+    if (root == file.nodes().end()) throw InputError(name + ": the model has no cubes (no level 0)");
+    if (file.header().terrain) throw InputError(name + ": a terrain, not a site (a mesh built with strata build --lock-boundary)");
+    site.coarsest = cube_mesh(file.header(), *root, file.read_cube(*root));
+    site.open = !boundary_loops(site.coarsest, name).empty();
+    if (site.open && !(file.header().flags & kLockedBoundary))
+        throw InputError(name + ": its open boundary is not locked; rebuild it with strata build --lock-boundary");
+    return site;
+}
+
+double site_height_difference(const TerrainSite& terrain, const HlodFile& site, const glm::dmat4& site_to_terrain, int threads,
+                              const Progress& progress) {
+    std::vector<const HlodNode*> finest;
+    for (const HlodNode& n : site.nodes())
+        if (n.level == site.header().max_level) finest.push_back(&n);
+    std::vector<double> most(finest.size(), 0.0);
+    std::atomic<size_t> done{0};
+    parallel_for(finest.size(), resolve_thread_count(threads), [&](size_t c, unsigned worker) {
+        progress.check();
+        const HlodNode& node = *finest[c];
+        most[c] = height_difference(terrain, cube_mesh(site.header(), node, site.read_cube(node)), site_to_terrain);
+        const size_t finished = ++done;
+        if (worker == 0) progress("height difference", double(finished), double(finest.size()), "cubes");
+    });
+    progress("height difference", double(finest.size()), double(finest.size()), "cubes");
+    return most.empty() ? 0.0 : *std::max_element(most.begin(), most.end());
+}
+
+// ---- placing the site ----------------------------------------------------------------------------
+
+namespace {
+
+glm::dvec3 vertex_of(const Mesh& mesh, uint32_t v) {
+    return {mesh.origin[0] + double(mesh.positions[3 * size_t(v)]), mesh.origin[1] + double(mesh.positions[3 * size_t(v) + 1]),
+            mesh.origin[2] + double(mesh.positions[3 * size_t(v) + 2])};
+}
+
+// The outer boundary loop (the one enclosing the largest area seen from above), as make_footprint takes it.
+std::vector<glm::dvec3> outer_ring(const Mesh& mesh, const std::string& what) {
+    std::vector<glm::dvec3> best;
+    double best_area = -1;
+    for (const std::vector<uint32_t>& loop : boundary_loops(mesh, what)) {
+        std::vector<glm::dvec3> ring;
+        for (uint32_t v : loop) ring.push_back(vertex_of(mesh, v));
+        double area = 0;
+        for (size_t i = 0; i < ring.size(); ++i) {
+            const glm::dvec3 a = ring[i] - ring.front(), b = ring[(i + 1) % ring.size()] - ring.front();
+            area += a.x * b.y - b.x * a.y;
+        }
+        if (std::abs(area) > best_area) best_area = std::abs(area), best = std::move(ring);
+    }
+    return best;
+}
+
+}  // namespace
+
+glm::dmat4 place_site(const TerrainSite& terrain, const SiteModel& site, const SitePlacement& placement, const std::string& what) {
+    if (!(placement.scale > 0) || !std::isfinite(placement.scale) || !std::isfinite(placement.heading))
+        throw InputError(what + ": a scale above 0 and a finite heading are needed");
+    // The centroid of the boundary's vertices (of every vertex, for a standing site).
+    std::vector<glm::dvec3> ring = site.open ? outer_ring(site.coarsest, what) : std::vector<glm::dvec3>();
+    if (ring.empty())
+        for (uint32_t v = 0; v < site.coarsest.vertex_count(); ++v) ring.push_back(vertex_of(site.coarsest, v));
+    glm::dvec3 centroid(0);
+    for (const glm::dvec3& p : ring) centroid += p / double(ring.size());
+    const double turn = -placement.heading * M_PI / 180.0;  // clockwise seen from above
+    glm::dmat4 about(1.0);
+    about[0][0] = placement.scale * std::cos(turn), about[0][1] = placement.scale * std::sin(turn);
+    about[1][0] = -placement.scale * std::sin(turn), about[1][1] = placement.scale * std::cos(turn);
+    about[2][2] = placement.scale;
+    const glm::dvec3 moved = centroid - glm::dvec3(about * glm::dvec4(centroid, 1.0));
+    about[3] = glm::dvec4(moved, 1.0);  // about the centroid
+
+    const Georeference& geo = *terrain.georeference;
+    if (placement.at) {
+        const auto [lon, lat] = *placement.at;
+        const std::array<double, 3> target = geo.to_local({lon, lat, 0.0});
+        glm::dmat4 m = about;
+        m[3] += glm::dvec4(target[0] - centroid.x, target[1] - centroid.y, 0.0, 0.0);
+        // Lift it so that its boundary meets the ground best: the mean of (ground − site) is 0. A standing
+        // site is lifted until its lowest point (against the ground) touches it.
+        double sum = 0, most = -std::numeric_limits<double>::infinity();
+        size_t grounded = 0;
+        for (const glm::dvec3& p : ring) {
+            const glm::dvec3 at(m * glm::dvec4(p, 1.0));
+            const auto cell = geo.raster_position(at.x, at.y, at.z);
+            if (const std::optional<double> ground = cell ? terrain.heights->at((*cell)[0], (*cell)[1]) : std::nullopt)
+                sum += *ground - at.z, most = std::max(most, *ground - at.z), ++grounded;
+        }
+        if (grounded == 0)
+            throw InputError(what + ": placed at " + std::to_string(lon) + ", " + std::to_string(lat) +
+                             " it lies wholly off the terrain's raster (or over nodata)");
+        m[3].z += site.open ? sum / double(grounded) : most;
+        return m;
+    }
+
+    const HlodHeader& h = site.file->header();
+    if (h.crs.empty()) throw InputError(what + ": the site has no georeference (CRS); place it with --at LON,LAT");
+    const Georeference mine(h, what);
+    const std::string& theirs = terrain.header().crs;
+    try {
+        if (h.crs == theirs && !terrain.grid().tangent_frame()) {
+            // The same CRS, the terrain in its plane: a translation between the origins.
+            const std::array<double, 3> shift = geo.crs_to_model(mine.model_to_crs({0, 0, 0}));
+            glm::dmat4 m = about;
+            m[3] += glm::dvec4(shift[0], shift[1], shift[2], 0.0);
+            return m;
+        }
+        // Through PROJ: an affine map fitted at the centroid over the boundary's extent. PROJ passes heights
+        // through, so two vertical datums cannot be mapped.
+        if (const std::string a = vertical_datum(h.crs), b = vertical_datum(theirs); a != b)
+            throw InputError(what + ": its CRS (" + h.crs + ") and the terrain's (" + theirs + ") have different vertical datums (" +
+                             (a.empty() ? "ellipsoidal heights" : a) + ", " + (b.empty() ? "ellipsoidal heights" : b) +
+                             "); convert its heights, or place it with --at LON,LAT");
+        double extent = 1;
+        for (const glm::dvec3& p : ring) extent = std::max({extent, std::abs(p.x - centroid.x), std::abs(p.y - centroid.y)});
+        auto map = [&](const glm::dvec3& p) {
+            const std::array<double, 3> local = geo.to_local(mine.model_to_crs({p.x, p.y, p.z}), h.crs);
+            return glm::dvec3(local[0], local[1], local[2]);
+        };
+        const glm::dvec3 centre = map(centroid);
+        glm::dmat4 fit(1.0);
+        for (int a = 0; a < 3; ++a) {
+            glm::dvec3 step(0);
+            step[a] = extent;
+            fit[a] = glm::dvec4((map(centroid + step) - centre) / extent, 0.0);
+        }
+        fit[3] = glm::dvec4(centre - glm::dvec3(fit * glm::dvec4(centroid, 0.0)), 1.0);
+        return fit * about;
+    } catch (const InputError&) {
+        throw;
+    } catch (const std::runtime_error& e) {
+        throw InputError(what + ": its CRS (" + h.crs + ") cannot be mapped to the terrain's (" + theirs + "): " + e.what());
+    }
+}
+
+// ---- the embedding file --------------------------------------------------------------------------
+
+namespace {
+
+// Removes a file when it goes out of scope (the skirt's intermediate build).
+struct RemovedOnExit {
+    fs::path path;
+    ~RemovedOnExit() {
+        std::error_code ec;
+        fs::remove(path, ec);
+    }
+};
+
+}  // namespace
+
+EmbedReport build_embedding(const fs::path& terrain_path, const fs::path& site_path, const fs::path& output, const EmbedSettings& settings,
+                            const Progress& progress) {
+    const auto start = std::chrono::steady_clock::now();
+    check_output_folder(output);
+    const TerrainSite terrain = TerrainSite::open(terrain_path);
+    const SiteModel site = open_site(site_path);
+    const std::string what = site_path.string();
+    const glm::dmat4 placement = place_site(terrain, site, settings.placement, what);
+    progress.check();
+
+    EmbedReport report;
+    EmbeddingRecord& r = report.record;
+    r.terrain_file = stored_path(terrain_path, output);
+    r.site_file = stored_path(site_path, output);
+    r.terrain_fingerprint = model_fingerprint(*terrain.file);
+    r.site_fingerprint = model_fingerprint(*site.file);
+    r.placement = placement;
+    r.terrain_levels = terrain.header().max_level;
+    r.columns = terrain.grid().columns, r.rows = terrain.grid().rows;
+
+    HlodHeader header;
+    const HlodFile* skirt = nullptr;
+    std::unique_ptr<HlodFile> built;
+    RemovedOnExit intermediate{output.string() + std::string(HlodWriter::kTempMarker) + std::to_string(::getpid()) + ".skirt"};
+    if (!site.open) {
+        // A closed site stands on the ground: nothing is cut, and the model holds no cube.
+        r.standing = true;
+        r.zone_level = r.terrain_levels;
+        r.zone.size = 1;
+        header.root_size = 1;
+        header.sigma0 = 0.25f;
+        header.flags = kErrorsAreBounds;
+    } else {
+        const double dh = site_height_difference(terrain, *site.file, placement, settings.threads, progress);
+        EmbeddingPlan plan = plan_embedding(terrain, site.coarsest, placement, dh, what);
+        r.zone_level = plan.zone_level;
+        r.height_difference = plan.height_difference;
+        r.zone_capped = plan.zone_capped;
+        r.boundary_vertices = plan.footprint.ring.size();
+        r.zone = std::move(plan.zone);
+        report.skirt_triangles = plan.skirt_mesh.triangle_count();
+        BuildSettings build;
+        build.lock_boundary = true;
+        build.threads = settings.threads;
+        build.memory = settings.memory;
+        if (settings.leaf_triangles > 0) build.leaf_triangles = settings.leaf_triangles;
+        build_hlod(std::move(plan.skirt_mesh), intermediate.path, build, site_path.filename().string() + " skirt", progress);
+        built = std::make_unique<HlodFile>(intermediate.path);
+        skirt = built.get();
+        header = skirt->header();
+    }
+    header.source = site_path.filename().string() + " embedded in " + terrain_path.filename().string();
+    // GEOR: the terrain's, where its origin is an offset in its CRS (not a tangent point, which needs TERR).
+    if (!terrain.grid().tangent_frame()) {
+        header.crs = terrain.header().crs;
+        std::copy(std::begin(terrain.header().geo_origin), std::end(terrain.header().geo_origin), header.geo_origin);
+    }
+    std::vector<uint8_t> section = encode_embedding(r);
+    report.embd_bytes = section.size();
+    HlodWriter writer(output);
+    if (skirt)
+        for (const HlodNode& n : skirt->nodes()) {
+            progress.check();
+            writer.add_cube(n, skirt->read_payload(n));
+        }
+    writer.set_section_head(kEmbeddingTag, std::move(section));
+    progress.check();
+    writer.finish(header);
+    std::error_code ec;
+    report.file_bytes = fs::file_size(output, ec);
+    report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return report;
+}
+
+}  // namespace strata

@@ -1,0 +1,137 @@
+// The file that keeps an embedding (HYBRID.md §2, FORMAT.md §4.10): what `strata embed` computes once
+// per site and terrain, so that a scene reloads it without recomputing. It is the skirt as a .hlod of its
+// own (built with its open boundaries locked, in the terrain's model frame) plus a section EMBD that says
+// which terrain and which site it joins, where the site stands on the terrain, and the zone of grid cells
+// it replaces.
+//
+// The skirt's frame: its model coordinates are the terrain's (the skirt was built from the embedding plan's
+// skirt mesh, whose origin + positions are terrain model coordinates), so a node drawing it with the
+// terrain's node matrix puts it in place; its GEOR, where it has one, is the terrain's.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "preprocess/footprint.h"
+#include "preprocess/hlod_format.h"
+#include "preprocess/mesh.h"
+#include "preprocess/progress.h"
+
+namespace strata {
+
+struct TerrainSite;
+
+inline constexpr char kEmbeddingTag[5] = "EMBD";
+inline constexpr uint32_t kEmbeddingVersion = 1;
+
+// Section EMBD, decoded (FORMAT.md §4.10 gives its bytes).
+struct EmbeddingRecord {
+    uint32_t version = kEmbeddingVersion;
+    // The terrain and the site as the file names them: relative to the embedding file's folder where
+    // they can be (embedded_path resolves them), else absolute; and their fingerprints (model_fingerprint).
+    std::string terrain_file, site_file;
+    uint32_t terrain_fingerprint = 0, site_fingerprint = 0;
+    glm::dmat4 placement{1.0};   // the site's node frame (its model coordinates) → the terrain's
+    uint32_t terrain_levels = 0;  // the terrain's L (max_level)
+    uint32_t zone_level = 0;      // m
+    double height_difference = 0;  // ΔH, metres
+    bool zone_capped = false;
+    bool standing = false;         // a closed site: no zone, no skirt (the model has no cubes)
+    uint64_t columns = 0, rows = 0;  // the terrain's raster
+    uint64_t boundary_vertices = 0;  // the site's boundary ring (the footprint's points)
+    CellCovers zone;                 // level-m cells (size 2^(L−m) raster steps); empty when standing
+
+    size_t cells(CellCover cover) const;  // how many of the zone's cells have this cover
+};
+
+std::vector<uint8_t> encode_embedding(const EmbeddingRecord& record);
+// Throws std::runtime_error "<what>: ..." naming the problem (a short section, an unknown version, values
+// out of range: a zone off the raster, a cell size that is not level m's).
+EmbeddingRecord decode_embedding(std::span<const uint8_t> bytes, const std::string& what);
+// The file's EMBD (its CRC checked). Throws std::runtime_error naming the file when it has none, or it
+// is corrupt or of an unknown version.
+EmbeddingRecord read_embedding(const HlodFile& file);
+
+// What identifies a model's content, cheaply: CRC-32C of the checksums of its sections MODL, NODE and,
+// where it has them, GEOR and TERR (the node table holds every cube's checksum).
+uint32_t model_fingerprint(const HlodFile& file);
+
+// A file an embedding names, found from the embedding file's own path.
+std::filesystem::path embedded_path(const std::filesystem::path& embedding_file, const std::string& stored);
+// Throws std::runtime_error naming both files when `terrain` (or `site`) is not the one the embedding
+// was made for (its fingerprint differs).
+void check_embedded_terrain(const EmbeddingRecord& record, const std::filesystem::path& embedding_file, const HlodFile& terrain);
+void check_embedded_site(const EmbeddingRecord& record, const std::filesystem::path& embedding_file, const HlodFile& site);
+
+// ---- the site ------------------------------------------------------------------------------------
+
+// What the embedding reads of a site .hlod: its coarsest level as a mesh (its open boundary is the
+// finest level's when the model's boundary is locked), in the site's model coordinates: origin + the
+// decoded lattice offsets, in double.
+struct SiteModel {
+    std::shared_ptr<const HlodFile> file;
+    Mesh coarsest;
+    bool open = false;  // it has an open boundary (else it stands)
+};
+// Throws std::runtime_error naming the file when it cannot be read, and InputError when its open boundary
+// is not locked ("rebuild it with strata build --lock-boundary").
+SiteModel open_site(const std::filesystem::path& path);
+
+// A cube's vertices in its model's coordinates (origin + lattice offsets, in double), as a mesh.
+Mesh cube_mesh(const HlodHeader& header, const HlodNode& node, const CubeData& cube);
+
+// ΔH over every vertex of the site's finest level, placed by `site_to_terrain`: a cube at a time, on
+// `threads` threads (0: every core).
+double site_height_difference(const TerrainSite& terrain, const HlodFile& site, const glm::dmat4& site_to_terrain, int threads,
+                              const Progress& progress = {});
+
+// ---- placing the site ----------------------------------------------------------------------------
+
+struct SitePlacement {
+    // --at: longitude and latitude (degrees, on the terrain CRS's datum) of the centroid of the boundary's
+    // vertices; the site is then lifted so that the mean of (ground − site) over them is 0. A standing site
+    // (no boundary): the centroid of its coarsest level's vertices, lifted until the lowest of them, against
+    // the ground, touches it.
+    std::optional<std::array<double, 2>> at;
+    double scale = 1;    // about the boundary's centroid, before the rest
+    double heading = 0;  // degrees, clockwise seen from above (a compass turn), about the centroid
+};
+
+// The site's node frame → the terrain's. With `at`: as SitePlacement says. Without: from the site's
+// own georeference (a translation in the terrain's CRS; through PROJ, fitted at the site's centre, in
+// another); InputError naming the file when it has none, and naming both CRSs when one cannot be mapped to
+// the other. Scale and heading apply about the centroid in either case.
+glm::dmat4 place_site(const TerrainSite& terrain, const SiteModel& site, const SitePlacement& placement, const std::string& what);
+
+// ---- the embedding file --------------------------------------------------------------------------
+
+struct EmbedSettings {
+    SitePlacement placement;
+    int threads = 0;      // 0: every core
+    uint64_t memory = 0;  // the skirt's build (BuildSettings::memory); 0: its default
+    int leaf_triangles = 0;  // the skirt's build (BuildSettings::leaf_triangles); 0: its default
+};
+
+struct EmbedReport {
+    EmbeddingRecord record;
+    uint64_t skirt_triangles = 0;
+    uint64_t embd_bytes = 0, file_bytes = 0;
+    double seconds = 0;
+};
+
+// strata embed TERRAIN SITE -o OUT: plans the embedding of `site` (a .hlod) on `terrain` (a terrain
+// .hlod), builds its skirt and writes the embedding file. Throws InputError for input that cannot be
+// embedded (naming the file), Cancelled, and std::runtime_error for read or write failures; in every case
+// no output is left behind (a complete earlier file at `output` stays as it was).
+EmbedReport build_embedding(const std::filesystem::path& terrain, const std::filesystem::path& site, const std::filesystem::path& output,
+                            const EmbedSettings& settings, const Progress& progress = {});
+
+}  // namespace strata

@@ -1,0 +1,87 @@
+#!/usr/bin/env bash
+# strata embed (issue 18): a small open site, built with --lock-boundary, embedded in the olinda terrain
+# with --at writes an embedding file that info describes and verify accepts; a closed site stands; an
+# unlocked site, a site without a place, a terrain that is none, a site off the raster, a corrupt EMBD and
+# an unwritable output fail by name (status 1, or 2 for arguments), leaving no output.
+source "$(dirname "$0")/common.sh"
+dem=$2/data/olinda_dem.tif
+[ -s "$dem" ] || { echo "data/olinda_dem.tif missing: run scripts/setup.sh"; exit 1; }
+expect_success "build terrain" "$STRATA" build -q "$dem" -o "$WORK/olinda.hlod"
+
+# A bumpy square patch 400 m wide (40 × 40 quads of 10 m) around its own origin, as OFF.
+awk 'BEGIN {
+    n = 40; print "OFF"; print (n + 1) * (n + 1), 2 * n * n, 0
+    for (y = 0; y <= n; y++) for (x = 0; x <= n; x++) printf "%d %d %.4f\n", 10 * x - 200, 10 * y - 200, 2 * sin(x / 3) * cos(y / 4)
+    for (y = 0; y < n; y++) for (x = 0; x < n; x++) {
+        a = y * (n + 1) + x; printf "3 %d %d %d\n3 %d %d %d\n", a, a + 1, a + n + 2, a, a + n + 2, a + n + 1
+    }
+}' >"$WORK/patch.off"
+expect_success "build the site locked" "$STRATA" build -q "$WORK/patch.off" --lock-boundary -o "$WORK/site.hlod"
+expect_success "build the site unlocked" "$STRATA" build -q "$WORK/patch.off" -o "$WORK/loose.hlod"
+write_octahedron "$WORK/statue.off"
+expect_success "build a closed site" "$STRATA" build -q "$WORK/statue.off" --lock-boundary -o "$WORK/statue.hlod"
+
+# Near the raster's centre (34°52'16"W, 7°59'43"S).
+at=-34.8710,-7.9952
+mkdir -p "$WORK/out"
+expect_success "embed" "$STRATA" embed "$WORK/olinda.hlod" "$WORK/site.hlod" -o "$WORK/out/site_on_olinda.hlod" --at "$at"
+for line in "embedded in .*olinda.hlod, [0-9.]* s" "^  zone        level [0-9]* of 0 … [0-9]* (cells of [0-9]* samples): [1-9][0-9]* partly, [0-9]* wholly covered" \
+    "^  ΔH          [0-9.]* m" "^  skirt       [1-9][0-9]* triangles, 160 boundary vertices" "^  bytes       EMBD [0-9]* ([0-9.]* a boundary vertex), file [0-9]*"; do
+    checks=$((checks + 1)); grep -q -- "$line" "$WORK/out.txt" || fail "embed's report lacks '$line': $(cat "$WORK/out.txt")"
+done
+cp "$WORK/out.txt" "$WORK/report.txt"
+expect_success "info" "$STRATA" info "$WORK/out/site_on_olinda.hlod"
+checks=$((checks + 1)); grep -q "^embedding   ../site.hlod on terrain ../olinda.hlod" "$WORK/out.txt" || fail "info: no embedding: $(cat "$WORK/out.txt")"
+checks=$((checks + 1)); grep -q "^zone        level [0-9]* of 0 … [0-9]*, cells of [0-9]* samples" "$WORK/out.txt" || fail "info: no zone: $(cat "$WORK/out.txt")"
+checks=$((checks + 1)); grep -q "^placement   site → terrain: translation .*, scale 1, heading 0°" "$WORK/out.txt" || fail "info: no placement: $(cat "$WORK/out.txt")"
+checks=$((checks + 1)); grep -q "boundary locked" "$WORK/out.txt" || fail "info: the skirt's boundary is not locked: $(cat "$WORK/out.txt")"
+expect_success "verify" "$STRATA" verify "$WORK/out/site_on_olinda.hlod"
+checks=$((checks + 1)); grep -q ": ok: .*the boundary locked at every level, its embedding sound" "$WORK/out.txt" || fail "verify: $(cat "$WORK/out.txt")"
+# Turned and scaled, the same site is embedded too; quiet says nothing.
+expect_success "embed turned and scaled" "$STRATA" embed -q "$WORK/olinda.hlod" "$WORK/site.hlod" -o "$WORK/turned.hlod" --at "$at" --scale 1.5 --heading 30 --threads 1
+checks=$((checks + 1)); [ ! -s "$WORK/out.txt" ] || fail "embed -q printed: $(cat "$WORK/out.txt")"
+expect_success "info turned" "$STRATA" info "$WORK/turned.hlod"
+checks=$((checks + 1)); grep -q "scale 1.5, heading 30°" "$WORK/out.txt" || fail "info: not turned and scaled: $(grep placement "$WORK/out.txt")"
+
+# A closed site stands: nothing cut, a file without cubes.
+expect_success "embed a closed site" "$STRATA" embed "$WORK/olinda.hlod" "$WORK/statue.hlod" -o "$WORK/statue_on_olinda.hlod" --at "$at"
+checks=$((checks + 1)); grep -q "stands on .*nothing cut" "$WORK/out.txt" || fail "a closed site: $(cat "$WORK/out.txt")"
+expect_success "verify a standing site's file" "$STRATA" verify "$WORK/statue_on_olinda.hlod"
+expect_success "info a standing site's file" "$STRATA" info "$WORK/statue_on_olinda.hlod"
+checks=$((checks + 1)); grep -q "standing: a closed mesh on the ground" "$WORK/out.txt" || fail "info: not standing: $(cat "$WORK/out.txt")"
+
+# Refusals, each leaving no output.
+x=$WORK/x.hlod
+expect_failure "an unlocked site" "loose.hlod: its open boundary is not locked; rebuild it with strata build --lock-boundary" \
+    "$STRATA" embed "$WORK/olinda.hlod" "$WORK/loose.hlod" -o "$x" --at "$at"
+expect_usage "no place" "site.hlod has no georeference (CRS): place it with --at LON,LAT" "$STRATA" embed "$WORK/olinda.hlod" "$WORK/site.hlod" -o "$x"
+expect_usage "a bad --at" "--at takes a longitude and a latitude" "$STRATA" embed "$WORK/olinda.hlod" "$WORK/site.hlod" -o "$x" --at 34.8
+expect_usage "no output" "--output is required" "$STRATA" embed "$WORK/olinda.hlod" "$WORK/site.hlod" --at "$at"
+expect_usage "a bad scale" "scale" "$STRATA" embed "$WORK/olinda.hlod" "$WORK/site.hlod" -o "$x" --at "$at" --scale 0
+expect_failure "a missing terrain" "nowhere.hlod" "$STRATA" embed "$WORK/nowhere.hlod" "$WORK/site.hlod" -o "$x" --at "$at"
+expect_failure "a missing site" "nosite.hlod" "$STRATA" embed "$WORK/olinda.hlod" "$WORK/nosite.hlod" -o "$x" --at "$at"
+expect_failure "a terrain that is none" "site.hlod: not a terrain" "$STRATA" embed "$WORK/site.hlod" "$WORK/site.hlod" -o "$x" --at "$at"
+expect_failure "a site off the raster" "site.hlod: placed at .* it lies wholly off the terrain's raster" \
+    "$STRATA" embed "$WORK/olinda.hlod" "$WORK/site.hlod" -o "$x" --at -30,-8
+expect_failure "a site reaching off the raster" "site.hlod: the mesh reaches outside the terrain's raster" \
+    "$STRATA" embed "$WORK/olinda.hlod" "$WORK/site.hlod" -o "$x" --at -34.9152,-7.9507
+expect_failure "an unwritable output" "$WORK/nowhere/x.hlod: cannot create the output file" "$STRATA" embed "$WORK/olinda.hlod" "$WORK/site.hlod" -o "$WORK/nowhere/x.hlod" --at "$at"
+checks=$((checks + 1)); [ -z "$(ls "$WORK" | grep '^x.hlod')" ] || fail "a refused embedding left $(ls "$WORK" | grep '^x.hlod')"
+
+# A byte flipped in EMBD: info and verify name the file and the section.
+cp "$WORK/out/site_on_olinda.hlod" "$WORK/corrupt.hlod"
+python3 - "$WORK/corrupt.hlod" <<'EOF'
+import struct, sys
+data = bytearray(open(sys.argv[1], 'rb').read())
+count = struct.unpack_from('<I', data, 12)[0]
+for i in range(count):
+    tag, _, offset = struct.unpack_from('<4sIQ', data, 32 + 32 * i)
+    if tag == b'EMBD':
+        data[offset + 20] ^= 0x10
+open(sys.argv[1], 'wb').write(data)
+EOF
+expect_failure "info on a corrupt EMBD" "corrupt.hlod: section 'EMBD' checksum mismatch" "$STRATA" info "$WORK/corrupt.hlod"
+expect_failure "verify on a corrupt EMBD" "corrupt.hlod: section 'EMBD' checksum mismatch" "$STRATA" verify "$WORK/corrupt.hlod"
+
+cat "$WORK/report.txt"
+finish
