@@ -95,9 +95,11 @@ EmbeddingRecord decode_embedding(std::span<const uint8_t> bytes, const std::stri
     if (r.standing) {
         if (z.width != 0 || z.height != 0) throw std::runtime_error(what + ": a standing site with a zone");
     } else {
-        if (z.size != int64_t(1) << (r.terrain_levels - r.zone_level))
+        // The zone's cells are level m − 1's (embedding.h), m ≥ 1.
+        if (r.zone_level == 0) throw std::runtime_error(what + ": zone level 0 (an embedding is drawn from level 1 at the coarsest)");
+        if (z.size != int64_t(1) << (r.terrain_levels - r.zone_level + 1))
             throw std::runtime_error(what + ": zone cells of " + std::to_string(z.size) + " raster steps, not level " +
-                                     std::to_string(r.zone_level) + "'s " + std::to_string(int64_t(1) << (r.terrain_levels - r.zone_level)));
+                                     std::to_string(r.zone_level - 1) + "'s " + std::to_string(int64_t(1) << (r.terrain_levels - r.zone_level + 1)));
         // Every cell of the box starts before the raster's last sample.
         const auto inside = [&](int64_t first, int64_t count, uint64_t samples) {
             return first >= 0 && count > 0 && count <= int64_t(samples) && first <= int64_t(samples) &&

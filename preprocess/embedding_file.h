@@ -47,7 +47,7 @@ struct EmbeddingRecord {
     bool standing = false;         // a closed site: no zone, no skirt (the model has no cubes)
     uint64_t columns = 0, rows = 0;  // the terrain's raster
     uint64_t boundary_vertices = 0;  // the site's boundary ring (the footprint's points)
-    CellCovers zone;                 // level-m cells (size 2^(L−m) raster steps); empty when standing
+    CellCovers zone;                 // level-(m−1) cells (size 2^(L−m+1) raster steps); empty when standing
 
     size_t cells(CellCover cover) const;  // how many of the zone's cells have this cover
 };

@@ -105,7 +105,7 @@ TEST(EmbeddingFile, EveryFieldOfTheSectionReadsBack) {
     r.terrain_fingerprint = 0xdeadbeef, r.site_fingerprint = 0x01234567;
     for (int c = 0; c < 4; ++c)
         for (int row = 0; row < 4; ++row) r.placement[c][row] = 0.1 * c - 0.37 * row + (c == 3 ? 1e6 : 0);
-    r.terrain_levels = 5, r.zone_level = 3;
+    r.terrain_levels = 5, r.zone_level = 4;  // cells of level 3: 4 raster steps
     r.height_difference = 12.625;
     r.zone_capped = true;
     r.columns = 97, r.rows = 81;
@@ -122,7 +122,7 @@ TEST(EmbeddingFile, EveryFieldOfTheSectionReadsBack) {
     EXPECT_EQ(back.site_fingerprint, r.site_fingerprint);
     EXPECT_EQ(back.placement, r.placement);
     EXPECT_EQ(back.terrain_levels, 5u);
-    EXPECT_EQ(back.zone_level, 3u);
+    EXPECT_EQ(back.zone_level, 4u);
     EXPECT_EQ(back.height_difference, 12.625);
     EXPECT_TRUE(back.zone_capped);
     EXPECT_FALSE(back.standing);
@@ -138,7 +138,7 @@ TEST(EmbeddingFile, EveryFieldOfTheSectionReadsBack) {
     EXPECT_EQ(back.cells(CellCover::partly), 6u);
     EXPECT_EQ(back.cells(CellCover::whole), 1u);
 
-    // What a reader refuses, by name: another version, a cell size that is not level m's, a zone off the
+    // What a reader refuses, by name: another version, a cell size that is not level m − 1's, a zone off the
     // raster, a short section, bytes past the end.
     EmbeddingRecord other = r;
     other.version = 2;
