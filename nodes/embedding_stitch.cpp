@@ -42,8 +42,10 @@ struct RootBoundary {
 };
 
 RootBoundary root_boundary(const HlodModel& model) {
-    const HlodCube& root = model.cubes()[model.root()];
-    if (!root.data) throw std::runtime_error("its root cube is not resident");
+    // Read from the file: a streamed model may not hold its root yet.
+    const HlodCube& resident = model.cubes()[model.root()];
+    const HlodCube root{resident.node, resident.data ? resident.data : std::make_shared<const CubeData>(HlodFile(model.path()).read_cube(resident.node)),
+                        resident.children};
     std::vector<uint64_t> key(root.data->vertex_count());
     for (uint32_t v = 0; v < key.size(); ++v) key[v] = lattice_key(model.lattice_steps(root, v));
     std::map<std::pair<uint64_t, uint64_t>, int> uses;

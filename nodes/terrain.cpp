@@ -5,6 +5,7 @@
 
 #include "engine/scene/cull_visitor.h"
 #include "engine/scene/visitor.h"
+#include "preprocess/embedding_file.h"
 
 namespace strata {
 
@@ -100,7 +101,36 @@ std::shared_ptr<Embedding> Terrain::embed(std::shared_ptr<HlodModel> skirt, std:
     return embedding;
 }
 
-bool Terrain::remove_embedding(const Embedding* embedding) { return remove(embedding); }
+NodePtr Terrain::load_embedding(const std::filesystem::path& file) {
+    const HlodFile embedding_file(file);
+    const EmbeddingRecord record = read_embedding(embedding_file);
+    check_embedded_terrain(record, file, HlodFile(ground_->path()));
+    const std::filesystem::path site_path = embedded_path(file, record.site_file);
+    check_embedded_site(record, file, HlodFile(site_path));
+    auto site = HlodModel::open(site_path);
+    site->set_pixel_error(ground_->pixel_error() > 0 ? ground_->pixel_error() : 1.0);
+    NodePtr node;
+    if (record.standing) {
+        auto placement = std::make_shared<Transform>();
+        placement->set_matrix(record.placement);
+        placement->set_name(file.stem().string());
+        placement->add(std::move(site));
+        add(placement);
+        node = placement;
+    } else {
+        auto skirt = HlodModel::open(file);
+        skirt->set_pixel_error(site->pixel_error());
+        node = embed(std::move(skirt), std::move(site), record.placement, record.zone_level, record.zone, file.stem().string());
+    }
+    files_[node.get()] = file;
+    return node;
+}
+
+bool Terrain::remove_embedding(const Node* embedding) {
+    if (embedding == ground_.get() || !remove(embedding)) return false;
+    files_.erase(embedding);
+    return true;
+}
 
 std::vector<std::shared_ptr<Embedding>> Terrain::embeddings() const {
     std::vector<std::shared_ptr<Embedding>> out;

@@ -10,6 +10,8 @@
 //                          └─ EmbeddingSeams
 #pragma once
 
+#include <filesystem>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -88,8 +90,16 @@ public:
     // the level before). Throws std::runtime_error naming `name` when they do not fit together.
     std::shared_ptr<Embedding> embed(std::shared_ptr<HlodModel> skirt, std::shared_ptr<HlodModel> site, const glm::dmat4& site_to_terrain,
                                      uint32_t drawn_from, CellCovers zone, const std::string& name);
-    bool remove_embedding(const Embedding* embedding);
+    // Loads an embedding file (preprocess/embedding_file.h: what `strata embed` writes): its skirt and
+    // the site it names, both streamed, checked to be the models it was made for. A standing site (a
+    // closed mesh) comes back as its placement's Transform, which the terrain simply holds. Throws
+    // std::runtime_error naming the files.
+    NodePtr load_embedding(const std::filesystem::path& file);
+    // The embeddings and standing sites it holds.
+    bool remove_embedding(const Node* embedding);
     std::vector<std::shared_ptr<Embedding>> embeddings() const;
+    // The files its embeddings were loaded from (those made in code have none), by node.
+    const std::map<const Node*, std::filesystem::path>& embedding_files() const { return files_; }
 
 protected:
     void traverse(NodeVisitor& visitor) override;
@@ -97,6 +107,7 @@ protected:
 private:
     std::shared_ptr<const HlodModel::CubeRuns> take_ground_selection(std::span<const uint32_t> cubes, const Kappas& kappa);
     std::shared_ptr<HlodModel> ground_;
+    std::map<const Node*, std::filesystem::path> files_;
 };
 
 }  // namespace strata
