@@ -12,8 +12,9 @@ namespace strata {
 
 namespace {
 
-const std::array<const NodeType*, 7> kNodeTypes = {&kHlodType,  &kGeometryType,         &kTransformType,    &kGroupType,
-                                                   &kDirectionalLightType, &kAmbientLightType, &kNodeBaseType};
+const std::array<const NodeType*, 9> kNodeTypes = {&kHlodType,      &kGeometryType,         &kTerrainType,      &kEmbeddingType,
+                                                   &kTransformType, &kGroupType,            &kDirectionalLightType, &kAmbientLightType,
+                                                   &kNodeBaseType};
 
 // Marks a metatable as a node's (a key no script can name: the address of this variable).
 const char kNodeTag = 0;

@@ -53,6 +53,8 @@ extern const NodeType kNodeBaseType;      // wrap_scene.cpp
 extern const NodeType kGroupType;         // wrap_group.cpp
 extern const NodeType kTransformType;     // wrap_group.cpp
 extern const NodeType kHlodType;          // wrap_hlod.cpp
+extern const NodeType kTerrainType;       // wrap_terrain.cpp
+extern const NodeType kEmbeddingType;     // wrap_terrain.cpp
 extern const NodeType kGeometryType;      // wrap_geometry.cpp
 extern const NodeType kDirectionalLightType;  // wrap_light.cpp
 extern const NodeType kAmbientLightType;      // wrap_light.cpp

@@ -1,0 +1,83 @@
+-- Terrains with embedded sites from Lua: strata.embed makes an embedding file once, strata.terrain
+-- loads a terrain with embeddings (files, or sites to embed), its methods and node types; a rendered
+-- view draws the site; bad arguments are refused by name. arg[2] is a folder to write in.
+local strata = require "strata"
+local out = assert(arg[2])
+local here = debug.getinfo(1, "S").source:match("^@(.*)/[^/]*$")
+local dem = here .. "/../../data/olinda_dem.tif"
+if not io.open(dem) then error("data/olinda_dem.tif missing: run scripts/setup.sh") end
+
+-- The terrain, and an open site 300 m wide (a bumpy grid) built with its boundary locked.
+local terrain_file = strata.build{ input = dem, output = out .. "/terrain_api_olinda.hlod", cube_cells = 16 }.output
+local off = assert(io.open(out .. "/terrain_api_site.off", "w"))
+local n = 30
+off:write("OFF\n", (n + 1) * (n + 1), " ", 2 * n * n, " 0\n")
+for y = 0, n do for x = 0, n do off:write(("%d %d %.3f\n"):format(10 * x - 150, 10 * y - 150, 3 * math.sin(x / 3) * math.cos(y / 4))) end end
+for y = 0, n - 1 do
+    for x = 0, n - 1 do
+        local a = y * (n + 1) + x
+        off:write(("3 %d %d %d\n3 %d %d %d\n"):format(a, a + 1, a + n + 2, a, a + n + 2, a + n + 1))
+    end
+end
+off:close()
+local site_file = strata.build{ input = out .. "/terrain_api_site.off", output = out .. "/terrain_api_site.hlod", lock_boundary = true }.output
+local loose_file = strata.build{ input = out .. "/terrain_api_site.off", output = out .. "/terrain_api_loose.hlod" }.output
+local ground = strata.load(terrain_file)
+local b = ground:bounds()
+local centre = ground:to_geo{ b.center[1], b.center[2], b.center[3] }
+local at = { centre[1], centre[2] }
+
+-- strata.embed writes the file; strata.terrain loads it.
+local file = strata.embed{ terrain = terrain_file, site = site_file, at = at, output = out .. "/terrain_api_embedding.hlod" }
+assert(file == out .. "/terrain_api_embedding.hlod" and io.open(file, "rb"), "no embedding file")
+local t = strata.terrain{ model = terrain_file, embed = { file }, name = "olinda" }
+assert(t:type() == "terrain" and t:name() == "olinda", t:type())
+assert(t:ground():type() == "hlod" and t:ground():info().terrain)
+local list = t:embeddings()
+assert(#list == 1 and list[1]:type() == "embedding", #list)
+local e = list[1]
+local info = e:info()
+assert(info.zone_level >= 1 and info.boundary_vertices == 4 * n and info.border_steps > 0, info.boundary_vertices)
+assert(e:site():type() == "hlod" and e:skirt():type() == "hlod")
+assert(tostring(t):find("1 embedded", 1, true), tostring(t))
+
+-- Drawn from close by: the site is drawn, its skirt around it.
+local scene = strata.scene()
+scene:add(t)
+local camera = strata.camera{ width = 160, height = 90, fov = 50 }
+local h = ground:height_at{ b.center[1], b.center[2] }
+camera:look_at({ b.center[1] + 300, b.center[2] - 300, h + 250 }, { b.center[1], b.center[2], h }, { 0, 0, 1 })
+local frame = strata.render(scene, camera, { channels = "RGBA,Z,id", background = { 1, 0, 1, 1 } })
+assert(e:drawn(), "the embedding is not drawn from 470 m")
+local r, g, bl, _, _, id = frame:pixel(80, 45)
+assert(id > 0 and not (r > 0.9 and g < 0.1 and bl > 0.9), ("the centre shows the background: %g %g %g id %d"):format(r, g, bl, id))
+
+-- A site given to embed is embedded once (the file beside the site unless output says where), then
+-- reused; removing takes it out.
+local second = t:embed{ site = site_file, at = at, heading = 30 }
+assert(second:type() == "embedding" and io.open(out .. "/terrain_api_site_on_terrain_api_olinda.hlod", "rb"))
+assert(#t:embeddings() == 2)
+assert(t:remove(second) and #t:embeddings() == 1 and not t:remove(second))
+assert(not t:remove(t:ground()), "the ground is not an embedding")
+
+-- Refused by name.
+local function refused(f, ...)
+    local ok, err = pcall(f)
+    assert(not ok, "accepted")
+    for _, part in ipairs{...} do assert(tostring(err):find(part, 1, true), err) end
+end
+refused(function() strata.terrain{ model = out .. "/missing.hlod" } end, "missing.hlod")
+refused(function() strata.terrain{ model = site_file } end, "terrain_api_site.hlod", "not a terrain")
+refused(function() strata.terrain{ model = 42 } end, "option 'model'")
+refused(function() strata.terrain{ model = terrain_file, embed = 7 } end, "option 'embed'")
+refused(function() strata.terrain{ model = terrain_file, embed = { 7 } } end, "an embedding is a file name")
+refused(function() strata.terrain{ model = terrain_file, colour = 1 } end, "colour")
+refused(function() t:embed{ site = loose_file, at = at } end, "terrain_api_loose.hlod", "not locked")
+refused(function() t:embed{ site = site_file, at = { 1 } } end, "{lon, lat}")
+refused(function() t:embed{ site = site_file, at = at, scale = -1 } end, "scale")
+refused(function() t:embed{ site = site_file, at = { 0 / 0, 1 } } end, "{lon, lat}")
+refused(function() t:embed{ at = at } end, "option 'site'")
+refused(function() t:embed(out .. "/terrain_api_site.hlod") end, "terrain_api_site.hlod")
+refused(function() strata.embed{ site = site_file, at = at } end, "option 'terrain'")
+refused(function() t.embed(strata.group(), file) end, "bad argument #1")
+print("terrain_api: ok")
