@@ -45,4 +45,40 @@ for k = 1, 3 do
 end
 LUA
 expect_success "the flight keeps its clearance" "$STRATA" run "$WORK/clearance.lua" "$WORK/olinda.hlod" "$WORK/terrain/flight.json"
+
+# A site on the terrain: a bumpy patch with an open boundary (stitched into the ground) and a closed
+# octahedron (standing), each at the centre, three 1280×720 views over magenta: the background shows at
+# the top-left corner, the site at the centre of the view from above, and no magenta around it there (a
+# crack at the join would show).
+awk 'BEGIN {
+    n = 40; print "OFF"; print (n + 1) * (n + 1), 2 * n * n, 0
+    for (y = 0; y <= n; y++) for (x = 0; x <= n; x++) printf "%d %d %.4f\n", 10 * x - 200, 10 * y - 200, 20 * sin(x / 3) * cos(y / 4)
+    for (y = 0; y < n; y++) for (x = 0; x < n; x++) {
+        a = y * (n + 1) + x; printf "3 %d %d %d\n3 %d %d %d\n", a, a + 1, a + n + 2, a, a + n + 2, a + n + 1
+    }
+}' >"$WORK/patch.off"
+expect_success "build the open site" "$STRATA" build -q "$WORK/patch.off" --lock-boundary -o "$WORK/patch.hlod"
+expect_success "build the closed site" "$STRATA" build -q "$WORK/scans/octa.off" --lock-boundary -o "$WORK/octa.hlod"
+pixels=$root/tests/support/png_pixels.py
+for site in patch octa; do
+    mkdir -p "$WORK/$site"
+    expect_success "site_on_terrain $site" "$STRATA" run "$root/scripts/site_on_terrain.lua" "$WORK/olinda.hlod" "$WORK/$site.hlod" "$WORK/$site"
+    for view in 1 2 3; do
+        image=$WORK/$site/view$view.png
+        checks=$((checks + 1)); [ "$(python3 "$pixels" size "$image")" = "1280 720" ] || fail "$site view$view: not 1280×720"
+        checks=$((checks + 1)); [ "$(python3 "$pixels" pixel "$image" 0 0)" = "255 0 255 255" ] || fail "$site view$view: no magenta at the top-left"
+    done
+    checks=$((checks + 1)); [ "$(python3 "$pixels" box "$WORK/$site/view3.png" 1,0,1,1 560 280 720 440 | awk '{print $5}')" = "25600" ] ||
+        fail "$site: magenta around the site from above: $(python3 "$pixels" box "$WORK/$site/view3.png" 1,0,1,1 560 280 720 440)"
+done
+checks=$((checks + 1)); [ "$(python3 "$pixels" pixel "$WORK/patch/view3.png" 640 360)" != "$(python3 "$pixels" pixel "$WORK/octa/view3.png" 640 360)" ] ||
+    fail "the two sites look the same from above"
+# The embedding file is made once: a second run reuses it as it is.
+cp "$WORK/patch/site_on_terrain.hlod" "$WORK/first.hlod"
+touch -d '2000-01-01' "$WORK/patch/site_on_terrain.hlod"
+expect_success "site_on_terrain again" "$STRATA" run "$root/scripts/site_on_terrain.lua" "$WORK/olinda.hlod" "$WORK/patch.hlod" "$WORK/patch"
+checks=$((checks + 1)); [ "$(stat -c %Y "$WORK/patch/site_on_terrain.hlod")" = "$(date -d '2000-01-01' +%s)" ] || fail "the embedding file was made again"
+expect_failure "site_on_terrain without arguments" "usage: strata run site_on_terrain.lua TERRAIN.hlod SITE.hlod OUTDIR" \
+    "$STRATA" run "$root/scripts/site_on_terrain.lua"
+expect_failure "site_on_terrain on a scan" "not a terrain" "$STRATA" run "$root/scripts/site_on_terrain.lua" "$WORK/octa.hlod" "$WORK/patch.hlod" "$WORK/patch"
 finish
