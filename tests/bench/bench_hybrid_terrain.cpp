@@ -9,7 +9,10 @@
 // scan drawn over the full grid). Medians over the views; each time the median of 3 renders. Asserts
 // nothing.
 //
-//   bench_hybrid_terrain [VIEWS [SITE]]      (defaults 24 600)
+//   bench_hybrid_terrain [VIEWS [SITE [trinidad]]]      (defaults 24 600)
+//
+// `trinidad` embeds the site in data/trinidad.nc instead (2401 × 1201 samples at 3″, 5.8 M triangles at
+// full resolution), at its centre.
 //
 // A frame's time is the renderer's, from the start of culling to glFinish() returning (llvmpipe
 // rasterizes on the CPU: its threads share this machine's cores).
@@ -18,6 +21,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <string>
 
 #include <glm/gtc/constants.hpp>
 
@@ -113,23 +117,26 @@ Frame render(Renderer& renderer, Node& scene, const Camera& camera, gl::Framebuf
 int main(int argc, char** argv) try {
     const int views = argc > 1 ? std::atoi(argv[1]) : 24;
     const double width = argc > 2 ? std::atof(argv[2]) : 600;
+    const bool trinidad = argc > 3 && std::string(argv[3]) == "trinidad";
     const auto data = std::filesystem::path(STRATA_SOURCE_DIR) / "data";
     if (views < 1 || !(width > 0)) {
         std::fprintf(stderr, "usage: bench_hybrid_terrain [VIEWS >= 1 [SITE > 0 metres]]\n");
         return 2;
     }
-    if (!std::filesystem::exists(data / "olinda_dem.tif") || !std::filesystem::exists(data / "bunny.off")) {
-        std::fprintf(stderr, "bench_hybrid_terrain: data/olinda_dem.tif or data/bunny.off missing: run scripts/setup.sh\n");
+    const std::filesystem::path dem = data / (trinidad ? "trinidad.nc" : "olinda_dem.tif");
+    if (!std::filesystem::exists(dem) || !std::filesystem::exists(data / "bunny.off")) {
+        std::fprintf(stderr, "bench_hybrid_terrain: %s or data/bunny.off missing: run scripts/setup.sh\n", dem.c_str());
         return 1;
     }
     const test::TempDir dir;
     auto start = Clock::now();
     TerrainSettings terrain_settings;
-    terrain_settings.cube_cells = 16;
-    build_terrain({data / "olinda_dem.tif"}, dir / "terrain.hlod", terrain_settings, "olinda_dem.tif");
+    terrain_settings.cube_cells = trinidad ? 64 : 16;
+    if (trinidad) terrain_settings.crs = "EPSG:4326", terrain_settings.elevation_unit = "ft";
+    build_terrain({dem}, dir / "terrain.hlod", terrain_settings, dem.filename().string());
     const double terrain_seconds = seconds_since(start);
     const TerrainSite terrain = TerrainSite::open(dir / "terrain.hlod");
-    const auto centre = terrain.georeference->sample_position(55, 55, 0);
+    const auto centre = terrain.georeference->sample_position(double(terrain.grid().columns / 2), double(terrain.grid().rows / 2), 0);
     const double cx = (*centre)[0], cy = (*centre)[1];
     Mesh site = site_on_ground(terrain, data / "bunny.off", cx, cy, width);
     start = Clock::now();
@@ -161,6 +168,7 @@ int main(int argc, char** argv) try {
     camera.width = 1280, camera.height = 720, camera.fov_y_degrees = 50;
     gl::Framebuffer target({.width = 1280, .height = 720, .samples = 1});
     Renderer renderer;
+    std::vector<double> hybrid_triangles, full_triangles, full_frame_ms;
     std::vector<double> frame, stitch_time_share, stitch_triangle_share, fewer, faster, stitch_ms;
     size_t drawn = 0;
     for (int i = 0; i < views; ++i) {
@@ -171,6 +179,8 @@ int main(int argc, char** argv) try {
         const Frame hybrid_frame = render(renderer, *scene, camera, target);
         const Frame full_frame = render(renderer, *full, camera, target);
         frame.push_back(hybrid_frame.seconds * 1e3);
+        full_frame_ms.push_back(full_frame.seconds * 1e3);
+        hybrid_triangles.push_back(double(hybrid_frame.triangles)), full_triangles.push_back(double(full_frame.triangles));
         fewer.push_back(double(full_frame.triangles) / double(hybrid_frame.triangles));
         faster.push_back(full_frame.seconds / hybrid_frame.seconds);
         if (!embedding->drawn()) continue;
@@ -195,13 +205,15 @@ int main(int argc, char** argv) try {
         stitch_triangle_share.push_back(double(seams.size()) / double(hybrid_frame.triangles));
     }
     std::printf("terrain %s: %llu × %llu samples, built in %.2f s; site %.0f m wide, %zu boundary vertices; zone level %u%s, ΔH %.1f m\n",
-                "olinda_dem.tif", (unsigned long long)terrain.grid().columns, (unsigned long long)terrain.grid().rows, terrain_seconds, width, embedding->stitch().boundary_vertices(),
+                dem.filename().c_str(), (unsigned long long)terrain.grid().columns, (unsigned long long)terrain.grid().rows, terrain_seconds, width, embedding->stitch().boundary_vertices(),
                 plan.zone_level, plan.zone_capped ? " (capped)" : "", plan.height_difference);
     std::printf("embedding: plan %.3f s, skirt build %.3f s, skirt %zu triangles, %zu border steps\n", plan_seconds, skirt_seconds,
                 plan.skirt_mesh.triangle_count(), embedding->stitch().border_steps());
     std::printf("%d views at 1280×720, 1 px (embedding drawn in %zu), medians:\n", views, drawn);
     std::printf("  frame %.1f ms; stitch %.3f ms = %.2f %% of the frame; seam triangles %.2f %% of those drawn\n", bench::median(frame),
                 bench::median(stitch_ms), 100 * bench::median(stitch_time_share), 100 * bench::median(stitch_triangle_share));
+    std::printf("  triangles drawn %.0f (full resolution %.0f); full-resolution frame %.1f ms\n", bench::median(hybrid_triangles),
+                bench::median(full_triangles), bench::median(full_frame_ms));
     std::printf("  against the full-resolution grid and scan: %.1f× fewer triangles, %.2f× faster\n", bench::median(fewer), bench::median(faster));
     return 0;
 } catch (const std::exception& e) {
