@@ -1,6 +1,7 @@
 #include "nodes/terrain.h"
 
 #include <algorithm>
+#include <set>
 #include <stdexcept>
 
 #include "engine/scene/cull_visitor.h"
@@ -95,6 +96,18 @@ Terrain::~Terrain() { ground_->set_selection_hook(nullptr); }
 
 std::shared_ptr<Embedding> Terrain::embed(std::shared_ptr<HlodModel> skirt, std::shared_ptr<HlodModel> site, const glm::dmat4& site_to_terrain,
                                           uint32_t drawn_from, CellCovers zone, const std::string& name) {
+    // Zones that share a cell would lay two skirts over it; zones that only touch are joined through
+    // the grid edge between them, which both ring seams weld to.
+    const int64_t columns = int64_t(ground_->header().terrain->columns), rows = int64_t(ground_->header().terrain->rows);
+    std::set<std::pair<int64_t, int64_t>> cells;
+    for_each_finest_cell(zone, columns, rows, [&](int64_t x, int64_t y) { cells.insert({x, y}); });
+    for (const auto& other : embeddings()) {
+        bool shared = false;
+        for_each_finest_cell(other->stitch().models().zone, columns, rows, [&](int64_t x, int64_t y) { shared = shared || cells.count({x, y}); });
+        if (shared)
+            throw std::runtime_error(name + ": its zone overlaps the zone of " + other->name() +
+                                     ", embedded in the same terrain: two skirts cannot cover one cell (embed the two sites as one mesh)");
+    }
     EmbeddedModels models{ground_, std::move(skirt), std::move(site), site_to_terrain, drawn_from, std::move(zone)};
     auto embedding = std::make_shared<Embedding>(std::move(models), name);
     add(embedding);

@@ -87,7 +87,8 @@ public:
 
     // Embeds `site`, placed by `site_to_terrain` (its node frame to the ground's), joined by `skirt` over
     // the zone the embedding's preprocessing chose (drawn from level `drawn_from`, `zone` its covers at
-    // the level before). Throws std::runtime_error naming `name` when they do not fit together.
+    // the level before). Throws std::runtime_error naming `name` when they do not fit together, or when
+    // its zone shares a cell with another embedding's (zones that only touch are fine).
     std::shared_ptr<Embedding> embed(std::shared_ptr<HlodModel> skirt, std::shared_ptr<HlodModel> site, const glm::dmat4& site_to_terrain,
                                      uint32_t drawn_from, CellCovers zone, const std::string& name);
     // Loads an embedding file (preprocess/embedding_file.h: what `strata embed` writes): its skirt and

@@ -54,7 +54,8 @@ assert(id > 0 and not (r > 0.9 and g < 0.1 and bl > 0.9), ("the centre shows the
 
 -- A site given to embed is embedded once (the file beside the site unless output says where), then
 -- reused; removing takes it out.
-local second = t:embed{ site = site_file, at = at, heading = 30 }
+local away = ground:to_geo{ b.center[1] + 2000, b.center[2], b.center[3] }
+local second = t:embed{ site = site_file, at = { away[1], away[2] }, heading = 30 }
 assert(second:type() == "embedding" and io.open(out .. "/terrain_api_site_on_terrain_api_olinda.hlod", "rb"))
 assert(#t:embeddings() == 2)
 assert(t:remove(second) and #t:embeddings() == 1 and not t:remove(second))
@@ -73,6 +74,8 @@ refused(function() strata.terrain{ model = terrain_file, embed = 7 } end, "optio
 refused(function() strata.terrain{ model = terrain_file, embed = { 7 } } end, "an embedding is a file name")
 refused(function() strata.terrain{ model = terrain_file, colour = 1 } end, "colour")
 refused(function() t:embed{ site = loose_file, at = at } end, "terrain_api_loose.hlod", "not locked")
+refused(function() t:embed{ site = site_file, at = at, heading = 30, output = out .. "/terrain_api_turned.hlod" } end,
+        "overlaps the zone of terrain_api_embedding")
 refused(function() t:embed{ site = site_file, at = { 1 } } end, "{lon, lat}")
 refused(function() t:embed{ site = site_file, at = at, scale = -1 } end, "scale")
 refused(function() t:embed{ site = site_file, at = { 0 / 0, 1 } } end, "{lon, lat}")
