@@ -30,6 +30,9 @@ struct NodeType {
     // the statements after it, on `var`, that set what its constructor does not take.
     std::string (*constructor)(const Node& node, const script::Place& place) = nullptr;
     void (*settings)(const Node& node, const std::string& var, std::vector<std::string>& lines) = nullptr;
+    // Its constructor rebuilds its children too (a terrain's ground and embeddings): a scene script does
+    // not write them.
+    bool builds_children = false;
 };
 
 // NodeType::is for the nodes of C++ class T and those derived from it.

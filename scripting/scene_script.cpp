@@ -62,6 +62,7 @@ void SceneWriter::count_uses(const Node& node, int depth) {
         script::cannot_write(node, "lies more than " + std::to_string(kMaxScriptDepth) +
                                " levels deep: a scene script cannot nest that deep (Lua reads 200 nested blocks at most)");
     if (++uses_[&node] > 1) return;  // its children are counted once: they are written once
+    if (node_type_of(node).builds_children) return;
     if (const auto* group = dynamic_cast<const Group*>(&node))
         for (const NodePtr& child : group->children()) count_uses(*child, depth + 1);
 }
@@ -70,7 +71,7 @@ void SceneWriter::count_uses(const Node& node, int depth) {
 // its parent's; a node written before is added again by reference.
 void SceneWriter::children(const Node& node, const std::string& var, int depth) {
     const auto* group = dynamic_cast<const Group*>(&node);
-    if (!group) return;
+    if (!group || node_type_of(node).builds_children) return;
     for (const NodePtr& child : group->children()) {
         if (const auto written = shared_.find(child.get()); written != shared_.end()) {
             line(depth - 1, var + ":add(shared[" + std::to_string(written->second) + "])");

@@ -284,6 +284,7 @@ const NodeType kTerrainType = {
     .summary = terrain_summary,
     .inspect = inspect_terrain,
     .constructor = terrain_constructor,
+    .builds_children = true,
 };
 
 const NodeType kEmbeddingType = {

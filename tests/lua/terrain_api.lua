@@ -61,6 +61,12 @@ assert(#t:embeddings() == 2)
 assert(t:remove(second) and #t:embeddings() == 1 and not t:remove(second))
 assert(not t:remove(t:ground()), "the ground is not an embedding")
 
+-- A saved scene rebuilds the terrain from its files, embeddings included (not its children again).
+strata.save_scene(out .. "/terrain_api_scene.lua", { scene = scene, camera = false, bookmarks = {}, paths = {} })
+dofile(out .. "/terrain_api_scene.lua")
+local back = _G.scene:find("olinda")
+assert(back and back:type() == "terrain" and #back:embeddings() == 1 and back:count() == 2, back and back:count())
+
 -- Refused by name.
 local function refused(f, ...)
     local ok, err = pcall(f)
