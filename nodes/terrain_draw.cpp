@@ -96,9 +96,12 @@ void EmbeddingSeams::draw(DrawContext& context, const DrawItem& item) {
     gpu.seams.upload(seams);
     program.set("clip_from_anchor", std::span<const glm::mat4>(clip_from_anchor));
     program.set("world_from_anchor", std::span<const glm::mat4>(world_from_anchor));
-    program.set("base_color", glm::vec4(0.6f, 0.57f, 0.52f, 1.0f));  // the ground's, untextured (hlod_model_draw.cpp)
+    // The ground's colour, untextured (hlod_model_draw.cpp); under the ground's debug views the stitch
+    // shows in a colour of its own (hot pink, which the level palette lacks), and in wireframe its edges.
+    const HlodDebugView debug = m.terrain->debug_view();
+    program.set("base_color", debug == HlodDebugView::none ? glm::vec4(0.6f, 0.57f, 0.52f, 1.0f) : glm::vec4(1.0f, 0.1f, 0.55f, 1.0f));
     program.set("node_id", unsigned(m.terrain->id()));
-    DrawCall call{.program = program};
+    DrawCall call{.program = program, .wireframe = debug == HlodDebugView::wireframe};
     call.storage[1] = &gpu.seams;
     context.draw_instanced(call, uint32_t(seams.size()), 1);
     context.stats.triangles += triangles.size();
