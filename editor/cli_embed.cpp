@@ -77,7 +77,7 @@ int run_embed(const EmbedOptions& o) {
         std::printf("%s: %s embedded in %s, %.2f s\n", o.output.c_str(), o.site.c_str(), o.terrain.c_str(), report.seconds);
         std::printf("  zone        level %u of 0 … %u (cells of %lld samples): %zu partly, %zu wholly covered%s\n", r.zone_level,
                     r.terrain_levels, (long long)r.zone.size, r.cells(CellCover::partly), r.cells(CellCover::whole),
-                    r.zone_capped ? "; capped: ΔH asks for a coarser level, the site appears from this one" : "");
+                    r.zone_capped ? "; m capped: ΔH asks for a coarser level, the site appears from this one" : "; m as ΔH asks, not capped");
         std::printf("  ΔH          %.3f m\n", r.height_difference);
         std::printf("  skirt       %llu triangles, %llu boundary vertices\n", (unsigned long long)report.skirt_triangles,
                     (unsigned long long)r.boundary_vertices);
