@@ -54,7 +54,7 @@ struct EmbeddingRecord {
 
 std::vector<uint8_t> encode_embedding(const EmbeddingRecord& record);
 // Throws std::runtime_error "<what>: ..." naming the problem (a short section, an unknown version, values
-// out of range: a zone off the raster, a cell size that is not level m's).
+// out of range: a zone off the raster, a cell size that is not level m − 1's).
 EmbeddingRecord decode_embedding(std::span<const uint8_t> bytes, const std::string& what);
 // The file's EMBD (its CRC checked). Throws std::runtime_error naming the file when it has none, or it
 // is corrupt or of an unknown version.

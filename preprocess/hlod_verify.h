@@ -27,7 +27,7 @@ public:
 // degenerate triangles and cyclic rotation; each level watertight if level L is; with a locked boundary
 // (MODL flag bit 3), each level's open edges decoding to level L's floats; per-cube error and ε_q; a
 // terrain's heights (section HGHT) whole and decodable; an embedding's section EMBD (read_embedding: its
-// zone inside the raster, its cells level m's) and a standing site's embedding without cubes.
+// zone inside the raster, its cells level m − 1's) and a standing site's embedding without cubes.
 VerifyReport verify_hlod(const HlodFile& file, const Progress& progress = {});
 
 }  // namespace strata

@@ -1,4 +1,4 @@
-// The skirt of an embedding (HYBRID.md §2): the ground between the zone Z (the level-m cells its
+// The skirt of an embedding (HYBRID.md §2): the ground between the zone Z (the level-(m − 1) cells its
 // footprint touches) and the embedded mesh's boundary ring, triangulated at the raster's finest level in
 // raster index space. Finest cells the ring does not touch keep the grid's two triangles; a cell the
 // ring crosses is cut along it into polygons (the cell's corners outside the footprint, the ring's

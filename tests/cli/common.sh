@@ -71,6 +71,18 @@ write_grid() {
     }' >"$2"
 }
 
+# write_patch FILE [AMPLITUDE]: a bumpy square patch 400 m wide (40 × 40 quads of 10 m) around its own
+# origin, bumps of AMPLITUDE metres (2), as OFF: a site with an open boundary to embed in a terrain.
+write_patch() {
+    awk -v amplitude="${2:-2}" 'BEGIN {
+        n = 40; print "OFF"; print (n + 1) * (n + 1), 2 * n * n, 0
+        for (y = 0; y <= n; y++) for (x = 0; x <= n; x++) printf "%d %d %.4f\n", 10 * x - 200, 10 * y - 200, amplitude * sin(x / 3) * cos(y / 4)
+        for (y = 0; y < n; y++) for (x = 0; x < n; x++) {
+            a = y * (n + 1) + x; printf "3 %d %d %d\n3 %d %d %d\n", a, a + 1, a + n + 2, a, a + n + 2, a + n + 1
+        }
+    }' >"$1"
+}
+
 # kill_when FILE CMD...: runs CMD in the background and kills it (SIGKILL) once FILE exists (or after
 # a minute without it; the caller checks what it expects to find).
 kill_when() {

@@ -8,14 +8,7 @@ dem=$2/data/olinda_dem.tif
 [ -s "$dem" ] || { echo "data/olinda_dem.tif missing: run scripts/setup.sh"; exit 1; }
 expect_success "build terrain" "$STRATA" build -q "$dem" -o "$WORK/olinda.hlod"
 
-# A bumpy square patch 400 m wide (40 × 40 quads of 10 m) around its own origin, as OFF.
-awk 'BEGIN {
-    n = 40; print "OFF"; print (n + 1) * (n + 1), 2 * n * n, 0
-    for (y = 0; y <= n; y++) for (x = 0; x <= n; x++) printf "%d %d %.4f\n", 10 * x - 200, 10 * y - 200, 2 * sin(x / 3) * cos(y / 4)
-    for (y = 0; y < n; y++) for (x = 0; x < n; x++) {
-        a = y * (n + 1) + x; printf "3 %d %d %d\n3 %d %d %d\n", a, a + 1, a + n + 2, a, a + n + 2, a + n + 1
-    }
-}' >"$WORK/patch.off"
+write_patch "$WORK/patch.off"
 expect_success "build the site locked" "$STRATA" build -q "$WORK/patch.off" --lock-boundary -o "$WORK/site.hlod"
 expect_success "build the site unlocked" "$STRATA" build -q "$WORK/patch.off" -o "$WORK/loose.hlod"
 write_octahedron "$WORK/statue.off"

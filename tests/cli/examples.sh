@@ -50,13 +50,7 @@ expect_success "the flight keeps its clearance" "$STRATA" run "$WORK/clearance.l
 # octahedron (standing), each at the centre, three 1280×720 views over magenta: the background shows at
 # the top-left corner, the site at the centre of the view from above, and no magenta around it there (a
 # crack at the join would show).
-awk 'BEGIN {
-    n = 40; print "OFF"; print (n + 1) * (n + 1), 2 * n * n, 0
-    for (y = 0; y <= n; y++) for (x = 0; x <= n; x++) printf "%d %d %.4f\n", 10 * x - 200, 10 * y - 200, 20 * sin(x / 3) * cos(y / 4)
-    for (y = 0; y < n; y++) for (x = 0; x < n; x++) {
-        a = y * (n + 1) + x; printf "3 %d %d %d\n3 %d %d %d\n", a, a + 1, a + n + 2, a, a + n + 2, a + n + 1
-    }
-}' >"$WORK/patch.off"
+write_patch "$WORK/patch.off" 20
 expect_success "build the open site" "$STRATA" build -q "$WORK/patch.off" --lock-boundary -o "$WORK/patch.hlod"
 expect_success "build the closed site" "$STRATA" build -q "$WORK/scans/octa.off" --lock-boundary -o "$WORK/octa.hlod"
 pixels=$root/tests/support/png_pixels.py
