@@ -6,6 +6,7 @@
 #include <set>
 #include <stdexcept>
 
+#include "preprocess/embedding.h"
 #include "preprocess/georeference.h"
 
 namespace strata {
@@ -87,9 +88,7 @@ EmbeddingStitch::EmbeddingStitch(EmbeddedModels models, std::string what) : mode
     finest_ = header.max_level;
     if (models_.drawn_from == 0 || models_.drawn_from > finest_ || models_.zone.size != int64_t(1) << (finest_ - models_.drawn_from + 1))
         throw std::runtime_error(what + ": its zone's cells are not those of the level before the one it is drawn from");
-    const Georeference& geo = *models_.terrain->georeference();
-    const auto p00 = geo.sample_position(0, 0, 0), p10 = geo.sample_position(1, 0, 0), p01 = geo.sample_position(0, 1, 0);
-    flip_ = ((*p10)[0] - (*p00)[0]) * ((*p01)[1] - (*p00)[1]) - ((*p10)[1] - (*p00)[1]) * ((*p01)[0] - (*p00)[0]) < 0;
+    flip_ = raster_turns_over(*models_.terrain->georeference());
     loops_ = zone_border(models_.zone, columns_, rows_);
     for (const auto& loop : loops_) {
         loop_first_.push_back(step_count_);
@@ -108,7 +107,7 @@ void EmbeddingStitch::match_skirt(const std::string& what) {
     if (boundary.next.empty()) throw std::runtime_error(what + ": its skirt has no boundary");
     // Each of the border's samples is a point of the skirt's outer boundary, within its quantization.
     const double tolerance = double(skirt.header().lattice_step(0));
-    sample_point_.assign(border_sample_.size(), ~0u);
+    std::vector<uint8_t> reached(border_sample_.size(), 0);  // border sample s is skirt point s
     std::vector<uint64_t> inner;
     for (const auto& [key, at] : boundary.position) {
         const auto raster = geo.raster_position(at.x, at.y, at.z);
@@ -118,17 +117,16 @@ void EmbeddingStitch::match_skirt(const std::string& what) {
             const auto sample = border_sample_.find(sample_key(column, row));
             const auto exact = sample == border_sample_.end() ? std::nullopt : geo.sample_position(double(column), double(row), at.z);
             if (exact && std::abs((*exact)[0] - at.x) <= tolerance && std::abs((*exact)[1] - at.y) <= tolerance) {
-                if (sample_point_[sample->second] != ~0u)
+                if (reached[sample->second]++)
                     throw std::runtime_error(what + ": two points of its skirt lie at the raster sample (" + std::to_string(column) + ", " +
                                              std::to_string(row) + ")");
-                sample_point_[sample->second] = sample->second;
                 skirt_point_[key] = sample->second;
                 on_border = true;
             }
         }
         if (!on_border) inner.push_back(key);
     }
-    if (std::count(sample_point_.begin(), sample_point_.end(), ~0u) != 0)
+    if (std::count(reached.begin(), reached.end(), 0) != 0)
         throw std::runtime_error(what + ": its skirt does not reach every sample of its zone's border (a skirt built for another zone?)");
     std::sort(inner.begin(), inner.end());
     for (const uint64_t key : inner) skirt_point_[key] = uint32_t(border_sample_.size() + skirt_inner_.size()), skirt_inner_.push_back(key);
@@ -391,7 +389,7 @@ void EmbeddingStitch::seams(const ModelView& terrain, const ModelView& skirt, co
                         whole = at != grid.end();
                         if (whole) t[size_t(k)] = {StitchOwner::terrain, at->second};
                     } else {
-                        const auto at = skirt_at.find(sample_point_[sample->second]);
+                        const auto at = skirt_at.find(sample->second);
                         whole = at != skirt_at.end();
                         if (whole) t[size_t(k)] = {StitchOwner::skirt, at->second};
                     }

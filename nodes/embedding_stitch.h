@@ -102,13 +102,13 @@ private:
     std::vector<size_t> loop_first_;  // a loop's first step's number
     size_t step_count_ = 0;
     std::unordered_map<uint64_t, uint32_t> border_sample_;  // (column, row) → sample number
-    // The skirt's points: the border's samples (numbered as above), then its inner boundary's points
-    // (the site's boundary vertices and the crossings between them), by their level-0 lattice steps.
+    // The skirt's points: the border's samples (numbered as above: border sample s is skirt point s),
+    // then its inner boundary's points (the site's boundary vertices and the crossings between them), by
+    // their level-0 lattice steps.
     std::unordered_map<uint64_t, uint32_t> skirt_point_;
     std::vector<uint64_t> skirt_inner_;                       // the inner points' steps, in their numbers' order
     std::unordered_map<uint64_t, uint64_t> skirt_next_;       // the skirt's boundary: from → to, in its triangles' order
     std::unordered_map<uint64_t, glm::dvec3> skirt_position_; // its boundary points in the terrain's node frame
-    std::vector<uint32_t> sample_point_;  // border sample → skirt point
     // The site's boundary, in its order: per vertex its skirt point, and the crossings between its copy
     // and the next vertex's along the skirt's inner boundary, from its own side.
     struct BoundaryVertex {

@@ -21,6 +21,11 @@ TerrainSite TerrainSite::open(const std::filesystem::path& path) {
     return site;
 }
 
+bool raster_turns_over(const Georeference& geo) {
+    const auto p00 = geo.sample_position(0, 0, 0), p10 = geo.sample_position(1, 0, 0), p01 = geo.sample_position(0, 1, 0);
+    return ((*p10)[0] - (*p00)[0]) * ((*p01)[1] - (*p00)[1]) - ((*p10)[1] - (*p00)[1]) * ((*p01)[0] - (*p00)[0]) < 0;
+}
+
 uint32_t zone_level(const HlodHeader& terrain, double height_difference, double extent_cells, bool& capped) {
     const uint32_t L = terrain.max_level;
     // The finest m with ΔH ≤ 2·ε_q·s_(m−1).
@@ -119,12 +124,8 @@ EmbeddingPlan plan_embedding(const TerrainSite& terrain, const Mesh& mesh, const
     skirt.positions.reserve(3 * positions.size());
     for (const glm::dvec3& p : positions)
         skirt.positions.insert(skirt.positions.end(), {float(p.x - origin.x), float(p.y - origin.y), float(p.z - origin.z)});
-    // Counter-clockwise in raster space is clockwise from above when rows run south (north-up rasters):
-    // the sign of the raster's axes in the model decides.
-    const auto p00 = geo.sample_position(0, 0, 0), p10 = geo.sample_position(1, 0, 0), p01 = geo.sample_position(0, 1, 0);
-    const double turn = ((*p10)[0] - (*p00)[0]) * ((*p01)[1] - (*p00)[1]) - ((*p10)[1] - (*p00)[1]) * ((*p01)[0] - (*p00)[0]);
     skirt.indices = plan.skirt.triangles;
-    if (turn < 0)
+    if (raster_turns_over(geo))
         for (size_t t = 0; t < skirt.indices.size(); t += 3) std::swap(skirt.indices[t + 1], skirt.indices[t + 2]);
     return plan;
 }

@@ -67,6 +67,10 @@ EmbeddingPlan plan_embedding(const TerrainSite& terrain, const Mesh& mesh, const
 // the raster has a height under (0 for none).
 double height_difference(const TerrainSite& terrain, const Mesh& mesh, const glm::dmat4& mesh_to_terrain);
 
+// Whether counter-clockwise in raster index space is clockwise seen from above: when the raster's rows
+// run south (the usual north-up raster), the sign of its axes in the model turns triangles over.
+bool raster_turns_over(const Georeference& geo);
+
 // The coarsest level m whose zone may replace the grid: the embedding is dropped where the grid is drawn
 // coarser than m, which stays within the terrain's own screen-space bound when ΔH ≤ 2·ε_q·s_(m−1)
 // (HYBRID.md §2); no coarser than the level whose cells are about twice the footprint's extent
