@@ -3,7 +3,9 @@
 // locked boundaries, viewed from eyes near and far. Where the embedding is drawn, the terrain with its
 // zone hidden, the skirt, the site and the seams form one surface whose only open edges are the raster's
 // own border, at whatever levels the grid along the zone's border is drawn (thesis 003's T1, T2), with
-// no edge used thrice (T3); without the seams, or without hiding the zone, it is not.
+// no edge used thrice (T3); without the seams, or without hiding the zone, it is not. The boundary seam
+// is the same bits at every level of the site (T8). Drawn with real OpenGL: no background through the
+// join in any view, and no pop at the join across a grid-level switch.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -25,6 +27,7 @@
 #include "preprocess/terrain_build.h"
 #include "preprocess/terrain_heights.h"
 #include "tests/support/geotiff.h"
+#include "tests/support/pop_check.h"
 #include "tests/support/test_meshes.h"
 
 namespace strata {
@@ -387,6 +390,58 @@ TEST_F(HybridStitch, NoBackgroundShowsThroughTheJoinInAnyView) {
     EXPECT_GT(drawn, 40u);
     EXPECT_EQ(through, 0u);
     EXPECT_GT(through_without_seams, 0u);
+}
+
+// No pop at the join, on Olinda's terrain with its imagery (what shows under ambient light alone): a
+// ground cube beside a site's zone drawn just outside its switch distance and its children just inside
+// it give the same image, the embedding drawn both times and the seams following the grid's morph;
+// without the morph the switch shows.
+TEST(HybridRender, NoPopAtTheJoinAcrossAGridLevelSwitch) {
+    const auto data = fs::path(STRATA_SOURCE_DIR) / "data";
+    if (!fs::exists(data / "olinda_dem.tif") || !fs::exists(data / "olinda_l7.tif")) GTEST_SKIP() << "data/olinda_* missing: run scripts/setup.sh";
+    const test::TempDir dir;
+    TerrainSettings terrain_settings;
+    terrain_settings.cube_cells = 16;
+    terrain_settings.texture = TextureSettings{data / "olinda_l7.tif", {3, 2, 1}, 0};
+    build_terrain({data / "olinda_dem.tif"}, dir.path() / "olinda.hlod", terrain_settings, "olinda_dem.tif");
+    const TerrainSite t = TerrainSite::open(dir.path() / "olinda.hlod");
+    const auto centre = t.georeference->sample_position(55, 55, 0);
+    Mesh site = site_mesh(t, (*centre)[0], (*centre)[1], 600, 120.0);  // high enough that m < L
+    const EmbeddingPlan plan = plan_embedding(t, site, glm::dmat4(1.0), "site");
+    BuildSettings settings;
+    settings.lock_boundary = true;
+    settings.levels = 3;
+    build_hlod(std::move(site), dir.path() / "site.hlod", settings, "site");
+    settings.levels = 1;
+    build_hlod(Mesh(plan.skirt_mesh), dir.path() / "skirt.hlod", settings, "skirt");
+
+    const auto context = gl::create_headless_context();
+    auto root = std::make_shared<Group>();
+    auto ambient = std::make_shared<AmbientLight>();
+    ambient->color = {1, 1, 1};
+    root->add(ambient);
+    auto ground = HlodModel::load(dir.path() / "olinda.hlod");
+    auto terrain = std::make_shared<Terrain>(ground);
+    const auto embedding = terrain->embed(HlodModel::load(dir.path() / "skirt.hlod"), HlodModel::load(dir.path() / "site.hlod"), glm::dmat4(1.0),
+                                          plan.zone_level, plan.zone, "site");
+    root->add(terrain);
+    for (const auto& model : {ground, embedding->skirt(), embedding->site()}) model->set_kappa0(2.5);
+    const double kappa0 = ground->kappa0();  // as clamped
+    // A cube of level m or finer beside the zone (the border runs through its cell), with children.
+    uint32_t chosen = kNoCube;
+    for (uint32_t c = 0; c < ground->cubes().size() && chosen == kNoCube; ++c) {
+        const HlodCube& cube = ground->cubes()[c];
+        const bool has_children = std::any_of(cube.children.begin(), cube.children.end(), [](uint32_t child) { return child != kNoCube; });
+        if (cube.node.level >= plan.zone_level && has_children && !embedding->stitch().terrain_cube(c).steps.empty()) chosen = c;
+    }
+    ASSERT_NE(chosen, kNoCube) << "zone level " << plan.zone_level << " of " << ground->header().max_level;
+    const test::PopFrames morphed = test::pop_frames(*root, *ground, chosen, kappa0, true);
+    ASSERT_TRUE(morphed.before_selected) << "just outside the switch distance the cube itself is drawn";
+    ASSERT_FALSE(morphed.after_selected) << "just inside it its children are";
+    ASSERT_TRUE(embedding->drawn());
+    EXPECT_LE(test::differing(morphed.before, morphed.after, 1.0f / 255), 0.001);
+    const test::PopFrames plain = test::pop_frames(*root, *ground, chosen, kappa0, false);
+    EXPECT_GT(test::differing(plain.before, plain.after, 1.0f / 255), 0.001);
 }
 
 }  // namespace
