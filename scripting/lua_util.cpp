@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <string_view>
 
 namespace strata::lua {
 
@@ -185,6 +186,56 @@ void push_pose(lua_State* L, const glm::dvec3& position, const glm::dquat& orien
     lua_setfield(L, -2, "orientation");
     lua_pushnumber(L, fov_degrees);
     lua_setfield(L, -2, "fov");
+}
+
+namespace {
+
+// What is wrong with the point at `index` (a message pushed on the stack), or null with `point` read.
+const char* point_problem(lua_State* L, int index, int least, int most, bool with_crs, const char* shape, Point& point) {
+    if (!lua_istable(L, index)) return lua_pushfstring(L, "%s expected, got %s", shape, luaL_typename(L, index));
+    lua_pushnil(L);
+    while (lua_next(L, index)) {
+        lua_pop(L, 1);
+        const bool crs_key = lua_type(L, -1) == LUA_TSTRING && std::string_view(lua_tostring(L, -1)) == "crs";
+        const lua_Integer position = lua_isinteger(L, -1) ? lua_tointeger(L, -1) : 0;
+        if (!(crs_key && with_crs) && !(position >= 1 && position <= most)) return lua_pushfstring(L, "%s expected (an unknown key)", shape);
+    }
+    const int count = int(lua_rawlen(L, index));
+    if (count < least) return lua_pushfstring(L, "%s expected (%d numbers)", shape, count);
+    for (int i = 0; i < count; ++i) {
+        lua_rawgeti(L, index, i + 1);
+        int is_number = 0;
+        point.v[size_t(i)] = lua_tonumberx(L, -1, &is_number);
+        lua_pop(L, 1);
+        if (!is_number || !std::isfinite(point.v[size_t(i)])) return lua_pushfstring(L, "%s expected (entry %d is not a finite number)", shape, i + 1);
+    }
+    if (with_crs) {
+        lua_pushliteral(L, "crs");
+        lua_rawget(L, index);
+        if (!lua_isnil(L, -1) && lua_type(L, -1) != LUA_TSTRING) return "option 'crs' must be a string (EPSG:N, WKT or PROJ)";
+        if (!lua_isnil(L, -1)) point.crs = lua_tostring(L, -1);
+        lua_pop(L, 1);
+    }
+    return nullptr;
+}
+
+}  // namespace
+
+Point check_point(lua_State* L, int index, int least, int most, bool with_crs, const char* shape) {
+    Point point;
+    if (const char* problem = point_problem(L, index, least, most, with_crs, shape, point)) luaL_argerror(L, index, problem);
+    return point;
+}
+
+std::optional<Point> opt_point(lua_State* L, int index, const char* key, int least, int most, bool with_crs, const char* shape) {
+    if (!get_option(L, index, key)) {
+        lua_pop(L, 1);
+        return std::nullopt;
+    }
+    Point point;
+    if (const char* problem = point_problem(L, lua_gettop(L), least, most, with_crs, shape, point)) luaL_error(L, "option '%s': %s", key, problem);
+    lua_pop(L, 1);
+    return point;
 }
 
 bool get_option(lua_State* L, int index, const char* key) {

@@ -3,7 +3,9 @@
 // luaL_argerror wording: "bad argument #2 to 'look_at' (table of 3 numbers expected, got nil)").
 #pragma once
 
+#include <array>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <utility>
@@ -112,6 +114,17 @@ lua_Integer opt_integer_in(lua_State* L, int index, const char* key, lua_Integer
 
 // {x, y, z} at `index`, or an argument error.
 glm::dvec3 check_vec3(lua_State* L, int index);
+// A point given as {a, b[, c][, crs = "..."]} (c: 0 when absent): finite numbers at 1…`most`, at
+// least `least` of them, and a CRS when `with_crs`; anything else is an argument error naming the
+// expected `shape` ("{lon, lat[, h][, crs = ...]}").
+struct Point {
+    std::array<double, 3> v{};
+    std::string crs;
+};
+Point check_point(lua_State* L, int index, int least, int most, bool with_crs, const char* shape);
+// The same as the option `key` of the table at `index`: nothing when absent, an error naming the
+// option otherwise.
+std::optional<Point> opt_point(lua_State* L, int index, const char* key, int least, int most, bool with_crs, const char* shape);
 // {w, x, y, z} at `index`, normalized unless is_unit already, or an argument error.
 glm::dquat check_quat(lua_State* L, int index);
 // Of unit length up to rounding (1e-12): check_quat keeps such a quaternion as it is, because normalizing

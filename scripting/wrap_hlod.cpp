@@ -80,42 +80,6 @@ int hlod_info(lua_State* L) {
 
 // ---- georeference ----------------------------------------------------------------------------
 
-// A point given as {a, b[, c][, crs = "..."]} (c: 0 when absent): finite numbers at 1…`most`, at
-// least `least` of them, and a CRS when `with_crs`; anything else is an argument error naming the
-// expected shape.
-struct PointArgument {
-    std::array<double, 3> v{};
-    std::string crs;
-};
-PointArgument check_point(lua_State* L, int index, int least, int most, bool with_crs, const char* shape) {
-    if (!lua_istable(L, index)) luaL_argerror(L, index, lua_pushfstring(L, "%s expected, got %s", shape, luaL_typename(L, index)));
-    PointArgument p;
-    lua_pushnil(L);
-    while (lua_next(L, index)) {
-        lua_pop(L, 1);
-        const bool crs_key = lua_type(L, -1) == LUA_TSTRING && std::string_view(lua_tostring(L, -1)) == "crs";
-        const lua_Integer position = lua_isinteger(L, -1) ? lua_tointeger(L, -1) : 0;
-        if (!(crs_key && with_crs) && !(position >= 1 && position <= most)) luaL_argerror(L, index, lua_pushfstring(L, "%s expected (an unknown key)", shape));
-    }
-    const int count = int(lua_rawlen(L, index));
-    if (count < least) luaL_argerror(L, index, lua_pushfstring(L, "%s expected (%d numbers)", shape, count));
-    for (int i = 0; i < count; ++i) {
-        lua_rawgeti(L, index, i + 1);
-        int is_number = 0;
-        p.v[size_t(i)] = lua_tonumberx(L, -1, &is_number);
-        lua_pop(L, 1);
-        if (!is_number || !std::isfinite(p.v[size_t(i)])) luaL_argerror(L, index, lua_pushfstring(L, "%s expected (entry %d is not a finite number)", shape, i + 1));
-    }
-    if (with_crs) {
-        lua_pushliteral(L, "crs");
-        lua_rawget(L, index);
-        if (!lua_isnil(L, -1) && lua_type(L, -1) != LUA_TSTRING) luaL_argerror(L, index, "option 'crs' must be a string (EPSG:N, WKT or PROJ)");
-        if (!lua_isnil(L, -1)) p.crs = lua_tostring(L, -1);
-        lua_pop(L, 1);
-    }
-    return p;
-}
-
 const Georeference& check_georeference(lua_State* L, const HlodModel& model) {
     const Georeference* geo = model.georeference();
     if (!geo) luaL_error(L, "%s: the model has no georeference (it was built from a file without a CRS)", model.path().c_str());
@@ -127,7 +91,7 @@ glm::dvec3 as_vec3(const std::array<double, 3>& v) { return {v[0], v[1], v[2]}; 
 // model:to_local{lon, lat[, h][, crs = ...]} → {x, y, z}
 int hlod_to_local(lua_State* L) {
     const HlodModel& model = check_node_as<HlodModel>(L, 1, "HLOD model");
-    const PointArgument p = check_point(L, 2, 2, 3, true, "{lon, lat[, h][, crs = ...]}");
+    const lua::Point p = lua::check_point(L, 2, 2, 3, true, "{lon, lat[, h][, crs = ...]}");
     lua::push_vec3(L, as_vec3(check_georeference(L, model).to_local(p.v, p.crs)));
     return 1;
 }
@@ -135,7 +99,7 @@ int hlod_to_local(lua_State* L) {
 // model:to_geo{x, y, z[, crs = ...]} → {lon, lat, h}
 int hlod_to_geo(lua_State* L) {
     const HlodModel& model = check_node_as<HlodModel>(L, 1, "HLOD model");
-    const PointArgument p = check_point(L, 2, 3, 3, true, "{x, y, z[, crs = ...]}");
+    const lua::Point p = lua::check_point(L, 2, 3, 3, true, "{x, y, z[, crs = ...]}");
     lua::push_vec3(L, as_vec3(check_georeference(L, model).to_geo(p.v, p.crs)));
     return 1;
 }
@@ -143,7 +107,7 @@ int hlod_to_geo(lua_State* L) {
 // model:height_at{x, y} → the ground's height, or nil outside the raster or on nodata
 int hlod_height_at(lua_State* L) {
     const HlodModel& model = check_node_as<HlodModel>(L, 1, "HLOD model");
-    const PointArgument p = check_point(L, 2, 2, 2, false, "{x, y}");
+    const lua::Point p = lua::check_point(L, 2, 2, 2, false, "{x, y}");
     const std::optional<double> h = model.height_at(p.v[0], p.v[1]);
     if (h) lua_pushnumber(L, *h);
     else lua_pushnil(L);

@@ -22,25 +22,6 @@ using lua::opt_number;
 using lua::opt_string;
 
 // The {lon, lat} of option `key` of the table at `index`, if given.
-std::optional<std::array<double, 2>> opt_lon_lat(lua_State* L, int index, const char* key) {
-    if (!lua::get_option(L, index, key)) {
-        lua_pop(L, 1);
-        return std::nullopt;
-    }
-    std::array<double, 2> at{};
-    const bool pair = lua_istable(L, -1) && lua_rawlen(L, -1) == 2;
-    for (int i = 0; pair && i < 2; ++i) {
-        lua_rawgeti(L, -1, i + 1);
-        int is_number = 0;
-        at[size_t(i)] = lua_tonumberx(L, -1, &is_number);
-        lua_pop(L, 1);
-        if (!is_number || !std::isfinite(at[size_t(i)])) luaL_error(L, "option '%s' must be {lon, lat} in degrees", key);
-    }
-    if (!pair) luaL_error(L, "option '%s' must be {lon, lat} in degrees", key);
-    lua_pop(L, 1);
-    return at;
-}
-
 // The embedding file for `site` on `terrain` placed as `placement`: `output`, or beside the site
 // ("<site>_on_<terrain>.hlod"). Made unless the file there was made for these models and this
 // placement already (a scene that reloads does not recompute it).
@@ -83,7 +64,7 @@ EmbedSpec check_embed_spec(lua_State* L) {
     check_keys(L, index, {"site", "at", "scale", "heading", "output"});
     spec.site = opt_string(L, index, "site", "");
     if (spec.site.empty()) luaL_error(L, "an embedding needs option 'site' (a .hlod built with --lock-boundary)");
-    spec.placement.at = opt_lon_lat(L, index, "at");
+    if (const auto at = lua::opt_point(L, index, "at", 2, 2, false, "{lon, lat} in degrees")) spec.placement.at = {at->v[0], at->v[1]};
     spec.placement.scale = opt_number(L, index, "scale", 1.0);
     spec.placement.heading = opt_number(L, index, "heading", 0.0);
     if (!(spec.placement.scale > 0) || !std::isfinite(spec.placement.scale) || !std::isfinite(spec.placement.heading))
