@@ -313,9 +313,13 @@ const EmbeddingStitch::TerrainCube& EmbeddingStitch::terrain_cube(uint32_t c) co
     return terrain_cubes_.emplace(c, std::move(out)).first->second;
 }
 
-bool EmbeddingStitch::drawn_with(std::span<const uint32_t> terrain_cubes) const {
-    for (const uint32_t c : terrain_cubes)
-        if (models_.terrain->cubes()[c].node.level < models_.drawn_from && terrain_cube(c).near_zone) return false;
+bool EmbeddingStitch::drawn_with(std::span<const uint32_t> terrain_cubes, std::vector<uint32_t>* hiding) const {
+    for (const uint32_t c : terrain_cubes) {
+        const TerrainCube& cube = terrain_cube(c);
+        if (!cube.near_zone) continue;
+        if (models_.terrain->cubes()[c].node.level < models_.drawn_from) return false;
+        if (hiding && cube.hides) hiding->push_back(c);
+    }
     return true;
 }
 

@@ -73,8 +73,9 @@ public:
 
     // Whether the embedding is drawn along with the terrain's `cubes` (a view's selection): none of them
     // near the zone is coarser than m. Where it is not, the grid covers the zone as it is and neither
-    // the site, the skirt nor the seams are drawn.
-    bool drawn_with(std::span<const uint32_t> terrain_cubes) const;
+    // the site, the skirt nor the seams are drawn. Where it is, `hiding` (if given) gets the cubes among
+    // them whose triangles in the zone the ground must hide (one pass over the selection for both).
+    bool drawn_with(std::span<const uint32_t> terrain_cubes, std::vector<uint32_t>* hiding = nullptr) const;
 
     // The seams for one view, appended to `out`: for each border step whose neighbouring grid triangle
     // is drawn, the ring seam at that triangle's level; for each boundary edge of the site drawn, the

@@ -67,11 +67,11 @@ void Embedding::traverse(NodeVisitor& visitor) {
 
 void Embedding::take_ground_selection(std::span<const uint32_t> cubes, const Kappas& kappa, HlodModel::CubeRuns& hidden) {
     selections_.terrain = {{cubes.begin(), cubes.end()}, kappa};
-    drawn_ = stitch_.drawn_with(cubes);
+    std::vector<uint32_t> hiding;
+    drawn_ = stitch_.drawn_with(cubes, &hiding);
     if (!drawn_) return;
-    for (const uint32_t c : cubes) {
+    for (const uint32_t c : hiding) {
         const EmbeddingStitch::TerrainCube& cube = stitch_.terrain_cube(c);
-        if (!cube.hides) continue;
         const auto [entry, added] = hidden.try_emplace(c, cube.kept);
         if (!added) entry->second = common_runs(entry->second, cube.kept);  // under two embeddings
     }
@@ -143,6 +143,12 @@ bool Terrain::remove_embedding(const Node* embedding) {
     if (embedding == ground_.get() || !remove(embedding)) return false;
     files_.erase(embedding);
     return true;
+}
+
+const std::filesystem::path* Terrain::embedding_file(const Node* child) const {
+    const auto file = files_.find(child);
+    const bool held = std::any_of(children().begin(), children().end(), [&](const NodePtr& c) { return c.get() == child; });
+    return file != files_.end() && held ? &file->second : nullptr;
 }
 
 std::vector<std::shared_ptr<Embedding>> Terrain::embeddings() const {

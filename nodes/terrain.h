@@ -99,8 +99,9 @@ public:
     // The embeddings and standing sites it holds.
     bool remove_embedding(const Node* embedding);
     std::vector<std::shared_ptr<Embedding>> embeddings() const;
-    // The files its embeddings were loaded from (those made in code have none), by node.
-    const std::map<const Node*, std::filesystem::path>& embedding_files() const { return files_; }
+    // The file a child embedding (or standing site) was loaded from; null for one made in code, or a
+    // node no longer its child (removed by a path other than remove_embedding).
+    const std::filesystem::path* embedding_file(const Node* child) const;
 
 protected:
     void traverse(NodeVisitor& visitor) override;

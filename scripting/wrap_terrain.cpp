@@ -221,7 +221,8 @@ std::string terrain_summary(const Node& node) {
 void inspect_terrain(Node& node, Inspector& fields) {
     const auto& terrain = static_cast<const Terrain&>(node);
     fields.text(terrain.ground()->path().string());
-    for (const auto& [embedding, file] : terrain.embedding_files()) fields.text("embeds " + file.string());
+    for (const NodePtr& child : terrain.children())
+        if (const auto* file = terrain.embedding_file(child.get())) fields.text("embeds " + file->string());
 }
 
 void inspect_embedding(Node& node, Inspector& fields) {
@@ -235,8 +236,7 @@ std::string terrain_constructor(const Node& node, const script::Place& place) {
     const auto& terrain = static_cast<const Terrain&>(node);
     std::string embed;
     for (const NodePtr& child : terrain.children()) {
-        const auto file = terrain.embedding_files().find(child.get());
-        if (file != terrain.embedding_files().end()) embed += (embed.empty() ? "" : ", ") + place.file(file->second);
+        if (const auto* file = terrain.embedding_file(child.get())) embed += (embed.empty() ? "" : ", ") + place.file(*file);
     }
     return "strata.terrain{ model = " + place.file(terrain.ground()->path()) + ", name = " + script::string(terrain.name()) +
            (embed.empty() ? "" : ", embed = { " + embed + " }") + " }";
