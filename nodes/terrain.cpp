@@ -6,6 +6,7 @@
 
 #include "engine/scene/cull_visitor.h"
 #include "engine/scene/visitor.h"
+#include "preprocess/embedding.h"
 #include "preprocess/embedding_file.h"
 
 namespace strata {
@@ -137,6 +138,50 @@ NodePtr Terrain::load_embedding(const std::filesystem::path& file) {
     }
     files_[node.get()] = file;
     return node;
+}
+
+SitePlacement Terrain::placement(const Node* child) const {
+    const std::filesystem::path* file = embedding_file(child);
+    if (!file) throw std::runtime_error((child ? child->name() : std::string("(none)")) + ": not an embedding of " + name() + " loaded from a file");
+    const EmbeddingRecord record = read_embedding(HlodFile(*file));
+    const std::filesystem::path site = embedded_path(*file, record.site_file);
+    return placement_of(TerrainSite::open(ground_->path()), open_site(site), record.placement, site.string());
+}
+
+NodePtr Terrain::move_embedding(const Node* child, const SitePlacement& placement) {
+    namespace fs = std::filesystem;
+    const fs::path* found = embedding_file(child);
+    if (!found) throw std::runtime_error((child ? child->name() : std::string("(none)")) + ": not an embedding of " + name() + " loaded from a file");
+    const fs::path file = *found;
+    const EmbeddingRecord record = read_embedding(HlodFile(file));
+    // The file as it is, kept under another name until the new one loads (build_embedding replaces it by
+    // a rename, so a hard link keeps the old bytes for free).
+    const fs::path kept = file.string() + ".before-move";
+    fs::remove(kept);
+    std::error_code linked;
+    fs::create_hard_link(file, kept, linked);
+    if (linked) fs::copy_file(file, kept);
+    const NodePtr old = *std::find_if(children().begin(), children().end(), [&](const NodePtr& c) { return c.get() == child; });
+    try {
+        EmbedSettings settings;
+        settings.placement = placement;
+        build_embedding(ground_->path(), embedded_path(file, record.site_file), file, settings);
+        remove_embedding(old.get());
+        NodePtr moved = load_embedding(file);
+        fs::remove(kept);
+        return moved;
+    } catch (...) {
+        // Back as it was (a rename between two links of one file does nothing: the build failed before
+        // replacing it, and the extra link goes).
+        std::error_code ignored;
+        fs::rename(kept, file, ignored);
+        fs::remove(kept, ignored);
+        if (std::find(children().begin(), children().end(), old) == children().end()) {
+            add(old);
+            files_[old.get()] = file;
+        }
+        throw;
+    }
 }
 
 bool Terrain::remove_embedding(const Node* embedding) {

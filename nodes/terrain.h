@@ -20,6 +20,7 @@
 #include "engine/scene/node.h"
 #include "nodes/embedding_stitch.h"
 #include "nodes/hlod_model.h"
+#include "preprocess/embedding_file.h"
 
 namespace strata {
 
@@ -96,6 +97,14 @@ public:
     // closed mesh) comes back as its placement's Transform, which the terrain simply holds. Throws
     // std::runtime_error naming the files.
     NodePtr load_embedding(const std::filesystem::path& file);
+    // Where a child loaded from an embedding file stands, as `at`, scale and heading (placement_of): where
+    // an editor moving it starts. Throws std::runtime_error naming the file, or saying the node has none.
+    SitePlacement placement(const Node* child) const;
+    // Moves a child loaded from an embedding file: the file made again for `placement` (the same path),
+    // and reloaded in the child's stead; the new node. Throws std::runtime_error naming the files when the
+    // new placement cannot be embedded (off the raster, its zone over another's, …): the child and its
+    // file then stay as they were.
+    NodePtr move_embedding(const Node* child, const SitePlacement& placement);
     // The embeddings and standing sites it holds.
     bool remove_embedding(const Node* embedding);
     std::vector<std::shared_ptr<Embedding>> embeddings() const;

@@ -257,17 +257,28 @@ std::vector<glm::dvec3> outer_ring(const Mesh& mesh, const std::string& what) {
     return best;
 }
 
+
+// What a placement places: the boundary's vertices (every vertex, for a standing site).
+std::vector<glm::dvec3> placed_points(const SiteModel& site, const std::string& what) {
+    std::vector<glm::dvec3> ring = site.open ? outer_ring(site.coarsest, what) : std::vector<glm::dvec3>();
+    if (ring.empty())
+        for (uint32_t v = 0; v < site.coarsest.vertex_count(); ++v) ring.push_back(vertex_of(site.coarsest, v));
+    return ring;
+}
+
+glm::dvec3 centroid_of(std::span<const glm::dvec3> points) {
+    glm::dvec3 centroid(0);
+    for (const glm::dvec3& p : points) centroid += p / double(points.size());
+    return centroid;
+}
+
 }  // namespace
 
 glm::dmat4 place_site(const TerrainSite& terrain, const SiteModel& site, const SitePlacement& placement, const std::string& what) {
     if (!(placement.scale > 0) || !std::isfinite(placement.scale) || !std::isfinite(placement.heading))
         throw InputError(what + ": a scale above 0 and a finite heading are needed");
-    // The centroid of the boundary's vertices (of every vertex, for a standing site).
-    std::vector<glm::dvec3> ring = site.open ? outer_ring(site.coarsest, what) : std::vector<glm::dvec3>();
-    if (ring.empty())
-        for (uint32_t v = 0; v < site.coarsest.vertex_count(); ++v) ring.push_back(vertex_of(site.coarsest, v));
-    glm::dvec3 centroid(0);
-    for (const glm::dvec3& p : ring) centroid += p / double(ring.size());
+    const std::vector<glm::dvec3> ring = placed_points(site, what);
+    const glm::dvec3 centroid = centroid_of(ring);
     const double turn = -placement.heading * M_PI / 180.0;  // clockwise seen from above
     glm::dmat4 about(1.0);
     about[0][0] = placement.scale * std::cos(turn), about[0][1] = placement.scale * std::sin(turn);
@@ -337,6 +348,16 @@ glm::dmat4 place_site(const TerrainSite& terrain, const SiteModel& site, const S
     } catch (const std::runtime_error& e) {
         throw InputError(what + ": its CRS (" + h.crs + ") cannot be mapped to the terrain's (" + theirs + "): " + e.what());
     }
+}
+
+SitePlacement placement_of(const TerrainSite& terrain, const SiteModel& site, const glm::dmat4& site_to_terrain, const std::string& what) {
+    SitePlacement placement;
+    placement.scale = glm::length(glm::dvec3(site_to_terrain[2]));
+    placement.heading = -std::atan2(site_to_terrain[0][1], site_to_terrain[0][0]) * 180.0 / M_PI;
+    const glm::dvec3 at(site_to_terrain * glm::dvec4(centroid_of(placed_points(site, what)), 1.0));
+    const std::array<double, 3> geo = terrain.georeference->to_geo({at.x, at.y, at.z});
+    placement.at = {geo[0], geo[1]};
+    return placement;
 }
 
 // ---- the embedding file --------------------------------------------------------------------------
@@ -426,6 +447,27 @@ EmbedReport build_embedding(const fs::path& terrain_path, const fs::path& site_p
     report.file_bytes = fs::file_size(output, ec);
     report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return report;
+}
+
+fs::path embedding_file_for(const fs::path& terrain, const fs::path& site, const SitePlacement& placement, fs::path output,
+                            const Progress& progress) {
+    if (output.empty()) output = site.parent_path() / (site.stem().string() + "_on_" + terrain.stem().string() + ".hlod");
+    if (fs::exists(output)) {
+        try {
+            const HlodFile file(output);
+            const EmbeddingRecord record = read_embedding(file);
+            check_embedded_terrain(record, output, HlodFile(terrain));
+            check_embedded_site(record, output, HlodFile(site));
+            const glm::dmat4 wanted = place_site(TerrainSite::open(terrain), open_site(site), placement, site.string());
+            if (record.placement == wanted) return output;
+        } catch (const std::exception&) {
+            // not a match: made again below
+        }
+    }
+    EmbedSettings settings;
+    settings.placement = placement;
+    build_embedding(terrain, site, output, settings, progress);
+    return output;
 }
 
 }  // namespace strata

@@ -110,6 +110,11 @@ struct SitePlacement {
 // another); InputError naming the file when it has none, and naming both CRSs when one cannot be mapped to
 // the other. Scale and heading apply about the centroid in either case.
 glm::dmat4 place_site(const TerrainSite& terrain, const SiteModel& site, const SitePlacement& placement, const std::string& what);
+// The placement (with `at`) that place_site turns into `site_to_terrain`, where an editor that moves an
+// embedding starts: scale and heading from the matrix, `at` where the boundary's centroid lands. For a
+// matrix place_site made with `at`, the same matrix again up to rounding; for a site placed by its own
+// georeference, that placement turned into one by `at` (the lift is then the ground's).
+SitePlacement placement_of(const TerrainSite& terrain, const SiteModel& site, const glm::dmat4& site_to_terrain, const std::string& what);
 
 // ---- the embedding file --------------------------------------------------------------------------
 
@@ -133,5 +138,11 @@ struct EmbedReport {
 // no output is left behind (a complete earlier file at `output` stays as it was).
 EmbedReport build_embedding(const std::filesystem::path& terrain, const std::filesystem::path& site, const std::filesystem::path& output,
                             const EmbedSettings& settings, const Progress& progress = {});
+
+// The embedding file for `site` on `terrain` placed as `placement`: `output`, or when empty beside the
+// site ("<site>_on_<terrain>.hlod"). Made (build_embedding) unless the file there was made for these
+// models and this placement already, so that a scene that reloads, or asks again, does not recompute it.
+std::filesystem::path embedding_file_for(const std::filesystem::path& terrain, const std::filesystem::path& site, const SitePlacement& placement,
+                                         std::filesystem::path output = {}, const Progress& progress = {});
 
 }  // namespace strata

@@ -21,28 +21,14 @@ using lua::check_keys;
 using lua::opt_number;
 using lua::opt_string;
 
-// The {lon, lat} of option `key` of the table at `index`, if given.
-// The embedding file for `site` on `terrain` placed as `placement`: `output`, or beside the site
-// ("<site>_on_<terrain>.hlod"). Made unless the file there was made for these models and this
-// placement already (a scene that reloads does not recompute it).
-fs::path embedding_for(const fs::path& terrain, const fs::path& site, const SitePlacement& placement, fs::path output) {
-    if (output.empty()) output = site.parent_path() / (site.stem().string() + "_on_" + terrain.stem().string() + ".hlod");
-    if (fs::exists(output)) {
-        try {
-            const HlodFile file(output);
-            const EmbeddingRecord record = read_embedding(file);
-            check_embedded_terrain(record, output, HlodFile(terrain));
-            check_embedded_site(record, output, HlodFile(site));
-            const glm::dmat4 wanted = place_site(TerrainSite::open(terrain), open_site(site), placement, site.string());
-            if (record.placement == wanted) return output;
-        } catch (const std::exception&) {
-            // not a match: made again below
-        }
-    }
-    EmbedSettings settings;
-    settings.placement = placement;
-    build_embedding(terrain, site, output, settings);
-    return output;
+// Options at, scale and heading of the table at `index`, over `placement`.
+SitePlacement check_placement(lua_State* L, int index, SitePlacement placement) {
+    if (const auto at = lua::opt_point(L, index, "at", 2, 2, false, "{lon, lat} in degrees")) placement.at = {at->v[0], at->v[1]};
+    placement.scale = opt_number(L, index, "scale", placement.scale);
+    placement.heading = opt_number(L, index, "heading", placement.heading);
+    if (!(placement.scale > 0) || !std::isfinite(placement.scale) || !std::isfinite(placement.heading))
+        luaL_error(L, "options 'scale' (above 0) and 'heading' (degrees) must be finite numbers");
+    return placement;
 }
 
 // An embedding as a script gives it: a file name, or {site =, at =, scale =, heading =, output =}.
@@ -64,17 +50,13 @@ EmbedSpec check_embed_spec(lua_State* L) {
     check_keys(L, index, {"site", "at", "scale", "heading", "output"});
     spec.site = opt_string(L, index, "site", "");
     if (spec.site.empty()) luaL_error(L, "an embedding needs option 'site' (a .hlod built with --lock-boundary)");
-    if (const auto at = lua::opt_point(L, index, "at", 2, 2, false, "{lon, lat} in degrees")) spec.placement.at = {at->v[0], at->v[1]};
-    spec.placement.scale = opt_number(L, index, "scale", 1.0);
-    spec.placement.heading = opt_number(L, index, "heading", 0.0);
-    if (!(spec.placement.scale > 0) || !std::isfinite(spec.placement.scale) || !std::isfinite(spec.placement.heading))
-        luaL_error(L, "options 'scale' (above 0) and 'heading' (degrees) must be finite numbers");
+    spec.placement = check_placement(L, index, {});
     spec.output = opt_string(L, index, "output", "");
     return spec;
 }
 
 fs::path file_of(const EmbedSpec& spec, const fs::path& terrain) {
-    return spec.file.empty() ? embedding_for(terrain, spec.site, spec.placement, spec.output) : spec.file;
+    return spec.file.empty() ? embedding_file_for(terrain, spec.site, spec.placement, spec.output) : spec.file;
 }
 
 // Embeds the spec at the top of the stack in `terrain`; the node it adds.
@@ -184,6 +166,36 @@ int terrain_remove(lua_State* L) {
     return 1;
 }
 
+void push_placement(lua_State* L, const SitePlacement& placement) {
+    lua_createtable(L, 0, 3);
+    lua_createtable(L, 2, 0);
+    for (int i = 0; i < 2; ++i) lua_pushnumber(L, (*placement.at)[size_t(i)]), lua_rawseti(L, -2, i + 1);
+    lua_setfield(L, -2, "at");
+    lua_pushnumber(L, placement.scale);
+    lua_setfield(L, -2, "scale");
+    lua_pushnumber(L, placement.heading);
+    lua_setfield(L, -2, "heading");
+}
+
+// C++ exceptions here become Lua errors with their message (lua::set_functions), after the stack unwinds.
+int terrain_placement(lua_State* L) {  // terrain:placement(child) → {at = {lon, lat}, scale =, heading =}
+    const Terrain& terrain = check_node_as<Terrain>(L, 1, "terrain");
+    const Node* child = check_node(L, 2).get();  // the argument keeps it
+    push_placement(L, terrain.placement(child));
+    return 1;
+}
+
+// terrain:move(child, {at =, scale =, heading =}) → the child's new node (what is not given stays)
+int terrain_move(lua_State* L) {
+    Terrain& terrain = check_node_as<Terrain>(L, 1, "terrain");
+    const Node* child = check_node(L, 2).get();
+    luaL_checktype(L, 3, LUA_TTABLE);
+    check_keys(L, 3, {"at", "scale", "heading"});
+    check_placement(L, 3, {});  // the options checked before any work
+    push_node(L, terrain.move_embedding(child, check_placement(L, 3, terrain.placement(child))));
+    return 1;
+}
+
 int embedding_site(lua_State* L) {
     push_node(L, check_node_as<Embedding>(L, 1, "embedding").site());
     return 1;
@@ -246,6 +258,8 @@ const luaL_Reg kTerrainMethods[] = {{"ground", terrain_ground},
                                     {"embed", terrain_embed},
                                     {"embeddings", terrain_embeddings},
                                     {"remove", terrain_remove},
+                                    {"placement", terrain_placement},
+                                    {"move", terrain_move},
                                     {nullptr, nullptr}};
 const luaL_Reg kTerrainFunctions[] = {{"terrain", new_terrain}, {"embed", embed_file}, {nullptr, nullptr}};
 const luaL_Reg kEmbeddingMethods[] = {{"site", embedding_site},

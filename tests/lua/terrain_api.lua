@@ -52,12 +52,44 @@ assert(e:drawn(), "the embedding is not drawn from 470 m")
 local r, g, bl, _, _, id = frame:pixel(80, 45)
 assert(id > 0 and not (r > 0.9 and g < 0.1 and bl > 0.9), ("the centre shows the background: %g %g %g id %d"):format(r, g, bl, id))
 
+-- Refused by name (here and below).
+local function refused(f, ...)
+    local ok, err = pcall(f)
+    assert(not ok, "accepted")
+    for _, part in ipairs{...} do assert(tostring(err):find(part, 1, true), err) end
+end
+
 -- A site given to embed is embedded once (the file beside the site unless output says where), then
 -- reused; removing takes it out.
 local away = ground:to_geo{ b.center[1] + 2000, b.center[2], b.center[3] }
 local second = t:embed{ site = site_file, at = { away[1], away[2] }, heading = 30 }
 assert(second:type() == "embedding" and io.open(out .. "/terrain_api_site_on_terrain_api_olinda.hlod", "rb"))
 assert(#t:embeddings() == 2)
+
+-- Where an embedding stands, as at, scale and heading; moving one makes its file again there and
+-- reloads it; a move that cannot be embedded leaves the embedding and its file as they were.
+local function near(a, b, tolerance) return math.abs(a - b) <= (tolerance or 1e-9) end
+local p = t:placement(e)
+assert(near(p.at[1], at[1]) and near(p.at[2], at[2]) and near(p.scale, 1) and near(p.heading, 0), ("%.12g %.12g %g %g"):format(p.at[1], p.at[2], p.scale, p.heading))
+assert(near(t:placement(second).heading, 30))
+local second_file = out .. "/terrain_api_site_on_terrain_api_olinda.hlod"
+local moved = t:move(second, { heading = 60, scale = 0.5 })
+assert(moved:type() == "embedding" and #t:embeddings() == 2 and not t:remove(second), "the moved embedding did not replace the old one")
+p = t:placement(moved)
+assert(near(p.heading, 60) and near(p.scale, 0.5) and near(p.at[1], away[1]) and near(p.at[2], away[2]), ("%g %g"):format(p.heading, p.scale))
+local reloaded = strata.terrain{ model = terrain_file, embed = { second_file } }
+assert(near(reloaded:placement(reloaded:embeddings()[1]).heading, 60), "the file was not made again for the move")
+refused(function() t:move(moved, { at = at }) end, "overlaps the zone of terrain_api_embedding")
+refused(function() t:move(moved, { at = { 0, 0 } }) end, "off the terrain's raster")
+refused(function() t:move(moved, { heading = 0 / 0 }) end, "heading")
+refused(function() t:move(moved, { spin = 1 }) end, "spin")
+refused(function() t:placement(t:ground()) end, "not an embedding")
+assert(#t:embeddings() == 2 and near(t:placement(moved).heading, 60), "a refused move changed the embedding")
+reloaded = strata.terrain{ model = terrain_file, embed = { second_file } }
+assert(near(reloaded:placement(reloaded:embeddings()[1]).heading, 60), "a refused move changed the file")
+assert(not io.open(second_file .. ".before-move"), "a refused move left its copy behind")
+second = moved
+
 assert(t:remove(second) and #t:embeddings() == 1 and not t:remove(second))
 assert(not t:remove(t:ground()), "the ground is not an embedding")
 
@@ -67,12 +99,6 @@ dofile(out .. "/terrain_api_scene.lua")
 local back = _G.scene:find("olinda")
 assert(back and back:type() == "terrain" and #back:embeddings() == 1 and back:count() == 2, back and back:count())
 
--- Refused by name.
-local function refused(f, ...)
-    local ok, err = pcall(f)
-    assert(not ok, "accepted")
-    for _, part in ipairs{...} do assert(tostring(err):find(part, 1, true), err) end
-end
 refused(function() strata.terrain{ model = out .. "/missing.hlod" } end, "missing.hlod")
 refused(function() strata.terrain{ model = site_file } end, "terrain_api_site.hlod", "not a terrain")
 refused(function() strata.terrain{ model = 42 } end, "option 'model'")
