@@ -28,6 +28,7 @@
 #include "engine/scene/visitor.h"
 #include "nodes/geometry.h"
 #include "nodes/hlod_model.h"
+#include "nodes/terrain.h"
 #include "preprocess/byte_size.h"
 #include "scripting/node_types.h"
 
@@ -362,6 +363,38 @@ bool Editor::go_to_bookmark(const std::string& name) {
     return false;
 }
 
+NodePtr Editor::embed_site(const std::filesystem::path& site, SitePlacement placement) {
+    const std::optional<TerrainPart> part = terrain_part(selected());
+    if (!part) throw std::runtime_error("select a terrain (or click its ground) to embed a site in it");
+    if (!placement.at) placement.at = default_site_place(*scene_, *part->terrain, cursor_point_);
+    NodePtr node = strata::embed_site(*part->terrain, site, placement);
+    selected_ = node;
+    return node;
+}
+
+namespace {
+
+// The embedding `node` is or lies in, with its terrain. Throws when there is none.
+TerrainPart embedding_part(const NodePtr& node) {
+    const std::optional<TerrainPart> part = terrain_part(node);
+    if (!part || !part->child || part->child == part->terrain->ground()) throw std::runtime_error("select an embedding (or a node in one) to move it");
+    return *part;
+}
+
+}  // namespace
+
+SitePlacement Editor::embedding_placement() const {
+    const TerrainPart part = embedding_part(selected());
+    return part.terrain->placement(part.child.get());
+}
+
+NodePtr Editor::move_embedding(const SitePlacement& placement) {
+    const TerrainPart part = embedding_part(selected());
+    NodePtr node = part.terrain->move_embedding(part.child.get(), placement);
+    selected_ = node;
+    return node;
+}
+
 std::optional<PickHit> Editor::click(double x, double y) {
     const auto start = std::chrono::steady_clock::now();
     std::optional<PickHit> hit = pick(*scene_, camera(), x, y);
@@ -511,6 +544,7 @@ void Editor::draw_inspector() {
     ImGuiInspector fields;
     for (const NodeType* t : type_chain(type))
         if (t->inspect) t->inspect(*node, fields);
+    if (const std::optional<NodePtr> next = embeddings_.draw(*scene_, node, cursor_point_)) selected_ = *next;
     ImGui::Separator();
     ImGui::TextDisabled("drawn this frame (whole scene)");
     ImGui::Text("%.3f M triangles, %llu cubes", stats_.triangles / 1e6, (unsigned long long)stats_.cubes);

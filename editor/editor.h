@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "editor/console.h"
+#include "editor/embedding_panel.h"
 #include "editor/geo_readout.h"
 #include "editor/navigator.h"
 #include "editor/path_editor.h"
@@ -86,6 +87,16 @@ public:
     void remove(const NodePtr& node);
     // Loads an .hlod model or a mesh and adds it to the scene (selected). Throws naming the file.
     NodePtr add_file(const std::filesystem::path& file);
+    // Embeds `site` in the terrain the selection belongs to (editor/embedding_panel.h), at `placement`,
+    // whose `at`, when unset, is the cursor's point on the ground (else the ground's middle); selects and
+    // returns the new node. Throws std::runtime_error when the selection is in no terrain, or naming the
+    // files when the site cannot be embedded there.
+    NodePtr embed_site(const std::filesystem::path& site, SitePlacement placement);
+    // Moves the selected embedding (or the one the selected node lies in) to `placement`; selects and
+    // returns its new node. Throws as Terrain::move_embedding does, or when none is selected.
+    NodePtr move_embedding(const SitePlacement& placement);
+    // Where the embedding move_embedding would move stands now (Terrain::placement).
+    SitePlacement embedding_placement() const;
 
     // Selects the node drawn at pixel (x, y) of the window's framebuffer (none on the background) and
     // returns the hit; what a click in the view does. The hit is the cursor's point of the geographic
@@ -140,6 +151,7 @@ private:
     std::unique_ptr<gl::Framebuffer> target_;
     std::weak_ptr<Node> selected_;
     GeoReadout geo_;
+    EmbeddingPanel embeddings_;
     std::optional<glm::dvec3> cursor_point_;  // world frame: under the pointer, or clicked
     std::optional<GeoView> frame_geo_;        // the read-out this frame shows
     std::chrono::steady_clock::time_point last_hover_{};

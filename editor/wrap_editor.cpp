@@ -14,6 +14,7 @@
 #include "scripting/lua_util.h"
 #include "scripting/wrap_camera.h"
 #include "scripting/wrap_scene.h"
+#include "scripting/wrap_terrain.h"
 
 namespace strata {
 
@@ -330,6 +331,27 @@ int editor_geo(lua_State* L) {
     return 1;
 }
 
+// ed:embed(site[, {at = {lon, lat}, scale =, heading =}]) → the new embedding (selected), in the terrain
+// the selection belongs to; `at` by default the cursor's point on the ground
+int editor_embed(lua_State* L) {
+    Editor& editor = check_editor(L);
+    const char* site = luaL_checkstring(L, 2);
+    if (!lua_isnoneornil(L, 3)) lua::check_keys(L, 3, {"at", "scale", "heading"});
+    const SitePlacement placement = check_placement(L, 3, {});
+    push_node(L, editor.embed_site(site, placement));  // C++ errors become Lua errors (lua::set_functions)
+    return 1;
+}
+
+// ed:move{at =, scale =, heading =} → the selected embedding's new node (selected); what is not given stays
+int editor_move(lua_State* L) {
+    Editor& editor = check_editor(L);
+    luaL_checktype(L, 2, LUA_TTABLE);
+    lua::check_keys(L, 2, {"at", "scale", "heading"});
+    check_placement(L, 2, {});  // the options checked before any work
+    push_node(L, editor.move_embedding(check_placement(L, 2, editor.embedding_placement())));
+    return 1;
+}
+
 int editor_measure(lua_State* L) {  // ed:measure(on): exact split of the scene's and the panels' time
     check_editor(L).set_measure(lua_toboolean(L, 2));
     return 0;
@@ -353,7 +375,8 @@ const luaL_Reg kEditorMethods[] = {
     {"bookmark", editor_bookmark}, {"go", editor_go},                 {"bookmarks", editor_bookmarks},
     {"console", editor_console},   {"screenshot", editor_screenshot}, {"stats", editor_stats},
     {"measure", editor_measure},   {"save", editor_save},             {"click", editor_click},
-    {"panels", editor_panels},     {"geo", editor_geo},
+    {"panels", editor_panels},     {"geo", editor_geo},               {"embed", editor_embed},
+    {"move", editor_move},
     {nullptr, nullptr}};
 
 // strata.view([scene [, camera]]): without arguments, the scene script's globals (scene, camera,

@@ -11,8 +11,18 @@
 #include "scripting/lua_util.h"
 #include "scripting/node_types.h"
 #include "scripting/wrap_scene.h"
+#include "scripting/wrap_terrain.h"
 
 namespace strata {
+
+SitePlacement check_placement(lua_State* L, int index, SitePlacement placement) {
+    if (const auto at = lua::opt_point(L, index, "at", 2, 2, false, "{lon, lat} in degrees")) placement.at = {at->v[0], at->v[1]};
+    placement.scale = lua::opt_number(L, index, "scale", placement.scale);
+    placement.heading = lua::opt_number(L, index, "heading", placement.heading);
+    if (!(placement.scale > 0) || !std::isfinite(placement.scale) || !std::isfinite(placement.heading))
+        luaL_error(L, "options 'scale' (above 0) and 'heading' (degrees) must be finite numbers");
+    return placement;
+}
 
 namespace {
 
@@ -20,16 +30,6 @@ namespace fs = std::filesystem;
 using lua::check_keys;
 using lua::opt_number;
 using lua::opt_string;
-
-// Options at, scale and heading of the table at `index`, over `placement`.
-SitePlacement check_placement(lua_State* L, int index, SitePlacement placement) {
-    if (const auto at = lua::opt_point(L, index, "at", 2, 2, false, "{lon, lat} in degrees")) placement.at = {at->v[0], at->v[1]};
-    placement.scale = opt_number(L, index, "scale", placement.scale);
-    placement.heading = opt_number(L, index, "heading", placement.heading);
-    if (!(placement.scale > 0) || !std::isfinite(placement.scale) || !std::isfinite(placement.heading))
-        luaL_error(L, "options 'scale' (above 0) and 'heading' (degrees) must be finite numbers");
-    return placement;
-}
 
 // An embedding as a script gives it: a file name, or {site =, at =, scale =, heading =, output =}.
 struct EmbedSpec {

@@ -71,5 +71,11 @@ if [ -s "$dem" ]; then
     GEO_SAMPLE="$place $(echo "60 20" | GDAL_PAM_ENABLED=NO gdallocationinfo -valonly "$dem")" \
         expect_success "geographic read-out" xvfb "$STRATA" view "$WORK/olinda.hlod" --size 800x600 --script "$root/tests/editor/drive_geo.lua"
     checks=$((checks + 1)); grep -q "editor geo: ok" "$WORK/out.txt" || { fail "the geo script did not finish"; cat "$WORK/out.txt" "$WORK/err.txt"; }
+    # Embeddings placed, moved and removed in the editor, on that terrain.
+    write_patch "$WORK/patch.off"
+    "$STRATA" build -q "$WORK/patch.off" --lock-boundary -o "$WORK/patch.hlod" || fail "site build failed"
+    printf 'scene = strata.scene()\n' >"$WORK/empty.lua"
+    expect_success "embeddings in the editor" xvfb "$STRATA" view "$WORK/empty.lua" --size 1280x720 --script "$root/tests/editor/drive_embed.lua"
+    checks=$((checks + 1)); grep -q "editor embed: ok" "$WORK/out.txt" || { fail "the embedding script did not finish"; cat "$WORK/out.txt" "$WORK/err.txt"; }
 fi
 finish
