@@ -16,6 +16,7 @@
 //
 // A frame's time is the renderer's, from the start of culling to glFinish() returning (llvmpipe
 // rasterizes on the CPU: its threads share this machine's cores).
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -171,8 +172,10 @@ int main(int argc, char** argv) try {
     std::vector<double> hybrid_triangles, full_triangles, full_frame_ms;
     std::vector<double> frame, stitch_time_share, stitch_triangle_share, fewer, faster, stitch_ms;
     size_t drawn = 0;
+    constexpr int kDistances = 6;  // a site's width × 10^(k/5), k = 0 … 5
+    std::array<std::vector<double>, kDistances> fewer_at, faster_at;
     for (int i = 0; i < views; ++i) {
-        const double distance = width * std::pow(10.0, double(i % 6) / 5.0), angle = 2 * glm::pi<double>() * i / views;
+        const double distance = width * std::pow(10.0, double(i % kDistances) / 5.0), angle = 2 * glm::pi<double>() * i / views;
         const glm::dvec3 at{cx, cy, plan.skirt_mesh.origin[2] + 0.2 * width};
         const glm::dvec3 eye = at + glm::dvec3(distance * std::cos(angle), distance * std::sin(angle), 0.35 * distance);
         camera.look_at(eye, at, {0, 0, 1});
@@ -183,6 +186,7 @@ int main(int argc, char** argv) try {
         hybrid_triangles.push_back(double(hybrid_frame.triangles)), full_triangles.push_back(double(full_frame.triangles));
         fewer.push_back(double(full_frame.triangles) / double(hybrid_frame.triangles));
         faster.push_back(full_frame.seconds / hybrid_frame.seconds);
+        fewer_at[size_t(i % kDistances)].push_back(fewer.back()), faster_at[size_t(i % kDistances)].push_back(faster.back());
         if (!embedding->drawn()) continue;
         ++drawn;
         // The seams alone for this view's selections, as EmbeddingSeams::draw computes them.
@@ -215,6 +219,10 @@ int main(int argc, char** argv) try {
     std::printf("  triangles drawn %.0f (full resolution %.0f); full-resolution frame %.1f ms\n", bench::median(hybrid_triangles),
                 bench::median(full_triangles), bench::median(full_frame_ms));
     std::printf("  against the full-resolution grid and scan: %.1f× fewer triangles, %.2f× faster\n", bench::median(fewer), bench::median(faster));
+    std::printf("  by distance (site widths): ");
+    for (int k = 0; k < kDistances && k < views; ++k)
+        std::printf("%s%.1f: %.1f×, %.2f×", k ? "; " : "", std::pow(10.0, double(k) / 5.0), bench::median(fewer_at[size_t(k)]), bench::median(faster_at[size_t(k)]));
+    std::printf("\n");
     return 0;
 } catch (const std::exception& e) {
     std::fprintf(stderr, "bench_hybrid_terrain: %s\n", e.what());
