@@ -26,17 +26,6 @@ uint64_t cube_key(uint32_t level, uint32_t i, uint32_t j, uint32_t k) {
     return uint64_t(level) << 60 | uint64_t(k) << 40 | uint64_t(j) << 20 | uint64_t(i);  // NODE's order: level, k, j, i
 }
 
-float srgb_to_linear(uint8_t value) {
-    const float c = float(value) / 255.0f;
-    return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f);
-}
-
-uint8_t linear_to_srgb(float c) {
-    c = std::clamp(c, 0.0f, 1.0f);
-    const float s = c <= 0.0031308f ? 12.92f * c : 1.055f * std::pow(c, 1.0f / 2.4f) - 0.055f;
-    return uint8_t(std::lround(s * 255.0f));
-}
-
 // The next mip: 2 × 2 texels averaged in linear light.
 std::vector<uint8_t> half_size(std::span<const uint8_t> rgb, uint32_t size, const std::array<float, 256>& linear) {
     const uint32_t half = size / 2;
@@ -71,6 +60,26 @@ std::array<uint8_t, 3> expand_565(uint16_t c) {
 
 }  // namespace
 
+float srgb_to_linear(uint8_t value) {
+    const float c = float(value) / 255.0f;
+    return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f);
+}
+
+uint8_t linear_to_srgb(float c) {
+    c = std::clamp(c, 0.0f, 1.0f);
+    const float s = c <= 0.0031308f ? 12.92f * c : 1.055f * std::pow(c, 1.0f / 2.4f) - 0.055f;
+    return uint8_t(std::lround(s * 255.0f));
+}
+
+const std::array<float, 256>& srgb_to_linear_table() {
+    static const std::array<float, 256> table = [] {
+        std::array<float, 256> t{};
+        for (int v = 0; v < 256; ++v) t[size_t(v)] = srgb_to_linear(uint8_t(v));
+        return t;
+    }();
+    return table;
+}
+
 bool TextureLayout::valid_size(uint32_t size) { return std::has_single_bit(size) && size >= 8 && size <= 4096; }
 
 uint32_t TextureLayout::mip_count() const { return size < 4 ? 0 : uint32_t(std::bit_width(size)) - 2; }
@@ -84,8 +93,7 @@ uint64_t TextureLayout::chain_bytes() const {
 std::vector<uint8_t> encode_bc1_chain(std::span<const uint8_t> rgb, uint32_t size) {
     if (!std::has_single_bit(size) || size < 4 || rgb.size() != size_t(size) * size * 3)
         throw std::invalid_argument("encode_bc1_chain: " + std::to_string(rgb.size()) + " bytes for " + std::to_string(size) + "² texels");
-    std::array<float, 256> linear{};
-    for (int v = 0; v < 256; ++v) linear[size_t(v)] = srgb_to_linear(uint8_t(v));
+    const std::array<float, 256>& linear = srgb_to_linear_table();
     std::vector<uint8_t> out;
     out.reserve(TextureLayout{.size = size}.chain_bytes());
     std::vector<uint8_t> mip(rgb.begin(), rgb.end());

@@ -11,6 +11,7 @@
 // A mesh with UVs into an atlas (OBJ, glTF) would be a second mapping, its UVs in the payload.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <mutex>
@@ -41,6 +42,13 @@ struct TextureLayout {
     static uint64_t bc1_bytes(uint32_t size) { return uint64_t(size / 4) * (size / 4) * 8; }
     uint64_t chain_bytes() const;
 };
+
+// An 8-bit sRGB value in linear light (0‥1), and back (rounded, clamped): how textures are averaged
+// and blended, as a GPU samples them.
+float srgb_to_linear(uint8_t value);
+uint8_t linear_to_srgb(float linear);
+// srgb_to_linear of every byte.
+const std::array<float, 256>& srgb_to_linear_table();
 
 // The BC1 mip chain of a size × size RGB8 image (3 bytes a texel, row 0 first, as the mapping puts it):
 // each coarser mip averages 2 × 2 texels of the finer in linear light (the bytes are sRGB), and every

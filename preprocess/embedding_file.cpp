@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <bit>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -11,9 +12,11 @@
 #include <limits>
 
 #include "preprocess/byte_packing.h"
+#include "preprocess/cube_textures.h"
 #include "preprocess/embedding.h"
 #include "preprocess/georeference.h"
 #include "preprocess/hlod_builder.h"
+#include "preprocess/imagery_sampler.h"
 #include "preprocess/parallel.h"
 #include "preprocess/terrain_heights.h"
 
@@ -373,6 +376,43 @@ struct RemovedOnExit {
     }
 };
 
+// The skirt's textures (section TXTR) from the terrain's, so that the skirt shows the ground's imagery:
+// each skirt cube's texture resampled (imagery_sampler.h) from the terrain level whose texels are the
+// ground's density at the skirt cube's own. The planar mapping and the codec are the terrain's; the
+// margin is the skirt's σ0 (a mesh's vertices lie within σ0·s_l of their cubes, not a grid's few
+// lattice steps), and the size the power of two that makes the skirt's finest texels at least as dense
+// as the terrain's finest (its leaf cubes are not the terrain's size). Returns the section's bytes.
+uint64_t write_skirt_textures(const TerrainSite& terrain, const CubeTextures& ground, const HlodFile& skirt, HlodWriter& writer, int threads,
+                              const Progress& progress) {
+    const HlodHeader& h = skirt.header();
+    const double reach[2] = {h.origin[0] - h.sigma0 * h.root_size, h.origin[1] - h.sigma0 * h.root_size};
+    const double reach_hi[2] = {h.origin[0] + (1 + h.sigma0) * h.root_size, h.origin[1] + (1 + h.sigma0) * h.root_size};
+    const std::vector<HlodNode>& nodes = terrain.file->nodes();
+    auto sampler = [&] { return ImagerySampler(terrain.header(), ground, nodes.size(), [&](uint64_t n) -> const HlodNode& { return nodes[n]; }, reach, reach_hi); };
+    TextureLayout layout;
+    layout.margin = h.sigma0;
+    const double finest = sampler().texel_spacing(terrain.header().max_level);
+    layout.size = std::bit_ceil(uint32_t(std::clamp(std::ceil((1 + 2 * double(h.sigma0)) * h.cube_size(h.max_level) / finest), 8.0, 4096.0)));
+    TextureSectionWriter section(writer, layout);
+    const unsigned workers = resolve_thread_count(threads);
+    std::vector<std::optional<ImagerySampler>> samplers(workers);  // each worker's own decoded textures
+    std::atomic<size_t> done{0};
+    parallel_for(skirt.nodes().size(), workers, [&](size_t c, unsigned worker) {
+        progress.check();
+        if (!samplers[worker]) samplers[worker].emplace(sampler());
+        ImagerySampler& imagery = *samplers[worker];
+        const HlodNode& n = skirt.nodes()[c];
+        const double s = h.cube_size(n.level), spacing = (1 + 2 * double(layout.margin)) * s / layout.size;
+        const TexelGrid grid{h.origin[0] + (n.i - double(layout.margin)) * s + spacing / 2, h.origin[1] + (n.j - double(layout.margin)) * s + spacing / 2,
+                             spacing, layout.size, layout.size};
+        section.add(n.level, n.i, n.j, n.k, encode_bc1_chain(imagery.sample(imagery.level_for(spacing), grid), layout.size));
+        const size_t finished = ++done;
+        if (worker == 0) progress("skirt textures", double(finished), double(skirt.nodes().size()), "cubes");
+    });
+    section.finish();
+    return section.bytes();
+}
+
 }  // namespace
 
 EmbedReport build_embedding(const fs::path& terrain_path, const fs::path& site_path, const fs::path& output, const EmbedSettings& settings,
@@ -440,6 +480,10 @@ EmbedReport build_embedding(const fs::path& terrain_path, const fs::path& site_p
             progress.check();
             writer.add_cube(n, skirt->read_payload(n));
         }
+    if (const HlodSection* textures = terrain.file->find_section(kTexturesTag); textures && skirt) {
+        const CubeTextures ground(terrain.file, *textures, terrain.file->nodes().size());
+        report.texture_bytes = write_skirt_textures(terrain, ground, *skirt, writer, settings.threads, progress);
+    }
     writer.set_section_head(kEmbeddingTag, std::move(section));
     progress.check();
     writer.finish(header);

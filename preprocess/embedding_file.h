@@ -129,11 +129,13 @@ struct EmbedReport {
     EmbeddingRecord record;
     uint64_t skirt_triangles = 0;
     uint64_t embd_bytes = 0, file_bytes = 0;
+    uint64_t texture_bytes = 0;  // the skirt's textures (section TXTR), when the terrain has some
     double seconds = 0;
 };
 
 // strata embed TERRAIN SITE -o OUT: plans the embedding of `site` (a .hlod) on `terrain` (a terrain
-// .hlod), builds its skirt and writes the embedding file. Throws InputError for input that cannot be
+// .hlod), builds its skirt and writes the embedding file; a textured terrain's skirt gets its imagery
+// (section TXTR, resampled from the terrain's textures). Throws InputError for input that cannot be
 // embedded (naming the file), Cancelled, and std::runtime_error for read or write failures; in every case
 // no output is left behind (a complete earlier file at `output` stays as it was).
 EmbedReport build_embedding(const std::filesystem::path& terrain, const std::filesystem::path& site, const std::filesystem::path& output,

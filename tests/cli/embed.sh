@@ -36,6 +36,16 @@ checks=$((checks + 1)); [ ! -s "$WORK/out.txt" ] || fail "embed -q printed: $(ca
 expect_success "info turned" "$STRATA" info "$WORK/turned.hlod"
 checks=$((checks + 1)); grep -q "scale 1.5, heading 30°" "$WORK/out.txt" || fail "info: not turned and scaled: $(grep placement "$WORK/out.txt")"
 
+# On a textured terrain the skirt carries the ground's imagery (TXTR), which info describes and verify checks;
+# the untextured terrain's skirt has none.
+checks=$((checks + 1)); ! grep -q "^textures" "$WORK/out.txt" || fail "info: an untextured terrain's skirt has textures: $(cat "$WORK/out.txt")"
+expect_success "build a textured terrain" "$STRATA" build -q "$dem" --texture "$2/data/olinda_l7.tif" --texture-bands 3,2,1 -o "$WORK/textured.hlod"
+expect_success "embed on the textured terrain" "$STRATA" embed -q "$WORK/textured.hlod" "$WORK/site.hlod" -o "$WORK/on_textured.hlod" --at "$at"
+expect_success "info on the textured embedding" "$STRATA" info "$WORK/on_textured.hlod"
+checks=$((checks + 1)); grep -q "^textures .* texels a cube, BC1 sRGB with mips" "$WORK/out.txt" || fail "info: the skirt has no textures: $(cat "$WORK/out.txt")"
+expect_success "verify the textured embedding" "$STRATA" verify "$WORK/on_textured.hlod"
+checks=$((checks + 1)); grep -q ": ok: .*its embedding sound" "$WORK/out.txt" || fail "verify: $(cat "$WORK/out.txt")"
+
 # A closed site stands: nothing cut, a file without cubes.
 expect_success "embed a closed site" "$STRATA" embed "$WORK/olinda.hlod" "$WORK/statue.hlod" -o "$WORK/statue_on_olinda.hlod" --at "$at"
 checks=$((checks + 1)); grep -q "stands on .*nothing cut" "$WORK/out.txt" || fail "a closed site: $(cat "$WORK/out.txt")"

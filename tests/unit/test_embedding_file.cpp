@@ -13,6 +13,7 @@
 #include <map>
 #include <set>
 
+#include "preprocess/cube_textures.h"
 #include "preprocess/embedding.h"
 #include "preprocess/embedding_file.h"
 #include "preprocess/georeference.h"
@@ -208,6 +209,9 @@ TEST(EmbeddingFile, TheFileKeepsThePlanAndNamesItsTerrainAndSite) {
     EXPECT_TRUE(verified.embedding);
     EXPECT_TRUE(verified.boundary_locked);
     EXPECT_EQ(verified.triangles > 0, true);
+    // An untextured terrain's skirt has no textures either.
+    EXPECT_EQ(file.find_section(kTexturesTag), nullptr);
+    EXPECT_EQ(e.report.texture_bytes, 0u);
 }
 
 // --at puts the boundary's centroid on the point and its mean height on the ground; scale and heading

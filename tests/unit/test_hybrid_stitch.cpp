@@ -9,8 +9,10 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <map>
+#include <optional>
 #include <random>
 #include <set>
 
@@ -21,7 +23,9 @@
 #include "engine/scene/light.h"
 #include "nodes/embedding_stitch.h"
 #include "nodes/terrain.h"
+#include "preprocess/cube_textures.h"
 #include "preprocess/embedding.h"
+#include "preprocess/embedding_file.h"
 #include "preprocess/georeference.h"
 #include "preprocess/hlod_builder.h"
 #include "preprocess/terrain_build.h"
@@ -396,17 +400,30 @@ TEST_F(HybridStitch, NoBackgroundShowsThroughTheJoinInAnyView) {
 // ground cube beside a site's zone drawn just outside its switch distance and its children just inside
 // it give the same image, the embedding drawn both times and the seams following the grid's morph;
 // without the morph the switch shows.
-TEST(HybridRender, NoPopAtTheJoinAcrossAGridLevelSwitch) {
-    const auto data = fs::path(STRATA_SOURCE_DIR) / "data";
-    if (!fs::exists(data / "olinda_dem.tif") || !fs::exists(data / "olinda_l7.tif")) GTEST_SKIP() << "data/olinda_* missing: run scripts/setup.sh";
-    const test::TempDir dir;
+const fs::path kData = fs::path(STRATA_SOURCE_DIR) / "data";
+bool olinda_missing() { return !fs::exists(kData / "olinda_dem.tif") || !fs::exists(kData / "olinda_l7.tif"); }
+
+// Olinda's DEM under its Landsat image (bands 3, 2, 1: natural colours) as a terrain of 16-cell cubes.
+void build_textured_olinda(const fs::path& out) {
     TerrainSettings terrain_settings;
     terrain_settings.cube_cells = 16;
-    terrain_settings.texture = TextureSettings{data / "olinda_l7.tif", {3, 2, 1}, 0};
-    build_terrain({data / "olinda_dem.tif"}, dir.path() / "olinda.hlod", terrain_settings, "olinda_dem.tif");
-    const TerrainSite t = TerrainSite::open(dir.path() / "olinda.hlod");
+    terrain_settings.texture = TextureSettings{kData / "olinda_l7.tif", {3, 2, 1}, 0};
+    build_terrain({kData / "olinda_dem.tif"}, out, terrain_settings, "olinda_dem.tif");
+}
+
+// The middle of Olinda's raster (sample 55, 55), in its model frame.
+glm::dvec2 olinda_middle(const TerrainSite& t) {
     const auto centre = t.georeference->sample_position(55, 55, 0);
-    Mesh site = site_mesh(t, (*centre)[0], (*centre)[1], 600, 120.0);  // high enough that m < L
+    return {(*centre)[0], (*centre)[1]};
+}
+
+TEST(HybridRender, NoPopAtTheJoinAcrossAGridLevelSwitch) {
+    if (olinda_missing()) GTEST_SKIP() << "data/olinda_* missing: run scripts/setup.sh";
+    const test::TempDir dir;
+    build_textured_olinda(dir.path() / "olinda.hlod");
+    const TerrainSite t = TerrainSite::open(dir.path() / "olinda.hlod");
+    const glm::dvec2 middle = olinda_middle(t);
+    Mesh site = site_mesh(t, middle.x, middle.y, 600, 120.0);  // high enough that m < L
     const EmbeddingPlan plan = plan_embedding(t, site, glm::dmat4(1.0), "site");
     BuildSettings settings;
     settings.lock_boundary = true;
@@ -442,6 +459,200 @@ TEST(HybridRender, NoPopAtTheJoinAcrossAGridLevelSwitch) {
     EXPECT_LE(test::differing(morphed.before, morphed.after, 1.0f / 255), 0.001);
     const test::PopFrames plain = test::pop_frames(*root, *ground, chosen, kappa0, false);
     EXPECT_GT(test::differing(plain.before, plain.after, 1.0f / 255), 0.001);
+}
+
+// A site embedded by strata embed (build_embedding) in Olinda's textured terrain: its skirt carries
+// textures resampled from the ground's (section TXTR), and the skirt and the seams show the ground's
+// imagery where an untextured skirt shows a grey ring.
+class HybridImagery : public ::testing::Test {
+protected:
+    static void SetUpTestSuite() {
+        if (olinda_missing()) return;
+        build_textured_olinda(terrain_file());
+        const TerrainSite t = TerrainSite::open(terrain_file());
+        const glm::dvec2 middle = olinda_middle(t);
+        BuildSettings settings;
+        settings.lock_boundary = true;
+        settings.levels = 3;
+        build_hlod(site_mesh(t, middle.x, middle.y, 600, 0.0), site_file(), settings, "site");
+        const std::array<double, 3> at = t.georeference->to_geo({middle.x, middle.y, 0});
+        EmbedSettings embed;
+        embed.placement.at = {at[0], at[1]};
+        report_ = build_embedding(terrain_file(), site_file(), embedding_file(), embed);
+    }
+    static void TearDownTestSuite() { dir_.reset(); }
+    void SetUp() override {
+        if (olinda_missing()) GTEST_SKIP() << "data/olinda_* missing: run scripts/setup.sh";
+    }
+
+    static fs::path terrain_file() { return dir_->path() / "olinda.hlod"; }
+    static fs::path site_file() { return dir_->path() / "site.hlod"; }
+    static fs::path embedding_file() { return dir_->path() / "site_on_olinda.hlod"; }
+
+    static inline std::unique_ptr<test::TempDir> dir_ = std::make_unique<test::TempDir>();
+    static inline EmbedReport report_;
+};
+
+// A model's textures, each cube's mip 0 decoded once.
+class DecodedTextures {
+public:
+    explicit DecodedTextures(const fs::path& path)
+        : file_(std::make_shared<const HlodFile>(path)), textures_(file_, *file_->find_section(kTexturesTag), file_->nodes().size()) {}
+    const HlodFile& file() const { return *file_; }
+    const TextureLayout& layout() const { return textures_.layout(); }
+    const std::vector<uint8_t>& mip0(uint64_t index) {
+        auto [it, fresh] = decoded_.try_emplace(index);
+        if (fresh) {
+            const std::vector<uint8_t> chain = textures_.read(index, file_->nodes()[index]);
+            it->second = decode_bc1(std::span(chain).first(TextureLayout::bc1_bytes(layout().size)), layout().size);
+        }
+        return it->second;
+    }
+    // The node table's index of the cube at level `level` whose cell holds model (x, y), if any.
+    std::optional<uint64_t> cube_at(uint32_t level, double x, double y) const {
+        const HlodHeader& h = file_->header();
+        const double s = h.cube_size(level), i = std::floor((x - h.origin[0]) / s), j = std::floor((y - h.origin[1]) / s);
+        for (uint64_t n = 0; n < file_->nodes().size(); ++n) {
+            const HlodNode& node = file_->nodes()[n];
+            if (node.level == level && node.i == i && node.j == j) return n;
+        }
+        return std::nullopt;
+    }
+
+private:
+    std::shared_ptr<const HlodFile> file_;
+    CubeTextures textures_;
+    std::map<uint64_t, std::vector<uint8_t>> decoded_;
+};
+
+// Every skirt texel of the skirt's finest cubes is the ground's imagery at its place: per channel between
+// the four ground texels around that point (what a bilinear blend gives), within BC1's error, at the
+// coarsest ground level whose texels are as dense (FORMAT.md §4.9's mapping, computed here on its own).
+// Against the ground a few texels away it is not.
+TEST_F(HybridImagery, EachSkirtTexelIsTheGroundsImageryAtItsPlace) {
+    ASSERT_GT(report_.texture_bytes, 0u);
+    DecodedTextures skirt(embedding_file()), ground(terrain_file());
+    const HlodHeader &sh = skirt.file().header(), &gh = ground.file().header();
+    const float skirt_margin = skirt.layout().margin, ground_margin = ground.layout().margin;
+    EXPECT_EQ(skirt_margin, sh.sigma0);
+    const double ground_finest = (1 + 2 * ground_margin) * gh.cube_size(gh.max_level) / ground.layout().size;
+    const double skirt_finest = (1 + 2 * skirt_margin) * sh.cube_size(sh.max_level) / skirt.layout().size;
+    EXPECT_LE(skirt_finest, ground_finest) << "the skirt's finest texels as dense as the ground's";
+    constexpr int kBc1Steps = 8;
+    auto matches = [&](double shift) {  // the share of texels within the ground's four around (x + shift, y)
+        size_t checked = 0, within = 0;
+        for (uint64_t n = 0; n < skirt.file().nodes().size(); ++n) {
+            const HlodNode& node = skirt.file().nodes()[n];
+            if (node.level != sh.max_level) continue;
+            const uint32_t size = skirt.layout().size;
+            const double s = sh.cube_size(node.level), spacing = (1 + 2 * skirt_margin) * s / size;
+            uint32_t level = 0;
+            while (level < gh.max_level && (1 + 2 * ground_margin) * gh.cube_size(level) / ground.layout().size > spacing) ++level;
+            const double gs = gh.cube_size(level), ground_spacing = (1 + 2 * ground_margin) * gs / ground.layout().size;
+            for (uint32_t r = 1; r < size; r += 3)
+                for (uint32_t c = 1; c < size; c += 3) {
+                    const double x = sh.origin[0] + (node.i - skirt_margin) * s + (c + 0.5) * spacing + shift * ground_spacing;
+                    const double y = sh.origin[1] + (node.j - skirt_margin) * s + (r + 0.5) * spacing;
+                    const std::optional<uint64_t> under = ground.cube_at(level, x, y);
+                    if (!under) continue;
+                    const HlodNode& g = ground.file().nodes()[*under];
+                    const int gsize = int(ground.layout().size);
+                    const double tx = ((x - gh.origin[0]) / gs - g.i + ground_margin) / (1 + 2 * ground_margin) * gsize - 0.5;
+                    const double ty = ((y - gh.origin[1]) / gs - g.j + ground_margin) / (1 + 2 * ground_margin) * gsize - 0.5;
+                    const std::vector<uint8_t>& ground_rgb = ground.mip0(*under);
+                    const uint8_t* texel = &skirt.mip0(n)[(size_t(r) * size + c) * 3];
+                    bool inside = true;
+                    for (int channel = 0; channel < 3; ++channel) {
+                        int lo = 255, hi = 0;
+                        for (int dy = 0; dy <= 1; ++dy)
+                            for (int dx = 0; dx <= 1; ++dx) {
+                                const int gx = std::clamp(int(std::floor(tx)) + dx, 0, gsize - 1), gy = std::clamp(int(std::floor(ty)) + dy, 0, gsize - 1);
+                                const int value = ground_rgb[(size_t(gy) * size_t(gsize) + size_t(gx)) * 3 + size_t(channel)];
+                                lo = std::min(lo, value), hi = std::max(hi, value);
+                            }
+                        inside = inside && texel[channel] >= lo - kBc1Steps && texel[channel] <= hi + kBc1Steps;
+                    }
+                    ++checked;
+                    within += inside;
+                }
+        }
+        EXPECT_GT(checked, 1000u);
+        return double(within) / double(std::max<size_t>(checked, 1));
+    };
+    const double here = matches(0), elsewhere = matches(8);
+    EXPECT_GT(here, 0.99);
+    EXPECT_LT(elsewhere, 0.8) << "the check tells places apart";
+    std::printf("skirt texels within the ground's four around them: %.4f at their place, %.4f eight texels east\n", here, elsewhere);
+}
+
+// Drawn with real OpenGL under ambient light alone (so a pixel shows its texture's colour), seen from
+// above: where the skirt is drawn, its pixels are the plain ground's there (median difference at most 3
+// steps in 255: BC1 twice and a resampling); an untextured skirt, the embedding as it was drawn before, is a grey ring there.
+TEST_F(HybridImagery, TheSkirtShowsTheGroundsImageryNotAGreyRing) {
+    const auto context = gl::create_headless_context();
+    const TerrainSite t = TerrainSite::open(terrain_file());
+    const EmbeddingRecord record = read_embedding(HlodFile(embedding_file()));
+    // The control: the same skirt built without textures, as before.
+    const EmbeddingPlan plan = plan_embedding(t, open_site(site_file()).coarsest, record.placement, record.height_difference, "site");
+    BuildSettings locked;
+    locked.lock_boundary = true;
+    build_hlod(Mesh(plan.skirt_mesh), dir_->path() / "grey_skirt.hlod", locked, "skirt");
+
+    enum class Skirt { none, textured, grey };
+    struct Scene {
+        NodePtr root;
+        std::shared_ptr<Embedding> embedding;
+    };
+    auto scene = [&](Skirt skirt) {
+        auto root = std::make_shared<Group>();
+        auto ambient = std::make_shared<AmbientLight>();
+        ambient->color = {1, 1, 1};
+        root->add(ambient);
+        auto terrain = std::make_shared<Terrain>(HlodModel::load(terrain_file()));
+        if (skirt == Skirt::textured) terrain->load_embedding(embedding_file());
+        if (skirt == Skirt::grey)
+            terrain->embed(HlodModel::load(dir_->path() / "grey_skirt.hlod"), HlodModel::load(site_file()), record.placement, record.zone_level,
+                           record.zone, "site");
+        root->add(terrain);
+        return Scene{root, skirt == Skirt::none ? nullptr : terrain->embeddings().at(0)};
+    };
+    const glm::dvec2 middle = olinda_middle(t);
+    const double ground = *t.heights->at(55, 55);
+    Camera camera;
+    camera.width = 320, camera.height = 240, camera.fov_y_degrees = 50;
+    camera.look_at({middle.x, middle.y - 900, ground + 3000}, {middle.x, middle.y, ground}, {0, 0, 1});
+    Renderer renderer;
+    RenderSettings full_detail;
+    full_detail.full_detail = true;  // the embedding file's models stream
+    gl::Framebuffer target({.width = camera.width, .height = camera.height, .samples = 1, .node_id = true});
+    auto render = [&](const Scene& s) {
+        renderer.render(*s.root, camera, target, full_detail);
+        return renderer.read_image(target);
+    };
+    const Image plain = render(scene(Skirt::none));
+    // The median over the skirt's pixels of the largest channel difference from the plain ground, in
+    // sRGB steps of 255.
+    auto median_difference = [&](Skirt skirt) {
+        const Scene s = scene(skirt);
+        const Image image = render(s);
+        EXPECT_TRUE(s.embedding->drawn());
+        std::vector<double> differences;
+        for (size_t p = 0; p < image.pixel_count(); ++p) {
+            if (image.node_id[p] != s.embedding->skirt()->id()) continue;
+            double most = 0;
+            for (size_t c = 0; c < 3; ++c)
+                most = std::max(most, double(std::abs(int(linear_to_srgb(image.rgba[4 * p + c])) - int(linear_to_srgb(plain.rgba[4 * p + c])))));
+            differences.push_back(most);
+        }
+        EXPECT_GT(differences.size(), 2000u) << "the skirt's pixels";
+        if (differences.empty()) return 255.0;
+        std::nth_element(differences.begin(), differences.begin() + ptrdiff_t(differences.size() / 2), differences.end());
+        return differences[differences.size() / 2];
+    };
+    const double textured = median_difference(Skirt::textured), grey = median_difference(Skirt::grey);
+    EXPECT_LE(textured, 3.0);
+    EXPECT_GT(grey, 20.0) << "the control: an untextured skirt is a grey ring";
+    std::printf("skirt pixels against the plain ground: median %.2f steps textured, %.2f untextured\n", textured, grey);
 }
 
 }  // namespace
