@@ -82,9 +82,10 @@ int run_embed(const EmbedOptions& o) {
         std::printf("  skirt       %llu triangles, %llu boundary vertices\n", (unsigned long long)report.skirt_triangles,
                     (unsigned long long)r.boundary_vertices);
         const double per_vertex = double(std::max<uint64_t>(r.boundary_vertices, 1));
-        std::printf("  bytes       EMBD %llu (%.2f a boundary vertex), file %llu (%.1f a boundary vertex)\n",
-                    (unsigned long long)report.embd_bytes, double(report.embd_bytes) / per_vertex, (unsigned long long)report.file_bytes,
-                    double(report.file_bytes) / per_vertex);
+        std::printf("  bytes       EMBD %llu (%.2f a boundary vertex), file %llu (%.1f a boundary vertex)", (unsigned long long)report.embd_bytes,
+                    double(report.embd_bytes) / per_vertex, (unsigned long long)report.file_bytes, double(report.file_bytes) / per_vertex);
+        if (report.texture_bytes) std::printf(", of which the skirt's imagery %llu", (unsigned long long)report.texture_bytes);
+        std::printf("\n");
         return kOk;
     } catch (const Cancelled&) {
         bar.finish();

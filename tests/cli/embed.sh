@@ -40,7 +40,8 @@ checks=$((checks + 1)); grep -q "scale 1.5, heading 30°" "$WORK/out.txt" || fai
 # the untextured terrain's skirt has none.
 checks=$((checks + 1)); ! grep -q "^textures" "$WORK/out.txt" || fail "info: an untextured terrain's skirt has textures: $(cat "$WORK/out.txt")"
 expect_success "build a textured terrain" "$STRATA" build -q "$dem" --texture "$2/data/olinda_l7.tif" --texture-bands 3,2,1 -o "$WORK/textured.hlod"
-expect_success "embed on the textured terrain" "$STRATA" embed -q "$WORK/textured.hlod" "$WORK/site.hlod" -o "$WORK/on_textured.hlod" --at "$at"
+expect_success "embed on the textured terrain" "$STRATA" embed "$WORK/textured.hlod" "$WORK/site.hlod" -o "$WORK/on_textured.hlod" --at "$at"
+checks=$((checks + 1)); grep -q "^  bytes       EMBD .*, of which the skirt's imagery [1-9][0-9]*$" "$WORK/out.txt" || fail "embed: the imagery's bytes not reported: $(cat "$WORK/out.txt")"
 expect_success "info on the textured embedding" "$STRATA" info "$WORK/on_textured.hlod"
 checks=$((checks + 1)); grep -q "^textures .* texels a cube, BC1 sRGB with mips" "$WORK/out.txt" || fail "info: the skirt has no textures: $(cat "$WORK/out.txt")"
 expect_success "verify the textured embedding" "$STRATA" verify "$WORK/on_textured.hlod"
