@@ -417,31 +417,47 @@ glm::dvec2 olinda_middle(const TerrainSite& t) {
     return {(*centre)[0], (*centre)[1]};
 }
 
-TEST(HybridRender, NoPopAtTheJoinAcrossAGridLevelSwitch) {
-    if (olinda_missing()) GTEST_SKIP() << "data/olinda_* missing: run scripts/setup.sh";
-    const test::TempDir dir;
-    build_textured_olinda(dir.path() / "olinda.hlod");
-    const TerrainSite t = TerrainSite::open(dir.path() / "olinda.hlod");
+// A site 600 m wide, 120 m above the middle of Olinda's textured terrain (high enough that its zone
+// level m is coarser than the finest), embedded with a one-level skirt, under ambient light alone.
+struct HighSite {
+    NodePtr root;
+    std::shared_ptr<HlodModel> ground;
+    std::shared_ptr<Embedding> embedding;
+    EmbeddingPlan plan;
+};
+
+HighSite embed_high_site(const fs::path& dir) {
+    build_textured_olinda(dir / "olinda.hlod");
+    const TerrainSite t = TerrainSite::open(dir / "olinda.hlod");
     const glm::dvec2 middle = olinda_middle(t);
-    Mesh site = site_mesh(t, middle.x, middle.y, 600, 120.0);  // high enough that m < L
-    const EmbeddingPlan plan = plan_embedding(t, site, glm::dmat4(1.0), "site");
+    Mesh site = site_mesh(t, middle.x, middle.y, 600, 120.0);
+    HighSite out;
+    out.plan = plan_embedding(t, site, glm::dmat4(1.0), "site");
     BuildSettings settings;
     settings.lock_boundary = true;
     settings.levels = 3;
-    build_hlod(std::move(site), dir.path() / "site.hlod", settings, "site");
+    build_hlod(std::move(site), dir / "site.hlod", settings, "site");
     settings.levels = 1;
-    build_hlod(Mesh(plan.skirt_mesh), dir.path() / "skirt.hlod", settings, "skirt");
-
-    const auto context = gl::create_headless_context();
+    build_hlod(Mesh(out.plan.skirt_mesh), dir / "skirt.hlod", settings, "skirt");
     auto root = std::make_shared<Group>();
     auto ambient = std::make_shared<AmbientLight>();
     ambient->color = {1, 1, 1};
     root->add(ambient);
-    auto ground = HlodModel::load(dir.path() / "olinda.hlod");
-    auto terrain = std::make_shared<Terrain>(ground);
-    const auto embedding = terrain->embed(HlodModel::load(dir.path() / "skirt.hlod"), HlodModel::load(dir.path() / "site.hlod"), glm::dmat4(1.0),
-                                          plan.zone_level, plan.zone, "site");
+    out.ground = HlodModel::load(dir / "olinda.hlod");
+    auto terrain = std::make_shared<Terrain>(out.ground);
+    out.embedding = terrain->embed(HlodModel::load(dir / "skirt.hlod"), HlodModel::load(dir / "site.hlod"), glm::dmat4(1.0),
+                                   out.plan.zone_level, out.plan.zone, "site");
     root->add(terrain);
+    out.root = root;
+    return out;
+}
+
+TEST(HybridRender, NoPopAtTheJoinAcrossAGridLevelSwitch) {
+    if (olinda_missing()) GTEST_SKIP() << "data/olinda_* missing: run scripts/setup.sh";
+    const test::TempDir dir;
+    const auto context = gl::create_headless_context();
+    const HighSite high = embed_high_site(dir.path());
+    const auto& [root, ground, embedding, plan] = high;
     for (const auto& model : {ground, embedding->skirt(), embedding->site()}) model->set_kappa0(2.5);
     const double kappa0 = ground->kappa0();  // as clamped
     // A cube of level m or finer beside the zone (the border runs through its cell), with children.
@@ -459,6 +475,67 @@ TEST(HybridRender, NoPopAtTheJoinAcrossAGridLevelSwitch) {
     EXPECT_LE(test::differing(morphed.before, morphed.after, 1.0f / 255), 0.001);
     const test::PopFrames plain = test::pop_frames(*root, *ground, chosen, kappa0, false);
     EXPECT_GT(test::differing(plain.before, plain.after, 1.0f / 255), 0.001);
+}
+
+// The seams on a textured terrain show its imagery: their pixels (those they draw in hot pink under the
+// ground's levels view, which also checks that colour) match the plain textured terrain's there, where
+// the grey they had would not.
+TEST(HybridRender, TheSeamsShowTheGroundsImageryAndHotPinkUnderTheDebugViews) {
+    if (olinda_missing()) GTEST_SKIP() << "data/olinda_* missing: run scripts/setup.sh";
+    const test::TempDir dir;
+    const auto context = gl::create_headless_context();
+    const HighSite high = embed_high_site(dir.path());
+    auto plain = std::make_shared<Group>();
+    auto ambient = std::make_shared<AmbientLight>();
+    ambient->color = {1, 1, 1};
+    plain->add(ambient);
+    plain->add(HlodModel::load(dir.path() / "olinda.hlod"));
+    const TerrainSite t = TerrainSite::open(dir.path() / "olinda.hlod");
+    const glm::dvec2 middle = olinda_middle(t);
+    const double ground = *t.heights->at(55, 55);
+    Camera camera;
+    camera.width = 320, camera.height = 240, camera.fov_y_degrees = 50;
+    Renderer renderer;
+    gl::Framebuffer target({.width = camera.width, .height = camera.height, .samples = 1, .node_id = true});
+    auto render = [&](Node& root) {
+        renderer.render(root, camera, target);
+        return renderer.read_image(target);
+    };
+    auto srgb_difference = [](const float* a, const float* b) {
+        int most = 0;
+        for (int c = 0; c < 3; ++c) most = std::max(most, std::abs(int(linear_to_srgb(a[c])) - int(linear_to_srgb(b[c]))));
+        return double(most);
+    };
+    const float grey[3] = {0.6f, 0.57f, 0.52f};  // the seams' untextured colour (terrain_draw.cpp)
+    std::vector<double> textured, untextured;
+    int views_drawn = 0;
+    for (int v = 0; v < 16; ++v) {
+        const double angle = 2 * M_PI * v / 16, distance = 1200 + 600 * (v % 4);
+        camera.look_at({middle.x + distance * std::cos(angle), middle.y + distance * std::sin(angle), ground + 0.25 * distance},
+                       {middle.x, middle.y, ground}, {0, 0, 1});
+        high.ground->set_debug_view(HlodDebugView::levels);
+        const Image pink = render(*high.root);
+        high.ground->set_debug_view(HlodDebugView::none);
+        if (!high.embedding->drawn()) continue;
+        ++views_drawn;
+        const Image shown = render(*high.root), under = render(*plain);
+        for (size_t p = 0; p < pink.pixel_count(); ++p) {
+            const float* c = &pink.rgba[4 * p];
+            if (!(c[0] > 0.9f && c[1] < 0.2f && c[2] > 0.4f && c[2] < 0.7f) || shown.node_id[p] != high.ground->id()) continue;
+            textured.push_back(srgb_difference(&shown.rgba[4 * p], &under.rgba[4 * p]));
+            untextured.push_back(srgb_difference(grey, &under.rgba[4 * p]));
+        }
+    }
+    EXPECT_GE(views_drawn, 8);
+    ASSERT_GE(textured.size(), 50u) << "seam pixels in hot pink under the levels view";
+    auto median = [](std::vector<double> v) {
+        std::nth_element(v.begin(), v.begin() + ptrdiff_t(v.size() / 2), v.end());
+        return v[v.size() / 2];
+    };
+    std::printf("%zu seam pixels in %d views: median difference from the ground's imagery %.1f steps, %.1f for the grey they had\n",
+                textured.size(), views_drawn, median(textured), median(untextured));
+    EXPECT_LE(median(textured), 12.0);
+    EXPECT_GT(median(untextured), 3 * std::max(median(textured), 4.0)) << "the control: grey seams would show";
 }
 
 // A site embedded by strata embed (build_embedding) in Olinda's textured terrain: its skirt carries
