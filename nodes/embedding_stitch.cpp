@@ -345,32 +345,22 @@ const EmbeddingStitch::CubePoints& EmbeddingStitch::site_cube(uint32_t c) const 
     return site_cubes_.emplace(c, find_points(*models_.site, c, site_point_)).first->second;
 }
 
-void EmbeddingStitch::seams(const ModelView& terrain, const ModelView& skirt, const ModelView& site, std::vector<StitchTriangle>& out) const {
-    std::vector<glm::vec3> drawn;
+void EmbeddingStitch::seam_vertices(std::span<const uint32_t> terrain_cubes, std::span<const uint32_t> skirt_cubes,
+                                    std::span<const uint32_t> site_cubes, std::vector<StitchRefTriangle>& out) const {
     // The grid: each step's level, and the border's samples as each level draws them.
     std::vector<int32_t> step_level(step_count_, -1);
-    std::unordered_map<uint64_t, glm::vec3> grid;  // (level, sample) → position
-    for (const uint32_t c : terrain.cubes) {
+    std::unordered_map<uint64_t, StitchRef> grid;  // (level, sample) → vertex
+    for (const uint32_t c : terrain_cubes) {
         const TerrainCube& cube = terrain_cube(c);
-        if (cube.steps.empty() && cube.border_samples.empty()) continue;
         const uint32_t level = models_.terrain->cubes()[c].node.level;
         for (const uint32_t s : cube.steps) step_level[s] = int32_t(level);
-        models_.terrain->drawn_positions(c, *terrain.inputs, drawn);
-        for (const auto& [v, sample] : cube.border_samples) grid[uint64_t(level) << 32 | sample] = drawn[v];
+        for (const auto& [v, sample] : cube.border_samples) grid[uint64_t(level) << 32 | sample] = {StitchOwner::terrain, c, v};
     }
-    std::unordered_map<uint32_t, glm::vec3> skirt_at, site_at;
-    for (const uint32_t c : skirt.cubes) {
-        const CubePoints& cube = skirt_cube(c);
-        if (cube.points.empty()) continue;
-        models_.skirt->drawn_positions(c, *skirt.inputs, drawn);
-        for (const auto& [v, point] : cube.points) skirt_at[point] = drawn[v];
-    }
-    for (const uint32_t c : site.cubes) {
-        const CubePoints& cube = site_cube(c);
-        if (cube.points.empty()) continue;
-        models_.site->drawn_positions(c, *site.inputs, drawn);
-        for (const auto& [v, point] : cube.points) site_at[point] = drawn[v];
-    }
+    std::unordered_map<uint32_t, StitchRef> skirt_at, site_at;  // point → vertex
+    for (const uint32_t c : skirt_cubes)
+        for (const auto& [v, point] : skirt_cube(c).points) skirt_at[point] = {StitchOwner::skirt, c, v};
+    for (const uint32_t c : site_cubes)
+        for (const auto& [v, point] : site_cube(c).points) site_at[point] = {StitchOwner::site, c, v};
 
     // The ring seam.
     std::vector<std::array<SeamVertex, 3>> ring;
@@ -381,7 +371,7 @@ void EmbeddingStitch::seams(const ModelView& terrain, const ModelView& skirt, co
             ring.clear();
             ring_seam_step(loops_[l], i, uint32_t(level), finest_, columns_, rows_, ring);
             for (const auto& triangle : ring) {
-                StitchTriangle t;
+                StitchRefTriangle t;
                 bool whole = true;
                 for (int k = 0; k < 3 && whole; ++k) {
                     const SeamVertex& v = triangle[size_t(k)];
@@ -391,11 +381,11 @@ void EmbeddingStitch::seams(const ModelView& terrain, const ModelView& skirt, co
                     } else if (v.grid) {
                         const auto at = grid.find(uint64_t(v.level) << 32 | sample->second);
                         whole = at != grid.end();
-                        if (whole) t[size_t(k)] = {StitchOwner::terrain, at->second};
+                        if (whole) t[size_t(k)] = at->second;
                     } else {
                         const auto at = skirt_at.find(sample->second);
                         whole = at != skirt_at.end();
-                        if (whole) t[size_t(k)] = {StitchOwner::skirt, at->second};
+                        if (whole) t[size_t(k)] = at->second;
                     }
                 }
                 if (!whole) continue;
@@ -408,6 +398,7 @@ void EmbeddingStitch::seams(const ModelView& terrain, const ModelView& skirt, co
     // The boundary seam: per site boundary edge a → b, a fan from a over b and the skirt's copies from
     // b's back to a's (through the crossings between).
     const size_t n = site_boundary_.size();
+    std::vector<StitchRef> copies;
     for (uint32_t a = 0; a < n; ++a) {
         const uint32_t b = uint32_t((a + 1) % n);
         const auto site_a = site_at.find(a), site_b = site_at.find(b);
@@ -416,18 +407,32 @@ void EmbeddingStitch::seams(const ModelView& terrain, const ModelView& skirt, co
         const auto& crossings = site_boundary_[a].crossings;
         path.insert(path.end(), crossings.rbegin(), crossings.rend());
         path.push_back(site_boundary_[a].skirt_point);
-        std::vector<glm::vec3> copies;
+        copies.clear();
         for (const uint32_t p : path) {
             const auto at = skirt_at.find(p);
             if (at == skirt_at.end()) break;
             copies.push_back(at->second);
         }
         if (copies.size() != path.size()) continue;
-        const StitchVertex from{StitchOwner::site, site_a->second};
-        out.push_back({from, StitchVertex{StitchOwner::site, site_b->second}, StitchVertex{StitchOwner::skirt, copies.front()}});
-        for (size_t k = 0; k + 1 < copies.size(); ++k)
-            out.push_back({from, StitchVertex{StitchOwner::skirt, copies[k]}, StitchVertex{StitchOwner::skirt, copies[k + 1]}});
+        out.push_back({site_a->second, site_b->second, copies.front()});
+        for (size_t k = 0; k + 1 < copies.size(); ++k) out.push_back({site_a->second, copies[k], copies[k + 1]});
     }
+}
+
+void EmbeddingStitch::seams(const ModelView& terrain, const ModelView& skirt, const ModelView& site, std::vector<StitchTriangle>& out) const {
+    std::vector<StitchRefTriangle> refs;
+    seam_vertices(terrain.cubes, skirt.cubes, site.cubes, refs);
+    // Each owner's cube morphed once, as its shader morphs it.
+    const ModelView* views[3] = {&terrain, &skirt, &site};
+    const HlodModel* owners[3] = {models_.terrain.get(), models_.skirt.get(), models_.site.get()};
+    std::map<std::pair<int, uint32_t>, std::vector<glm::vec3>> drawn;
+    auto position = [&](const StitchRef& r) {
+        const int o = int(r.owner);
+        auto [at, added] = drawn.try_emplace({o, r.cube});
+        if (added) owners[o]->drawn_positions(r.cube, *views[o]->inputs, at->second);
+        return at->second[r.vertex];
+    };
+    for (const StitchRefTriangle& t : refs) out.push_back({StitchVertex{t[0].owner, position(t[0])}, StitchVertex{t[1].owner, position(t[1])}, StitchVertex{t[2].owner, position(t[2])}});
 }
 
 }  // namespace strata

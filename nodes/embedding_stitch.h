@@ -31,6 +31,13 @@ struct StitchVertex {
     glm::vec3 position{0.0f};  // from the owner's lattice anchor, as its shader computes it
 };
 using StitchTriangle = std::array<StitchVertex, 3>;
+// A seam vertex as its owner holds it: vertex `vertex` of its cube `cube`, which the owner's morph places.
+struct StitchRef {
+    StitchOwner owner = StitchOwner::terrain;
+    uint32_t cube = 0, vertex = 0;
+    bool operator==(const StitchRef&) const = default;
+};
+using StitchRefTriangle = std::array<StitchRef, 3>;
 
 // The models an embedding joins and what its preprocessing decided (preprocess/embedding.h).
 struct EmbeddedModels {
@@ -77,9 +84,14 @@ public:
     // them whose triangles in the zone the ground must hide (one pass over the selection for both).
     bool drawn_with(std::span<const uint32_t> terrain_cubes, std::vector<uint32_t>* hiding = nullptr) const;
 
-    // The seams for one view, appended to `out`: for each border step whose neighbouring grid triangle
-    // is drawn, the ring seam at that triangle's level; for each boundary edge of the site drawn, the
-    // boundary seam. Steps or edges whose owners' cubes the view does not draw (culled) are left out.
+    // The seams for one view, appended to `out` as the owners' vertices: for each border step whose
+    // neighbouring grid triangle is drawn, the ring seam at that triangle's level; for each boundary edge
+    // of the site drawn, the boundary seam. Steps or edges whose owners' cubes the view does not draw
+    // (culled) are left out. The GPU morphs these vertices as the owners' shaders do (terrain_draw.cpp).
+    void seam_vertices(std::span<const uint32_t> terrain_cubes, std::span<const uint32_t> skirt_cubes, std::span<const uint32_t> site_cubes,
+                       std::vector<StitchRefTriangle>& out) const;
+    // The same seams with their positions, each the float its owner's shader computes: the CPU twin of
+    // the GPU pass, for the crack checks and the benchmarks.
     void seams(const ModelView& terrain, const ModelView& skirt, const ModelView& site, std::vector<StitchTriangle>& out) const;
 
 private:
