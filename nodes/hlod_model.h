@@ -26,6 +26,9 @@
 namespace strata {
 
 struct Lookahead;  // engine/scene/cull_visitor.h
+namespace gl {
+class Buffer;  // engine/gl/buffer.h
+}
 class Georeference;     // preprocess/georeference.h
 class TerrainHeights;   // preprocess/terrain_heights.h
 class CubeTextures;     // preprocess/cube_textures.h
@@ -339,6 +342,14 @@ public:
     // `drawn`, if given, receives the view's selection.
     MorphInputs morph_inputs(const PickContext& view, std::vector<uint32_t>* drawn = nullptr) const;
     void drawn_positions(uint32_t cube, const MorphInputs& inputs, std::vector<glm::vec3>& out) const;
+    // The same on the GPU, for the vertices `asked` ({cube, vertex}; resident cubes): each morphed by this
+    // model's own morph code from its own records, as its vertex shader draws it for `inputs`, and written
+    // from the anchor into `out` (vec4s) at its `place`, w = `tag`. An embedding's seams are drawn from
+    // these, so a seam vertex is its owner's vertex to the bit (nodes/terrain_draw.cpp).
+    struct GpuVertex {
+        uint32_t cube, vertex, place;
+    };
+    void morph_on_gpu(DrawContext& context, const MorphInputs& inputs, std::span<const GpuVertex> asked, const gl::Buffer& out, float tag) const;
     // The level an orthographic camera draws: the coarsest whose error stays within the pixel error
     // (1 pixel when κ0 was set instead).
     int orthographic_level(const Camera& camera) const;

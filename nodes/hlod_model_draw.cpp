@@ -7,6 +7,8 @@
 #include <algorithm>
 #include <array>
 #include <cstdio>
+#include <map>
+#include <stdexcept>
 #include <span>
 #include <string>
 #include <utility>
@@ -36,18 +38,15 @@ const vec3 level_palette[8] = vec3[8](vec3(0.90, 0.25, 0.20), vec3(0.95, 0.60, 0
     vec3(0.85, 0.35, 0.65));
 )";
 
-const char* const kVertexGlsl = R"(
+// The morph (DESIGN.md §3), shared by the surface's vertex shader and the seams' morph pass
+// (HlodModel::morph_on_gpu): in the same float operations as HlodModel::morphed_positions.
+const char* const kMorphGlsl = R"(
 // Per cube: level, cell i, j, k. Per vertex: x | y << 16, z, octahedral normal (u | v << 16), index
 // of its parent's record in the page. Per parent: the same, without the index. Bindings 2 to 5 are one
 // pool page seen as records and as colour words (cube_block in hlod_model_draw.cpp).
 layout(std430, binding = 1) readonly buffer Cubes { uvec4 cubes[]; };
 layout(std430, binding = 2) readonly buffer Vertices { uvec4 vertices[]; };
 layout(std430, binding = 3) readonly buffer Parents { uvec4 parents[]; };
-layout(std430, binding = 4) readonly buffer VertexColors { uint vertex_colors[]; };
-layout(std430, binding = 5) readonly buffer ParentColors { uint parent_colors[]; };
-// Per cube: what to add to a vertex's and to a parent's record index for its colour word.
-layout(std430, binding = 10) readonly buffer ColorOffsets { ivec2 color_offsets[]; };
-layout(std430, binding = 7) writeonly buffer Capture { vec4 captured[]; };  // HlodModel::set_capture_morph
 // Per cube: its 27 neighbours of its level (HlodModel::neighbours), then its parent; 0xffffffff: none.
 layout(std430, binding = 8) readonly buffer Links { uint links[]; };
 // Per cube: where its level's vertices may start to morph, and where its children's must have ended
@@ -55,11 +54,7 @@ layout(std430, binding = 8) readonly buffer Links { uint links[]; };
 layout(std430, binding = 9) readonly buffer BandEnds { vec2 band_ends[]; };
 // Per cube: how far its children's vertices near it have faded in (CubeKappas::fade_of).
 layout(std430, binding = 11) readonly buffer Fades { float fades[]; };
-// Per cube: its texture's layer in its page of texture layers (a textured model).
-layout(std430, binding = 12) readonly buffer TextureLayers { uint texture_layers[]; };
 
-uniform mat4 clip_from_anchor;  // HlodModel::LatticeAnchor: positions are drawn from E, near the eye
-uniform mat3 world_from_lattice_normal;
 uniform vec3 eye;  // from E
 uniform ivec3 anchor_steps;  // A, on level 0's lattice
 uniform vec3 anchor_rest;
@@ -68,23 +63,6 @@ uniform float parent_step[16];
 uniform int overhang;  // HlodModel::overhang_steps
 uniform float morph_span[16];  // HlodModel::morph_span_limit
 uniform bool morph;
-uniform bool has_colors;
-uniform bool color_by_level;
-uniform bool color_by_residency;
-uniform vec4 base_color;  // linear
-uniform bool capture;
-uniform bool textured;
-uniform float texture_margin;  // planar mapping: a texture covers its cube's cell grown by this (÷ s_l)
-
-out vec3 v_normal;
-out vec4 v_color;
-flat out float v_level;
-// The texture coordinates of the morphed position in the cube's texture and in its parent's, the
-// layers of both, and the morph's λ, which blends them as it blends the positions.
-out vec2 v_own_uv;
-out vec2 v_parent_uv;
-flat out uvec2 v_layers;
-out float v_lambda;
 
 ivec3 lattice_steps(uvec4 record, uvec3 cell) {
     ivec3 stored = ivec3(record.x & 0xffffu, record.x >> 16, record.y & 0xffffu);
@@ -127,6 +105,56 @@ float morph_lambda(uint cube, uint level, uvec3 cell, ivec3 q, float d) {
     return lambda;
 }
 
+// Vertex record `unit` of cube `index` (the cube's table entry), from the anchor E, and its λ.
+vec3 morphed_position(uint index, uint unit, out float lambda) {
+    uvec4 cube = cubes[index];
+    uint level = cube.x;
+    uvec4 own = vertices[unit];
+    uvec4 parent = parents[own.w];
+    ivec3 q = lattice_steps(own, cube.yzw);
+    int parent_level = level == 0u ? 0 : int(level) - 1;
+    precise vec3 w = vec3(q - (anchor_steps << int(level))) * lattice_step[level] + anchor_rest;
+    precise vec3 p = vec3(lattice_steps(parent, cube.yzw >> 1) - (anchor_steps << parent_level)) * parent_step[level] + anchor_rest;
+    vec3 offset = abs(w - eye);
+    float d = max(max(offset.x, offset.y), offset.z);
+    precise float l = morph ? morph_lambda(index, level, cube.yzw, q, d) : 1.0;
+    lambda = l;
+    // The ends exactly (Lemma 2), the mix in between without fused multiply-adds, as on the CPU; a
+    // vertex at its parent's very position (a locked boundary's) stays there bit for bit.
+    precise vec3 position = l >= 1.0 || p == w ? w : l <= 0.0 ? p : p * (1.0 - l) + w * l;
+    return position;
+}
+)";
+
+const char* const kVertexGlsl = R"(
+layout(std430, binding = 4) readonly buffer VertexColors { uint vertex_colors[]; };
+layout(std430, binding = 5) readonly buffer ParentColors { uint parent_colors[]; };
+// Per cube: what to add to a vertex's and to a parent's record index for its colour word.
+layout(std430, binding = 10) readonly buffer ColorOffsets { ivec2 color_offsets[]; };
+layout(std430, binding = 7) writeonly buffer Capture { vec4 captured[]; };  // HlodModel::set_capture_morph
+// Per cube: its texture's layer in its page of texture layers (a textured model).
+layout(std430, binding = 12) readonly buffer TextureLayers { uint texture_layers[]; };
+
+uniform mat4 clip_from_anchor;  // HlodModel::LatticeAnchor: positions are drawn from E, near the eye
+uniform mat3 world_from_lattice_normal;
+uniform bool has_colors;
+uniform bool color_by_level;
+uniform bool color_by_residency;
+uniform vec4 base_color;  // linear
+uniform bool capture;
+uniform bool textured;
+uniform float texture_margin;  // planar mapping: a texture covers its cube's cell grown by this (÷ s_l)
+
+out vec3 v_normal;
+out vec4 v_color;
+flat out float v_level;
+// The texture coordinates of the morphed position in the cube's texture and in its parent's, the
+// layers of both, and the morph's λ, which blends them as it blends the positions.
+out vec2 v_own_uv;
+out vec2 v_parent_uv;
+flat out uvec2 v_layers;
+out float v_lambda;
+
 vec3 octahedral_normal(uint bits) {
     const float scale = 2047.0;
     float x = max(float(bitfieldExtract(int(bits), 0, 16)) / scale, -1.0);
@@ -150,16 +178,8 @@ void main() {
     uint level = cube.x;
     uvec4 own = vertices[gl_VertexID];
     uvec4 parent = parents[own.w];
-    ivec3 q = lattice_steps(own, cube.yzw);
-    int parent_level = level == 0u ? 0 : int(level) - 1;
-    precise vec3 w = vec3(q - (anchor_steps << int(level))) * lattice_step[level] + anchor_rest;
-    precise vec3 p = vec3(lattice_steps(parent, cube.yzw >> 1) - (anchor_steps << parent_level)) * parent_step[level] + anchor_rest;
-    vec3 offset = abs(w - eye);
-    float d = max(max(offset.x, offset.y), offset.z);
-    precise float lambda = morph ? morph_lambda(index, level, cube.yzw, q, d) : 1.0;
-    // The ends exactly (Lemma 2), the mix in between without fused multiply-adds, as on the CPU; a
-    // vertex at its parent's very position (a locked boundary's) stays there bit for bit.
-    precise vec3 position = lambda >= 1.0 || p == w ? w : lambda <= 0.0 ? p : p * (1.0 - lambda) + w * lambda;
+    float lambda;
+    precise vec3 position = morphed_position(index, uint(gl_VertexID), lambda);
     gl_Position = clip_from_anchor * vec4(position, 1.0);
     if (capture) captured[gl_VertexID] = vec4(position, lambda);
 
@@ -255,8 +275,29 @@ void main() {
 
 std::string vertex_source() {
     return std::string("#version 450\n#extension GL_ARB_shader_draw_parameters : require\n") + kSrgbGlsl +
-           kLevelPaletteGlsl + kVertexGlsl;
+           kLevelPaletteGlsl + kMorphGlsl + kVertexGlsl;
 }
+
+// The seams' morph pass (HlodModel::morph_on_gpu): per vertex asked for, its morphed position from the
+// anchor into the output at the place asked, w the tag given (the seams' owner).
+const char* const kMorphPassGlsl = R"(
+layout(local_size_x = 64) in;
+layout(std430, binding = 13) readonly buffer Asked { uvec4 asked[]; };  // {cube, vertex record, output place, 0}
+layout(std430, binding = 14) writeonly buffer Morphed { vec4 morphed[]; };
+uniform uint asked_count;
+uniform float tag;
+
+void main() {
+    uint k = gl_GlobalInvocationID.x;
+    if (k >= asked_count) return;
+    uvec4 a = asked[k];
+    float lambda;
+    precise vec3 position = morphed_position(a.x, a.y, lambda);
+    morphed[a.z] = vec4(position, tag);
+}
+)";
+
+std::string morph_pass_source() { return std::string("#version 450\n") + kMorphGlsl + kMorphPassGlsl; }
 
 std::string fragment_source() {
     return std::string("#version 450\n") + gl::fragment_outputs_glsl + kShadingGlsl + kFragmentGlsl;
@@ -266,6 +307,7 @@ std::string fragment_source() {
 constexpr uint32_t kProgramsKey = 2;
 struct HlodPrograms : GpuCache::Entry {
     gl::Program surface = gl::Program::graphics("hlod", vertex_source(), fragment_source());
+    gl::Program morph = gl::Program::compute("hlod morph pass", morph_pass_source());
     gl::Program boxes = gl::Program::graphics("hlod cube boxes", std::string("#version 450\n") + kLevelPaletteGlsl + kBoxVertexGlsl,
                                               std::string("#version 450\n") + gl::fragment_outputs_glsl + kBoxFragmentGlsl);
 };
@@ -353,6 +395,7 @@ struct HlodGpu : GpuCache::Entry {
     // Sized to the frames drawn so far, not to the model (a frame draws a few thousand of its cubes).
     gl::Buffer drawn;     // this frame's cubes, for the boxes view
     gl::Buffer commands;  // this frame's, in the selection's order
+    gl::Buffer asked;     // the vertices the seams' morph pass was last asked for (HlodModel::morph_on_gpu)
     // This frame's draws: consecutive cubes on one pool page whose textures, and whose parents'
     // textures, lie on one page of layers each.
     struct Run {
@@ -536,22 +579,15 @@ void upload_kappas(HlodGpu& gpu, Kappas kappas) {
     gpu.kappas = std::move(kappas);
 }
 
-void set_view_uniforms(const HlodModel& model, const gl::Program& program, const CubesGpu& cubes, HlodGpu& gpu, const DrawContext& context,
-                       const DrawItem& item) {
-    const glm::dmat4 world_from_lattice = item.model * model.lattice_to_node();
-    const HlodModel::LatticeAnchor anchor = model.anchor_for(item.model, context.eye);
-    // Composed in double, then rounded once: the distance from the model's origin to the eye cancels
-    // before going to float, and the positions are small (measured from E, at the eye).
-    program.set("clip_from_anchor", glm::mat4(context.projection * context.view * world_from_lattice * glm::translate(glm::dmat4(1.0), anchor.origin)));
-    program.set("world_from_lattice_normal", glm::mat3(glm::transpose(glm::inverse(glm::dmat3(world_from_lattice)))));
+// What kMorphGlsl reads besides its buffers: the anchor, the model's lattice steps and morph limits, and
+// whether it morphs; and the band ends and fades of `kappa` (the κ the selection morphs with, capped
+// while cubes are missing; a new one for a new image size, field of view, target or capping).
+void set_morph_uniforms(const HlodModel& model, const gl::Program& program, HlodGpu& gpu, const HlodModel::LatticeAnchor& anchor,
+                        Kappas kappa, bool morph) {
     program.set("eye", anchor.eye);
     program.set("anchor_steps", anchor.steps);
     program.set("anchor_rest", anchor.rest);
-    // The κ the selection morphs with (capped band ends while cubes are missing); a new one for a new
-    // image size, field of view, target or capping.
-    if (Kappas kappas = std::static_pointer_cast<const HlodModel::DrawState>(item.state)->morph; kappas != gpu.kappas) {
-        upload_kappas(gpu, std::move(kappas));
-    }
+    if (kappa != gpu.kappas) upload_kappas(gpu, std::move(kappa));
     const HlodHeader& h = model.header();
     std::array<float, kMaxLevels> step{}, parent_step{}, span{};
     for (uint32_t l = 0; l <= h.max_level; ++l) {
@@ -563,7 +599,20 @@ void set_view_uniforms(const HlodModel& model, const gl::Program& program, const
     program.set("lattice_step", std::span<const float>(step));
     program.set("parent_step", std::span<const float>(parent_step));
     program.set("overhang", int(model.overhang_steps()));
-    program.set("morph", int(model.morphs_for(context.camera)));
+    program.set("morph", int(morph));
+}
+
+void set_view_uniforms(const HlodModel& model, const gl::Program& program, const CubesGpu& cubes, HlodGpu& gpu, const DrawContext& context,
+                       const DrawItem& item) {
+    const glm::dmat4 world_from_lattice = item.model * model.lattice_to_node();
+    const HlodModel::LatticeAnchor anchor = model.anchor_for(item.model, context.eye);
+    // Composed in double, then rounded once: the distance from the model's origin to the eye cancels
+    // before going to float, and the positions are small (measured from E, at the eye).
+    program.set("clip_from_anchor", glm::mat4(context.projection * context.view * world_from_lattice * glm::translate(glm::dmat4(1.0), anchor.origin)));
+    program.set("world_from_lattice_normal", glm::mat3(glm::transpose(glm::inverse(glm::dmat3(world_from_lattice)))));
+    set_morph_uniforms(model, program, gpu, anchor, std::static_pointer_cast<const HlodModel::DrawState>(item.state)->morph,
+                       model.morphs_for(context.camera));
+    const HlodHeader& h = model.header();
     program.set("has_colors", int(h.has_colors()));
     program.set("color_by_level", int(model.debug_view() == HlodDebugView::levels));
     program.set("color_by_residency", int(model.debug_view() == HlodDebugView::residency));
@@ -598,6 +647,30 @@ uint64_t bytes_to_count(const HlodGpu& gpu, CubesGpu& cubes, ScenePool& pool, co
     return bytes;
 }
 
+// A model's GPU state for a frame: the shared programs, the scene's pool, its cubes' blocks (placed as
+// its residency is now) and its own tables.
+struct ModelGpu {
+    const HlodPrograms& programs;
+    ScenePool& pool;
+    CubesGpu& cubes;
+    HlodGpu& gpu;
+};
+
+ModelGpu model_gpu(const HlodModel& model, DrawContext& context) {
+    const HlodPrograms& programs = context.cache.get_shared<HlodPrograms>(kProgramsKey, [] { return std::make_unique<HlodPrograms>(); });
+    ScenePool& pool = context.cache.get_shared<ScenePool>(kPoolKey, [&] {
+        auto entry = std::make_unique<ScenePool>();
+        entry->pool = std::make_shared<gl::BufferPool>(pool_page_bytes(model));
+        return entry;
+    });
+    pool.pool->set_page_bytes(pool_page_bytes(model));
+    CubesGpu& cubes = context.cache.get_owned<CubesGpu>(model.cube_owner(), [&] { return make_cubes_gpu(model, pool); });
+    HlodGpu& gpu = context.cache.get<HlodGpu>(model, [&] { return make_gpu(model); });
+    sync_blocks(model, cubes);
+    if (std::exchange(pool.swept_frame, context.cache.frame()) != context.cache.frame()) sweep_pool(pool);
+    return {programs, pool, cubes, gpu};
+}
+
 }  // namespace
 
 HlodModel::TableBytes HlodModel::gpu_tables_per_owner(uint64_t cubes) {
@@ -616,18 +689,34 @@ uint64_t HlodModel::gpu_block_bytes(uint64_t vertices, uint64_t parents, uint64_
     return cube_block(vertices, parents, indices, colors).units * gl::BufferPool::kUnitBytes;
 }
 
+void HlodModel::morph_on_gpu(DrawContext& context, const MorphInputs& inputs, std::span<const GpuVertex> asked, const gl::Buffer& out,
+                             float tag) const {
+    if (asked.empty()) return;
+    const auto [programs, pool, cubes, gpu] = model_gpu(*this, context);
+    const gl::Program& program = programs.morph;
+    set_morph_uniforms(*this, program, gpu, inputs.anchor, inputs.kappa, inputs.morph);
+    program.set("tag", tag);
+    // A vertex's morph reads its records on its cube's page: a dispatch per page.
+    std::map<uint32_t, std::vector<std::array<uint32_t, 4>>> by_page;
+    for (const GpuVertex& v : asked) {
+        const PlacedCube& placed = cubes.placed.at(v.cube);
+        if (!placed.block) throw std::logic_error(path().string() + ": morph_on_gpu asked for a cube that is not resident");
+        by_page[placed.block.page].push_back({v.cube, uint32_t(placed.block.offset + v.vertex), v.place, 0});
+    }
+    for (const auto& [page, list] : by_page) {
+        reserve(gpu.asked, list.size() * sizeof(list[0]));
+        gpu.asked.upload(list);
+        program.set("asked_count", unsigned(list.size()));
+        DrawCall call{.program = program};
+        call.storage[1] = &cubes.cubes, call.storage[8] = &cubes.links, call.storage[9] = &gpu.band_ends, call.storage[11] = &gpu.fades;
+        call.storage[2] = call.storage[3] = &pool.pool->page(page);
+        call.storage[13] = &gpu.asked, call.storage[14] = &out;
+        context.dispatch(call, uint32_t((list.size() + 63) / 64));
+    }
+}
+
 void HlodModel::draw(DrawContext& context, const DrawItem& item) {
-    const HlodPrograms& programs = context.cache.get_shared<HlodPrograms>(kProgramsKey, [] { return std::make_unique<HlodPrograms>(); });
-    ScenePool& pool = context.cache.get_shared<ScenePool>(kPoolKey, [&] {
-        auto entry = std::make_unique<ScenePool>();
-        entry->pool = std::make_shared<gl::BufferPool>(pool_page_bytes(*this));
-        return entry;
-    });
-    pool.pool->set_page_bytes(pool_page_bytes(*this));
-    CubesGpu& cubes = context.cache.get_owned<CubesGpu>(cube_owner(), [&] { return make_cubes_gpu(*this, pool); });
-    HlodGpu& gpu = context.cache.get<HlodGpu>(*this, [&] { return make_gpu(*this); });
-    sync_blocks(*this, cubes);
-    if (std::exchange(pool.swept_frame, context.cache.frame()) != context.cache.frame()) sweep_pool(pool);
+    const auto [programs, pool, cubes, gpu] = model_gpu(*this, context);
     set_view_uniforms(*this, programs.surface, cubes, gpu, context, item);
 
     // This frame's commands in the selection's order (front to back) in one indirect buffer, drawn as

@@ -34,13 +34,14 @@ Embedding::Embedding(EmbeddedModels models, const std::string& name)
     : stitch_(models, name),
       skirt_(std::const_pointer_cast<HlodModel>(models.skirt)),
       site_(std::const_pointer_cast<HlodModel>(models.site)),
-      placement_(std::make_shared<Transform>()) {
+      placement_(std::make_shared<Transform>()),
+      seams_(std::make_shared<EmbeddingSeams>(*this)) {
     set_name(name);
     placement_->set_matrix(models.site_to_terrain);
     placement_->add(site_);
     add(skirt_);
     add(placement_);
-    add(std::make_shared<EmbeddingSeams>(*this));
+    add(seams_);
     // The skirt's and the site's selections, for the seams.
     skirt_->set_selection_hook([this](std::span<const uint32_t> cubes, const Kappas& kappa) {
         selections_.skirt = {{cubes.begin(), cubes.end()}, kappa};

@@ -24,6 +24,8 @@
 
 namespace strata {
 
+class EmbeddingSeams;
+
 // One embedding: a group whose children visitors see only while the view the terrain was last culled
 // or picked for draws it.
 class Embedding : public Group {
@@ -34,6 +36,7 @@ public:
     const std::shared_ptr<HlodModel>& skirt() const { return skirt_; }
     const std::shared_ptr<HlodModel>& site() const { return site_; }
     const std::shared_ptr<Transform>& placement() const { return placement_; }
+    EmbeddingSeams& seams() const { return *seams_; }
     // Whether the last view drew it.
     bool drawn() const { return drawn_; }
 
@@ -61,6 +64,7 @@ private:
     EmbeddingStitch stitch_;
     std::shared_ptr<HlodModel> skirt_, site_;
     std::shared_ptr<Transform> placement_;
+    std::shared_ptr<EmbeddingSeams> seams_;
     ViewSelections selections_;
     bool drawn_ = false;
 };
@@ -71,13 +75,21 @@ class EmbeddingSeams : public Drawable {
 public:
     explicit EmbeddingSeams(const Embedding& embedding) : embedding_(embedding) {}
     void cull(CullVisitor& cull) override;
+    // The seams' vertices morphed on the GPU by their owners (a compute pass), which draw() draws.
+    void prepare(DrawContext& context, const DrawItem& item) override;
     void draw(DrawContext& context, const DrawItem& item) override;
+    // Verification of the GPU pass: while on, each draw copies back the seams' vertices as the owners'
+    // morph wrote them (xyz from the owner's anchor, w the owner), in EmbeddingStitch::seam_vertices' order.
+    void set_capture(bool on) { capture_ = on; }
+    const std::vector<glm::vec4>& captured() const { return captured_; }
 
 protected:
     Box compute_bound() const override;
 
 private:
     const Embedding& embedding_;  // its parent, which owns it
+    bool capture_ = false;
+    std::vector<glm::vec4> captured_;
 };
 
 class Terrain : public Group {

@@ -1,10 +1,10 @@
-// An embedding's seams on the GPU: the triangles the stitch emits for the view (its CPU twin), each
-// vertex a position from its owner's lattice anchor and the owner's index, drawn through the owner's
-// clip_from_anchor composed exactly as HlodModel composes it, with gl_Position invariant in both
-// programs, so that a seam vertex lands on the very bits its owner's vertex does. On a textured terrain
+// An embedding's seams on the GPU: the triangles the stitch makes for the view, as its owners' vertices
+// (EmbeddingStitch::seam_vertices), each vertex morphed by its owner's own code from its own records in
+// a compute pass (HlodModel::morph_on_gpu; EmbeddingStitch::seams is its CPU twin), then drawn through
+// the owner's clip_from_anchor composed exactly as HlodModel composes it, with gl_Position invariant in
+// both programs, so that a seam vertex lands on the very bits its owner's vertex does. On a textured terrain
 // they show the ground's imagery under them, else the ground's untextured colour.
 #include <algorithm>
-#include <bit>
 #include <cmath>
 #include <optional>
 #include <string>
@@ -13,8 +13,8 @@
 
 #include "engine/gl/buffer.h"
 #include "engine/gl/framebuffer.h"
-#include "engine/gl/object_name.h"
 #include "engine/gl/program.h"
+#include "engine/gl/texture.h"
 #include "engine/gl/texture_layers.h"
 #include "engine/render/draw_context.h"
 #include "engine/scene/render_list.h"
@@ -81,7 +81,7 @@ struct SeamProgram : GpuCache::Entry {
 constexpr uint32_t kMostImageryTexels = 1024;
 
 struct SeamImagery {
-    gl::ObjectName<gl::DeleteTexture> texture;
+    gl::Texture texture;
     glm::dmat4 uv_from_node{1.0};  // the terrain's node frame (its model x, y) → the texture's coordinates
     uint64_t bytes = 0;
 };
@@ -101,23 +101,11 @@ SeamImagery make_seam_imagery(const HlodModel& terrain, const HlodModel& skirt) 
     const TexelGrid grid{lo[0] - step / 2, lo[1] - step / 2, step, uint32_t(std::ceil((hi[0] - lo[0]) / step)) + 2,
                          uint32_t(std::ceil((hi[1] - lo[1]) / step)) + 2};
     const std::vector<uint8_t> rgb = sampler.sample(level, grid);
-    // RGBA: GL makes mips only of a colour-renderable format, which SRGB8 alone is not.
     std::vector<uint8_t> rgba(rgb.size() / 3 * 4, 255);
     for (size_t t = 0; t < rgb.size() / 3; ++t) std::copy_n(&rgb[3 * t], 3, &rgba[4 * t]);
 
     SeamImagery out;
-    GLuint name = 0;
-    glCreateTextures(GL_TEXTURE_2D, 1, &name);
-    out.texture = gl::ObjectName<gl::DeleteTexture>(name);
-    const GLsizei mips = GLsizei(std::bit_width(std::max(grid.columns, grid.rows)));
-    glTextureStorage2D(name, mips, GL_SRGB8_ALPHA8, GLsizei(grid.columns), GLsizei(grid.rows));
-    glTextureSubImage2D(name, 0, 0, 0, GLsizei(grid.columns), GLsizei(grid.rows), GL_RGBA, GL_UNSIGNED_BYTE, rgba.data());
-    glGenerateTextureMipmap(name);
-    glTextureParameteri(name, GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_LINEAR);
-    glTextureParameteri(name, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-    glTextureParameteri(name, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
-    glTextureParameteri(name, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
-    gl::check_gl("making an embedding's seam imagery");
+    out.texture = gl::Texture::srgb_image(rgba, int(grid.columns), int(grid.rows));
     // Texel (c, r) covers [x0 + (c − ½)·step, x0 + (c + ½)·step] × likewise in y.
     out.uv_from_node = glm::scale(glm::dmat4(1.0), glm::dvec3(1 / (step * grid.columns), 1 / (step * grid.rows), 1.0)) *
                        glm::translate(glm::dmat4(1.0), glm::dvec3(step / 2 - grid.x0, step / 2 - grid.y0, 0.0));
@@ -127,49 +115,69 @@ SeamImagery make_seam_imagery(const HlodModel& terrain, const HlodModel& skirt) 
 
 struct SeamGpu : GpuCache::Entry {
     gl::Buffer seams;
+    uint32_t vertices = 0;  // what prepare() morphed into `seams` for this frame: 3 a triangle
     std::optional<SeamImagery> imagery;  // made on the first frame that draws a textured terrain's seams
 };
 
-}  // namespace
-
-void EmbeddingSeams::draw(DrawContext& context, const DrawItem& item) {
-    const auto& views = *std::static_pointer_cast<const Embedding::ViewSelections>(item.state);
-    const EmbeddedModels& m = embedding_.stitch().models();
-    // Each owner's frame as the cull pass composed it: the site's under its placement.
-    const glm::dmat4 world_from_node[3] = {item.model, item.model, item.model * embedding_.placement()->matrix()};
-    const HlodModel* owners[3] = {m.terrain.get(), m.skirt.get(), m.site.get()};
-    const Embedding::Selection* selections[3] = {&views.terrain, &views.skirt, &views.site};
-    // And in the terrain's node frame, where the zone's imagery lies.
-    const glm::dmat4 terrain_from_node[3] = {glm::dmat4(1.0), glm::dmat4(1.0), embedding_.placement()->matrix()};
+// The owners of an embedding's seams as one view draws them: the ground, the skirt and the site (the
+// site under its placement), each with its morph's inputs and its frames from its lattice anchor.
+struct Owners {
+    const HlodModel* models[3];
     HlodModel::MorphInputs inputs[3];
     std::array<glm::mat4, 3> clip_from_anchor, world_from_anchor;
-    std::array<glm::dmat4, 3> terrain_from_anchor;
-    for (int o = 0; o < 3; ++o) {
-        const HlodModel& owner = *owners[o];
-        inputs[o] = {owner.anchor_for(world_from_node[o], context.eye), selections[o]->kappa, owner.morphs_for(context.camera)};
+    std::array<glm::dmat4, 3> terrain_from_anchor;  // the terrain's node frame, where the zone's imagery lies
+};
+
+Owners owners_for(const Embedding& embedding, const DrawContext& context, const DrawItem& item) {
+    const auto& views = *std::static_pointer_cast<const Embedding::ViewSelections>(item.state);
+    const EmbeddedModels& m = embedding.stitch().models();
+    const glm::dmat4 placement = embedding.placement()->matrix();
+    // Each owner's frame as the cull pass composed it: the site's under its placement.
+    const glm::dmat4 world_from_node[3] = {item.model, item.model, item.model * placement};
+    const glm::dmat4 terrain_from_node[3] = {glm::dmat4(1.0), glm::dmat4(1.0), placement};
+    const Embedding::Selection* selections[3] = {&views.terrain, &views.skirt, &views.site};
+    Owners out{{m.terrain.get(), m.skirt.get(), m.site.get()}, {}, {}, {}, {}};
+    for (size_t o = 0; o < 3; ++o) {
+        const HlodModel& owner = *out.models[o];
+        out.inputs[o] = {owner.anchor_for(world_from_node[o], context.eye), selections[o]->kappa, owner.morphs_for(context.camera)};
         // As set_view_uniforms composes it (hlod_model_draw.cpp), to the bit.
         const glm::dmat4 world_from_lattice = world_from_node[o] * owner.lattice_to_node();
-        const glm::dmat4 anchor = glm::translate(glm::dmat4(1.0), inputs[o].anchor.origin);
-        clip_from_anchor[size_t(o)] = glm::mat4(context.projection * context.view * world_from_lattice * anchor);
-        world_from_anchor[size_t(o)] = glm::mat4(world_from_lattice * anchor);
-        terrain_from_anchor[size_t(o)] = terrain_from_node[o] * owner.lattice_to_node() * anchor;
+        const glm::dmat4 anchor = glm::translate(glm::dmat4(1.0), out.inputs[o].anchor.origin);
+        out.clip_from_anchor[o] = glm::mat4(context.projection * context.view * world_from_lattice * anchor);
+        out.world_from_anchor[o] = glm::mat4(world_from_lattice * anchor);
+        out.terrain_from_anchor[o] = terrain_from_node[o] * owner.lattice_to_node() * anchor;
     }
-    std::vector<StitchTriangle> triangles;
-    embedding_.stitch().seams({views.terrain.cubes, &inputs[0]}, {views.skirt.cubes, &inputs[1]}, {views.site.cubes, &inputs[2]}, triangles);
-    if (triangles.empty()) return;
-    std::vector<glm::vec4> seams;
-    seams.reserve(3 * triangles.size());
-    for (const StitchTriangle& t : triangles)
-        for (const StitchVertex& v : t) seams.emplace_back(v.position, float(v.owner));
+    return out;
+}
 
+}  // namespace
+
+void EmbeddingSeams::prepare(DrawContext& context, const DrawItem& item) {
+    const auto& views = *std::static_pointer_cast<const Embedding::ViewSelections>(item.state);
+    SeamGpu& gpu = context.cache.get<SeamGpu>(*this, [] { return std::make_unique<SeamGpu>(); });
+    std::vector<StitchRefTriangle> triangles;
+    embedding_.stitch().seam_vertices(views.terrain.cubes, views.skirt.cubes, views.site.cubes, triangles);
+    // Each seam vertex morphed on the GPU by its owner's own code from its own records, into its place.
+    const Owners owners = owners_for(embedding_, context, item);
+    std::array<std::vector<HlodModel::GpuVertex>, 3> asked;
+    gpu.vertices = 0;
+    for (const StitchRefTriangle& t : triangles)
+        for (const StitchRef& r : t) asked[size_t(r.owner)].push_back({r.cube, r.vertex, gpu.vertices++});
+    const uint64_t bytes = uint64_t(gpu.vertices) * sizeof(glm::vec4);
+    if (gpu.seams.size() < bytes) gpu.seams = gl::Buffer(2 * bytes, gl::kDynamicStorage);
+    for (size_t o = 0; o < 3; ++o) owners.models[o]->morph_on_gpu(context, owners.inputs[o], asked[o], gpu.seams, float(o));
+    if (capture_) captured_ = gpu.vertices ? gpu.seams.download<glm::vec4>(gpu.vertices) : std::vector<glm::vec4>();
+}
+
+void EmbeddingSeams::draw(DrawContext& context, const DrawItem& item) {
+    SeamGpu& gpu = context.cache.get<SeamGpu>(*this, [] { return std::make_unique<SeamGpu>(); });
+    if (gpu.vertices == 0) return;
+    const EmbeddedModels& m = embedding_.stitch().models();
+    const Owners owners = owners_for(embedding_, context, item);
     const gl::Program& program =
         context.cache.get_shared<SeamProgram>(kSeamProgramKey, [] { return std::make_unique<SeamProgram>(); }).program;
-    SeamGpu& gpu = context.cache.get<SeamGpu>(*this, [] { return std::make_unique<SeamGpu>(); });
-    const uint64_t bytes = seams.size() * sizeof(glm::vec4);
-    if (gpu.seams.size() < bytes) gpu.seams = gl::Buffer(2 * bytes, gl::kDynamicStorage);
-    gpu.seams.upload(seams);
-    program.set("clip_from_anchor", std::span<const glm::mat4>(clip_from_anchor));
-    program.set("world_from_anchor", std::span<const glm::mat4>(world_from_anchor));
+    program.set("clip_from_anchor", std::span<const glm::mat4>(owners.clip_from_anchor));
+    program.set("world_from_anchor", std::span<const glm::mat4>(owners.world_from_anchor));
     // The ground's colour, untextured (hlod_model_draw.cpp); under the ground's debug views the stitch
     // shows in a colour of its own (hot pink, which the level palette lacks), and in wireframe its edges.
     const HlodDebugView debug = m.terrain->debug_view();
@@ -184,13 +192,13 @@ void EmbeddingSeams::draw(DrawContext& context, const DrawItem& item) {
     if (textured) {
         if (!gpu.imagery) gpu.imagery = make_seam_imagery(*m.terrain, *m.skirt);
         std::array<glm::mat4, 3> imagery_from_anchor;
-        for (size_t o = 0; o < 3; ++o) imagery_from_anchor[o] = glm::mat4(gpu.imagery->uv_from_node * terrain_from_anchor[o]);
+        for (size_t o = 0; o < 3; ++o) imagery_from_anchor[o] = glm::mat4(gpu.imagery->uv_from_node * owners.terrain_from_anchor[o]);
         program.set("imagery_from_anchor", std::span<const glm::mat4>(imagery_from_anchor));
-        call.textures[0] = gpu.imagery->texture.get();
+        call.textures[0] = gpu.imagery->texture.id();
         context.stats.bytes_resident += gpu.imagery->bytes;
     }
-    context.draw_instanced(call, uint32_t(seams.size()), 1);
-    context.stats.triangles += triangles.size();
+    context.draw_instanced(call, gpu.vertices, 1);
+    context.stats.triangles += gpu.vertices / 3;
     context.stats.bytes_resident += gpu.seams.size();
 }
 

@@ -3,6 +3,8 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
+#include <span>
 
 #include "engine/gl/gl.h"
 #include "engine/gl/object_name.h"
@@ -15,6 +17,9 @@ public:
     // One mip level of `internal_format` (GL_RGBA16F, GL_DEPTH_COMPONENT32F, ...); samples > 1 makes a
     // GL_TEXTURE_2D_MULTISAMPLE with the standard sample positions.
     Texture(GLenum internal_format, int width, int height, int samples = 1);
+    // An 8-bit sRGB image (RGBA, rows from the bottom) with its whole mip chain, sampled trilinearly in
+    // linear light and clamped at its edges: an image a drawable samples, as the ground its imagery.
+    static Texture srgb_image(std::span<const uint8_t> rgba, int width, int height);
 
     // Sets every texel (every sample) to `value`, given as `format`/`type` (glClearTexImage): unlike
     // glClear, not affected by the scissor test, write masks or the bound framebuffer.

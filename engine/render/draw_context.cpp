@@ -9,12 +9,16 @@ GLenum gl_primitive(Primitive primitive) { return primitive == Primitive::lines 
 
 }  // namespace
 
-void DrawContext::apply(const DrawCall& call) {
+void DrawContext::bind_resources(const DrawCall& call) {
     call.program.use();
     for (uint32_t binding = 0; binding < kStorageBindings; ++binding)
         if (call.storage[binding]) call.storage[binding]->bind_base(GL_SHADER_STORAGE_BUFFER, binding);
     for (uint32_t unit = 0; unit < kTextureUnits; ++unit)
         if (call.textures[unit]) glBindTextureUnit(unit, call.textures[unit]);
+}
+
+void DrawContext::apply(const DrawCall& call) {
+    bind_resources(call);
     vertex_array.bind();
     if (call.indices) glVertexArrayElementBuffer(vertex_array.id(), call.indices->id());
     if (call.wireframe) glPolygonMode(GL_FRONT_AND_BACK, GL_LINE);
@@ -45,6 +49,12 @@ void DrawContext::draw_instanced(const DrawCall& call, uint32_t vertices, uint32
     apply(call);
     glDrawArraysInstanced(gl_primitive(call.primitive), 0, GLsizei(vertices), GLsizei(instances));
     restore(call);
+}
+
+void DrawContext::dispatch(const DrawCall& call, uint32_t groups) {
+    bind_resources(call);
+    glDispatchCompute(groups, 1, 1);
+    glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
 }
 
 }  // namespace strata

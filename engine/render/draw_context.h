@@ -53,8 +53,12 @@ struct DrawContext {
     void draw_indirect(const DrawCall& call, const gl::Buffer& commands, uint64_t first, uint32_t count);
     // `instances` instances of `vertices` vertices, without indices.
     void draw_instanced(const DrawCall& call, uint32_t vertices, uint32_t instances);
+    // `groups` work groups of call.program, a compute program (its storage bound as for a draw); what it
+    // writes to storage buffers is visible to the draws and dispatches after it.
+    void dispatch(const DrawCall& call, uint32_t groups);
 
 private:
+    void bind_resources(const DrawCall& call);
     void apply(const DrawCall& call);
     void restore(const DrawCall& call);
 };

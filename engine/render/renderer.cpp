@@ -151,6 +151,7 @@ FrameStats Renderer::render(Node& scene, const Camera& camera, gl::Framebuffer& 
         glBeginQuery(GL_TIME_ELAPSED, timer);
     }
     DrawContext context{camera, view, projection, glm::dvec3(glm::inverse(view)[3]), list_, cache_, stats, empty_vertex_array_};
+    for (const DrawItem& item : list_.opaque) item.drawable->prepare(context, item);
     for (const DrawItem& item : list_.opaque) item.drawable->draw(context, item);
     if (timer) {
         glEndQuery(GL_TIME_ELAPSED);

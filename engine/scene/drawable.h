@@ -20,6 +20,10 @@ public:
 
     // Called when the node's bound meets the view frustum: add draw items through cull.add().
     virtual void cull(CullVisitor& cull) = 0;
+    // Before any item of the frame is drawn: compute passes an item's draw reads (the renderer runs
+    // them all first, so that a GPU overlaps them with nothing waiting, and a software rasterizer need
+    // not finish the triangles drawn so far before each). Nothing by default.
+    virtual void prepare(DrawContext&, const DrawItem&) {}
     // Issue the GL for one item this drawable emitted (current context, state set by the renderer).
     virtual void draw(DrawContext& context, const DrawItem& item) = 0;
     // The nearest point within [ray.t_min, ray.t_max] where `ray` (in this node's frame) meets the

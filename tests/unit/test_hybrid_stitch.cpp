@@ -477,6 +477,64 @@ TEST(HybridRender, NoPopAtTheJoinAcrossAGridLevelSwitch) {
     EXPECT_GT(test::differing(plain.before, plain.after, 1.0f / 255), 0.001);
 }
 
+// The seams are morphed on the GPU (a compute pass running each owner's own morph on its own records)
+// to the very bits of their CPU twin, over views near and far where the grid, the skirt and the site
+// morph at several levels.
+TEST(HybridRender, TheSeamsMorphedOnTheGpuAreTheCpuTwinsToTheBit) {
+    if (olinda_missing()) GTEST_SKIP() << "data/olinda_* missing: run scripts/setup.sh";
+    const test::TempDir dir;
+    const auto context = gl::create_headless_context();
+    const HighSite high = embed_high_site(dir.path());
+    const TerrainSite t = TerrainSite::open(dir.path() / "olinda.hlod");
+    const glm::dvec2 middle = olinda_middle(t);
+    const double ground = *t.heights->at(55, 55);
+    EmbeddingSeams& seams = high.embedding->seams();
+    seams.set_capture(true);
+    Camera camera;
+    camera.width = 320, camera.height = 240, camera.fov_y_degrees = 50;
+    Renderer renderer;
+    gl::Framebuffer target({.width = camera.width, .height = camera.height, .samples = 1});
+    size_t views_drawn = 0, compared = 0, morphing = 0;
+    for (int v = 0; v < 24; ++v) {
+        const double angle = 2 * M_PI * v / 24, distance = 700 * std::pow(1.5, v % 6);
+        camera.look_at({middle.x + distance * std::cos(angle), middle.y + distance * std::sin(angle), ground + 0.3 * distance},
+                       {middle.x, middle.y, ground}, {0, 0, 1});
+        renderer.render(*high.root, camera, target);
+        if (!high.embedding->drawn()) continue;
+        ++views_drawn;
+        // The CPU twin for the view's selections, each owner morphing as it drew.
+        const Embedding::ViewSelections& s = high.embedding->selections();
+        const HlodModel* owners[3] = {high.ground.get(), high.embedding->skirt().get(), high.embedding->site().get()};
+        const Kappas kappas[3] = {s.terrain.kappa, s.skirt.kappa, s.site.kappa};
+        HlodModel::MorphInputs inputs[3];
+        const glm::dvec3 eye(glm::inverse(camera.view_matrix())[3]);  // the renderer's, to the bit
+        for (int o = 0; o < 3; ++o) inputs[o] = {owners[o]->anchor_for(glm::dmat4(1.0), eye), kappas[o], owners[o]->morphs_for(camera)};
+        std::vector<StitchTriangle> twin;
+        high.embedding->stitch().seams({s.terrain.cubes, &inputs[0]}, {s.skirt.cubes, &inputs[1]}, {s.site.cubes, &inputs[2]}, twin);
+        const std::vector<glm::vec4>& gpu = seams.captured();
+        ASSERT_EQ(gpu.size(), 3 * twin.size()) << "view " << v;
+        for (size_t k = 0; k < gpu.size(); ++k) {
+            const StitchVertex& cpu = twin[k / 3][k % 3];
+            ASSERT_EQ(gpu[k].w, float(int(cpu.owner))) << "view " << v << ", seam vertex " << k;
+            ASSERT_EQ(std::memcmp(&gpu[k], &cpu.position, sizeof(glm::vec3)), 0)
+                << "view " << v << ", seam vertex " << k << ": GPU " << gpu[k].x << " " << gpu[k].y << " " << gpu[k].z << ", CPU "
+                << cpu.position.x << " " << cpu.position.y << " " << cpu.position.z;
+            ++compared;
+        }
+        // How many of them the morph moved off their own position (a test of the morph, not of its ends).
+        HlodModel::MorphInputs still = inputs[0];
+        still.morph = false;
+        std::vector<StitchTriangle> unmoved;
+        high.embedding->stitch().seams({s.terrain.cubes, &still}, {s.skirt.cubes, &inputs[1]}, {s.site.cubes, &inputs[2]}, unmoved);
+        for (size_t k = 0; k < gpu.size(); ++k)
+            if (unmoved[k / 3][k % 3].position != twin[k / 3][k % 3].position) ++morphing;
+    }
+    std::printf("%zu seam vertices in %zu views equal to the bit, %zu of them moved by the grid's morph\n", compared, views_drawn, morphing);
+    EXPECT_GE(views_drawn, 12u);
+    EXPECT_GT(compared, 1000u);
+    EXPECT_GT(morphing, 50u) << "views where the grid's morph is under way along the border";
+}
+
 // The seams on a textured terrain show its imagery: their pixels (those they draw in hot pink under the
 // ground's levels view, which also checks that colour) match the plain textured terrain's there, where
 // the grey they had would not.
