@@ -11,10 +11,13 @@
 // scan drawn over the full grid). Medians over the views; each time the median of 3 renders. Asserts
 // nothing.
 //
-//   bench_hybrid_terrain [VIEWS [SITE [trinidad]]]      (defaults 24 600)
+//   bench_hybrid_terrain [VIEWS [SITE [trinidad | patch]]]      (defaults 24 600)
 //
 // `trinidad` embeds the site in data/trinidad.nc instead (2401 × 1201 samples at 3″, 5.8 M triangles at
-// full resolution), at its centre.
+// full resolution), at its centre. `patch` is thesis 003's own setup (ch. 5; the note's §7): the grid is
+// trinidad.nc downsampled 4 × (gdal_translate, averaged), the embedded mesh a patch of the
+// full-resolution DEM SITE metres wide (a disc of rings of its samples' spacing, heights bilinear from
+// the raster: a TIN as dense as the DEM), and full resolution is the whole DEM at its finest.
 //
 // A frame's time is the renderer's, from the start of culling to glFinish() returning (llvmpipe
 // rasterizes on the CPU: its threads share this machine's cores).
@@ -84,6 +87,58 @@ Mesh site_on_ground(const TerrainSite& terrain, const std::filesystem::path& sca
     return site;
 }
 
+// A disc `width` wide around (x, y) of `full`'s ground at its own sample spacing, in `grid`'s model frame
+// (both from one raster, `grid` downsampled): rings one spacing apart, each cut into pieces of about that
+// length, heights bilinear from `full`'s raster.
+Mesh dem_patch(const TerrainSite& full, const TerrainSite& grid, double x, double y, double width) {
+    const Georeference& from = *full.georeference;
+    const Georeference& to = *grid.georeference;
+    const std::array<double, 3> centre_geo = to.to_geo({x, y, 0});
+    const std::array<double, 3> centre_full = from.to_local(centre_geo);
+    const auto a = from.sample_position(0, 0, 0), b = from.sample_position(1, 0, 0);
+    const double spacing = std::hypot((*b)[0] - (*a)[0], (*b)[1] - (*a)[1]);
+    Mesh mesh;
+    mesh.origin = {x, y, 0};
+    std::vector<std::vector<uint32_t>> rings;
+    auto add = [&](double dx, double dy) {  // a point of the full raster's frame, by its offset from the centre
+        const glm::dvec3 at(centre_full[0] + dx, centre_full[1] + dy, 0);
+        const auto cell = from.raster_position(at.x, at.y, 0);
+        const double h = cell ? full.heights->at((*cell)[0], (*cell)[1]).value_or(0) : 0;
+        const std::array<double, 3> p = to.to_local(from.to_geo({at.x, at.y, h}));
+        mesh.positions.insert(mesh.positions.end(), {float(p[0] - x), float(p[1] - y), float(p[2])});
+        return uint32_t(mesh.vertex_count() - 1);
+    };
+    const int count = std::max(2, int(0.5 * width / spacing));
+    rings.push_back({add(0, 0)});
+    for (int k = 1; k <= count; ++k) {
+        const double r = 0.5 * width * k / count;
+        const int pieces = std::max(6, int(2 * M_PI * r / spacing));
+        rings.emplace_back();
+        for (int i = 0; i < pieces; ++i) rings.back().push_back(add(r * std::cos(2 * M_PI * i / pieces), r * std::sin(2 * M_PI * i / pieces)));
+    }
+    // Between two rings: walk both, always advancing the one whose next point comes first by angle.
+    for (size_t k = 1; k < rings.size(); ++k) {
+        const auto& in = rings[k - 1];
+        const auto& out = rings[k];
+        if (in.size() == 1) {
+            for (size_t i = 0; i < out.size(); ++i) mesh.indices.insert(mesh.indices.end(), {in[0], out[i], out[(i + 1) % out.size()]});
+            continue;
+        }
+        size_t i = 0, o = 0;
+        while (i < in.size() || o < out.size()) {
+            const bool step_out = i == in.size() || (o < out.size() && double(o + 1) / out.size() <= double(i + 1) / in.size());
+            if (step_out) {
+                mesh.indices.insert(mesh.indices.end(), {in[i % in.size()], out[o], out[(o + 1) % out.size()]});
+                ++o;
+            } else {
+                mesh.indices.insert(mesh.indices.end(), {in[i], out[o % out.size()], in[(i + 1) % in.size()]});
+                ++i;
+            }
+        }
+    }
+    return mesh;
+}
+
 // Builds with the most levels (up to 5) that the mesh's longest edges allow.
 void build_locked(Mesh mesh, const std::filesystem::path& out, const char* what) {
     for (int levels = 5;; --levels) {
@@ -120,10 +175,11 @@ Frame render(Renderer& renderer, Node& scene, const Camera& camera, gl::Framebuf
 int main(int argc, char** argv) try {
     const int views = argc > 1 ? std::atoi(argv[1]) : 24;
     const double width = argc > 2 ? std::atof(argv[2]) : 600;
-    const bool trinidad = argc > 3 && std::string(argv[3]) == "trinidad";
+    const std::string mode = argc > 3 ? argv[3] : "";
+    const bool patch = mode == "patch", trinidad = mode == "trinidad" || patch;
     const auto data = std::filesystem::path(STRATA_SOURCE_DIR) / "data";
     if (views < 1 || !(width > 0)) {
-        std::fprintf(stderr, "usage: bench_hybrid_terrain [VIEWS >= 1 [SITE > 0 metres]]\n");
+        std::fprintf(stderr, "usage: bench_hybrid_terrain [VIEWS >= 1 [SITE > 0 metres [trinidad | patch]]]\n");
         return 2;
     }
     const std::filesystem::path dem = data / (trinidad ? "trinidad.nc" : "olinda_dem.tif");
@@ -136,12 +192,22 @@ int main(int argc, char** argv) try {
     TerrainSettings terrain_settings;
     terrain_settings.cube_cells = trinidad ? 64 : 16;
     if (trinidad) terrain_settings.crs = "EPSG:4326", terrain_settings.elevation_unit = "ft";
-    build_terrain({dem}, dir / "terrain.hlod", terrain_settings, dem.filename().string());
+    // The grid; in patch mode the DEM downsampled, and the DEM itself as full resolution.
+    std::filesystem::path grid_dem = dem;
+    if (patch) {
+        grid_dem = dir / "grid.tif";
+        const std::string command = "gdal_translate -q -r average -outsize 25% 25% '" + dem.string() + "' '" + grid_dem.string() + "'";
+        if (std::system(command.c_str()) != 0) throw std::runtime_error("gdal_translate failed: " + command);
+        build_terrain({dem}, dir / "full.hlod", terrain_settings, dem.filename().string());
+        terrain_settings.cube_cells = 16;
+    }
+    build_terrain({grid_dem}, dir / "terrain.hlod", terrain_settings, grid_dem.filename().string());
     const double terrain_seconds = seconds_since(start);
     const TerrainSite terrain = TerrainSite::open(dir / "terrain.hlod");
     const auto centre = terrain.georeference->sample_position(double(terrain.grid().columns / 2), double(terrain.grid().rows / 2), 0);
     const double cx = (*centre)[0], cy = (*centre)[1];
-    Mesh site = site_on_ground(terrain, data / "bunny.off", cx, cy, width);
+    Mesh site = patch ? dem_patch(TerrainSite::open(dir / "full.hlod"), terrain, cx, cy, width) : site_on_ground(terrain, data / "bunny.off", cx, cy, width);
+    const size_t site_triangles = site.triangle_count();
     start = Clock::now();
     const EmbeddingPlan plan = plan_embedding(terrain, site, glm::dmat4(1.0), "bunny.off");
     const double plan_seconds = seconds_since(start);
@@ -158,14 +224,19 @@ int main(int argc, char** argv) try {
     auto scene = std::make_shared<Group>();
     scene->add(std::make_shared<DirectionalLight>());
     scene->add(hybrid);
-    // Full resolution: the grid's finest level everywhere and the scan's finest level, no embedding.
-    auto full_ground = HlodModel::load(dir / "terrain.hlod");
-    auto full_site = HlodModel::load(dir / "site.hlod");
+    // Full resolution: the grid's finest level everywhere and the scan's finest level, no embedding (in
+    // patch mode the whole DEM at its finest, which holds the patch).
+    auto full_ground = HlodModel::load(dir / (patch ? "full.hlod" : "terrain.hlod"));
     auto full = std::make_shared<Group>();
     full->add(std::make_shared<DirectionalLight>());
-    full->add(full_ground), full->add(full_site);
+    full->add(full_ground);
+    full_ground->set_kappa0(1e9);
+    if (!patch) {
+        auto full_site = HlodModel::load(dir / "site.hlod");
+        full->add(full_site);
+        full_site->set_kappa0(1e9);
+    }
     for (const auto& m : {ground, embedding->skirt(), embedding->site()}) m->set_pixel_error(1.0);
-    full_ground->set_kappa0(1e9), full_site->set_kappa0(1e9);
 
     Camera camera;
     camera.width = 1280, camera.height = 720, camera.fov_y_degrees = 50;
@@ -220,8 +291,9 @@ int main(int argc, char** argv) try {
         stitch_time_share.push_back(seam_seconds / hybrid_frame.seconds);
         stitch_triangle_share.push_back(double(seams.size()) / double(hybrid_frame.triangles));
     }
-    std::printf("terrain %s: %llu × %llu samples, built in %.2f s; site %.0f m wide, %zu boundary vertices; zone level %u%s, ΔH %.1f m\n",
-                dem.filename().c_str(), (unsigned long long)terrain.grid().columns, (unsigned long long)terrain.grid().rows, terrain_seconds, width, embedding->stitch().boundary_vertices(),
+    std::printf("terrain %s: %llu × %llu samples, built in %.2f s; site %s %.0f m wide, %zu triangles, %zu boundary vertices; zone level %u%s, ΔH %.1f m\n",
+                grid_dem.filename().c_str(), (unsigned long long)terrain.grid().columns, (unsigned long long)terrain.grid().rows, terrain_seconds, patch ? "(a patch of the full DEM)" : "(the bunny)", width, site_triangles,
+                embedding->stitch().boundary_vertices(),
                 plan.zone_level, plan.zone_capped ? " (capped)" : "", plan.height_difference);
     std::printf("embedding: plan %.3f s, skirt build %.3f s, skirt %zu triangles, %zu border steps\n", plan_seconds, skirt_seconds,
                 plan.skirt_mesh.triangle_count(), embedding->stitch().border_steps());
@@ -231,7 +303,7 @@ int main(int argc, char** argv) try {
                 100 * bench::median(stitch_triangle_share));
     std::printf("  triangles drawn %.0f (full resolution %.0f); full-resolution frame %.1f ms\n", bench::median(hybrid_triangles),
                 bench::median(full_triangles), bench::median(full_frame_ms));
-    std::printf("  against the full-resolution grid and scan: %.1f× fewer triangles, %.2f× faster\n", bench::median(fewer), bench::median(faster));
+    std::printf("  against full resolution: %.1f× fewer triangles, %.2f× faster\n", bench::median(fewer), bench::median(faster));
     std::printf("  by distance (site widths): ");
     for (int k = 0; k < kDistances && k < views; ++k)
         std::printf("%s%.1f: %.1f×, %.2f×", k ? "; " : "", std::pow(10.0, double(k) / 5.0), bench::median(fewer_at[size_t(k)]), bench::median(faster_at[size_t(k)]));
