@@ -39,10 +39,9 @@ std::array<double, 2> default_site_place(const Group& scene, const Terrain& terr
 }
 
 NodePtr embed_site(Terrain& terrain, const fs::path& site, const SitePlacement& placement) {
-    const std::string base = site.stem().string() + "_on_" + terrain.ground()->path().stem().string();
     fs::path output;
     for (int n = 1; output.empty(); ++n) {
-        const fs::path candidate = site.parent_path() / (base + (n > 1 ? "_" + std::to_string(n) : "") + ".hlod");
+        const fs::path candidate = default_embedding_file(terrain.ground()->path(), site, n);
         const bool held = std::any_of(terrain.children().begin(), terrain.children().end(), [&](const NodePtr& child) {
             const fs::path* file = terrain.embedding_file(child.get());
             return file && fs::weakly_canonical(*file) == fs::weakly_canonical(candidate);

@@ -493,9 +493,13 @@ EmbedReport build_embedding(const fs::path& terrain_path, const fs::path& site_p
     return report;
 }
 
+fs::path default_embedding_file(const fs::path& terrain, const fs::path& site, int number) {
+    return site.parent_path() / (site.stem().string() + "_on_" + terrain.stem().string() + (number > 1 ? "_" + std::to_string(number) : "") + ".hlod");
+}
+
 fs::path embedding_file_for(const fs::path& terrain, const fs::path& site, const SitePlacement& placement, fs::path output,
                             const Progress& progress) {
-    if (output.empty()) output = site.parent_path() / (site.stem().string() + "_on_" + terrain.stem().string() + ".hlod");
+    if (output.empty()) output = default_embedding_file(terrain, site);
     if (fs::exists(output)) {
         try {
             const HlodFile file(output);

@@ -141,8 +141,12 @@ struct EmbedReport {
 EmbedReport build_embedding(const std::filesystem::path& terrain, const std::filesystem::path& site, const std::filesystem::path& output,
                             const EmbedSettings& settings, const Progress& progress = {});
 
-// The embedding file for `site` on `terrain` placed as `placement`: `output`, or when empty beside the
-// site ("<site>_on_<terrain>.hlod"). Made (build_embedding) unless the file there was made for these
+// Where an embedding of `site` on `terrain` goes by default: beside the site, "<site>_on_<terrain>.hlod",
+// and for `number` > 1 "<site>_on_<terrain>_<number>.hlod" (more embeddings of one site in one terrain).
+std::filesystem::path default_embedding_file(const std::filesystem::path& terrain, const std::filesystem::path& site, int number = 1);
+
+// The embedding file for `site` on `terrain` placed as `placement`: `output`, or when empty
+// default_embedding_file. Made (build_embedding) unless the file there was made for these
 // models and this placement already, so that a scene that reloads, or asks again, does not recompute it.
 std::filesystem::path embedding_file_for(const std::filesystem::path& terrain, const std::filesystem::path& site, const SitePlacement& placement,
                                          std::filesystem::path output = {}, const Progress& progress = {});
