@@ -142,18 +142,15 @@ NodePtr Terrain::load_embedding(const std::filesystem::path& file) {
 }
 
 SitePlacement Terrain::placement(const Node* child) const {
-    const std::filesystem::path* file = embedding_file(child);
-    if (!file) throw std::runtime_error((child ? child->name() : std::string("(none)")) + ": not an embedding of " + name() + " loaded from a file");
-    const EmbeddingRecord record = read_embedding(HlodFile(*file));
-    const std::filesystem::path site = embedded_path(*file, record.site_file);
+    const std::filesystem::path& file = loaded_file(child);
+    const EmbeddingRecord record = read_embedding(HlodFile(file));
+    const std::filesystem::path site = embedded_path(file, record.site_file);
     return placement_of(TerrainSite::open(ground_->path()), open_site(site), record.placement, site.string());
 }
 
 NodePtr Terrain::move_embedding(const Node* child, const SitePlacement& placement) {
     namespace fs = std::filesystem;
-    const fs::path* found = embedding_file(child);
-    if (!found) throw std::runtime_error((child ? child->name() : std::string("(none)")) + ": not an embedding of " + name() + " loaded from a file");
-    const fs::path file = *found;
+    const fs::path file = loaded_file(child);
     const EmbeddingRecord record = read_embedding(HlodFile(file));
     // The file as it is, kept under another name until the new one loads (build_embedding replaces it by
     // a rename, so a hard link keeps the old bytes for free).
@@ -195,6 +192,12 @@ const std::filesystem::path* Terrain::embedding_file(const Node* child) const {
     const auto file = files_.find(child);
     const bool held = std::any_of(children().begin(), children().end(), [&](const NodePtr& c) { return c.get() == child; });
     return file != files_.end() && held ? &file->second : nullptr;
+}
+
+const std::filesystem::path& Terrain::loaded_file(const Node* child) const {
+    const std::filesystem::path* file = embedding_file(child);
+    if (!file) throw std::runtime_error((child ? child->name() : std::string("(none)")) + ": not an embedding of " + name() + " loaded from a file");
+    return *file;
 }
 
 std::vector<std::shared_ptr<Embedding>> Terrain::embeddings() const {

@@ -128,6 +128,8 @@ protected:
     void traverse(NodeVisitor& visitor) override;
 
 private:
+    // embedding_file, or std::runtime_error naming the node when it has none.
+    const std::filesystem::path& loaded_file(const Node* child) const;
     std::shared_ptr<const HlodModel::CubeRuns> take_ground_selection(std::span<const uint32_t> cubes, const Kappas& kappa);
     std::shared_ptr<HlodModel> ground_;
     std::map<const Node*, std::filesystem::path> files_;
