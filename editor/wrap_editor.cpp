@@ -331,22 +331,22 @@ int editor_geo(lua_State* L) {
     return 1;
 }
 
-// ed:embed(site[, {at = {lon, lat}, scale =, heading =}]) → the new embedding (selected), in the terrain
+// ed:embed(site[, {at = {lon, lat}, scale =, heading =} or {matrix =}]) → the new embedding (selected), in the terrain
 // the selection belongs to; `at` by default the cursor's point on the ground
 int editor_embed(lua_State* L) {
     Editor& editor = check_editor(L);
     const char* site = luaL_checkstring(L, 2);
-    if (!lua_isnoneornil(L, 3)) lua::check_keys(L, 3, {"at", "scale", "heading"});
+    if (!lua_isnoneornil(L, 3)) lua::check_keys(L, 3, {"at", "scale", "heading", "matrix"});
     const SitePlacement placement = check_placement(L, 3, {});
     push_node(L, editor.embed_site(site, placement));  // C++ errors become Lua errors (lua::set_functions)
     return 1;
 }
 
-// ed:move{at =, scale =, heading =} → the selected embedding's new node (selected); what is not given stays
+// ed:move{at =, scale =, heading =} or {matrix =} → the selected embedding's new node (selected); what is not given stays
 int editor_move(lua_State* L) {
     Editor& editor = check_editor(L);
     luaL_checktype(L, 2, LUA_TTABLE);
-    lua::check_keys(L, 2, {"at", "scale", "heading"});
+    lua::check_keys(L, 2, {"at", "scale", "heading", "matrix"});
     check_placement(L, 2, {});  // the options checked before any work
     push_node(L, editor.move_embedding(check_placement(L, 2, editor.embedding_placement())));
     return 1;

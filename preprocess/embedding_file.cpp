@@ -11,7 +11,9 @@
 #include <cstring>
 #include <limits>
 
+#include "preprocess/build_inputs.h"
 #include "preprocess/byte_packing.h"
+#include "preprocess/byte_size.h"
 #include "preprocess/cube_textures.h"
 #include "preprocess/embedding.h"
 #include "preprocess/georeference.h"
@@ -269,6 +271,23 @@ std::vector<glm::dvec3> placed_points(const SiteModel& site, const std::string& 
     return ring;
 }
 
+// (ground − site height) over the points placed by `m` that lie over the raster's data: its sum, its
+// largest value and how many points.
+struct GroundBelow {
+    double sum = 0, most = -std::numeric_limits<double>::infinity();
+    size_t grounded = 0;
+};
+GroundBelow ground_below(const TerrainSite& terrain, std::span<const glm::dvec3> points, const glm::dmat4& m) {
+    GroundBelow below;
+    for (const glm::dvec3& p : points) {
+        const glm::dvec3 at(m * glm::dvec4(p, 1.0));
+        const auto cell = terrain.georeference->raster_position(at.x, at.y, at.z);
+        if (const std::optional<double> ground = cell ? terrain.heights->at((*cell)[0], (*cell)[1]) : std::nullopt)
+            below.sum += *ground - at.z, below.most = std::max(below.most, *ground - at.z), ++below.grounded;
+    }
+    return below;
+}
+
 glm::dvec3 centroid_of(std::span<const glm::dvec3> points) {
     glm::dvec3 centroid(0);
     for (const glm::dvec3& p : points) centroid += p / double(points.size());
@@ -277,10 +296,26 @@ glm::dvec3 centroid_of(std::span<const glm::dvec3> points) {
 
 }  // namespace
 
+std::string placement_matrix_problem(const glm::dmat4& m) {
+    for (int c = 0; c < 4; ++c)
+        for (int r = 0; r < 4; ++r)
+            if (!std::isfinite(m[c][r])) return "a placement matrix must hold 16 finite numbers";
+    if (m[0][3] != 0 || m[1][3] != 0 || m[2][3] != 0 || m[3][3] != 1) return "a placement matrix must be affine (its last row 0, 0, 0, 1)";
+    if (!(glm::determinant(glm::dmat3(m)) > 0))
+        return "a placement matrix must not mirror the site or flatten it (the determinant of its 3 × 3 part must be above 0)";
+    return "";
+}
+
 glm::dmat4 place_site(const TerrainSite& terrain, const SiteModel& site, const SitePlacement& placement, const std::string& what) {
+    const std::vector<glm::dvec3> ring = placed_points(site, what);
+    if (placement.matrix) {
+        if (const std::string problem = placement_matrix_problem(*placement.matrix); !problem.empty()) throw InputError(what + ": " + problem);
+        if (ground_below(terrain, ring, *placement.matrix).grounded == 0)
+            throw InputError(what + ": placed by its matrix it lies wholly off the terrain's raster (or over nodata)");
+        return *placement.matrix;
+    }
     if (!(placement.scale > 0) || !std::isfinite(placement.scale) || !std::isfinite(placement.heading))
         throw InputError(what + ": a scale above 0 and a finite heading are needed");
-    const std::vector<glm::dvec3> ring = placed_points(site, what);
     const glm::dvec3 centroid = centroid_of(ring);
     const double turn = -placement.heading * M_PI / 180.0;  // clockwise seen from above
     glm::dmat4 about(1.0);
@@ -298,18 +333,11 @@ glm::dmat4 place_site(const TerrainSite& terrain, const SiteModel& site, const S
         m[3] += glm::dvec4(target[0] - centroid.x, target[1] - centroid.y, 0.0, 0.0);
         // Lift it so that its boundary meets the ground best: the mean of (ground − site) is 0. A standing
         // site is lifted until its lowest point (against the ground) touches it.
-        double sum = 0, most = -std::numeric_limits<double>::infinity();
-        size_t grounded = 0;
-        for (const glm::dvec3& p : ring) {
-            const glm::dvec3 at(m * glm::dvec4(p, 1.0));
-            const auto cell = geo.raster_position(at.x, at.y, at.z);
-            if (const std::optional<double> ground = cell ? terrain.heights->at((*cell)[0], (*cell)[1]) : std::nullopt)
-                sum += *ground - at.z, most = std::max(most, *ground - at.z), ++grounded;
-        }
-        if (grounded == 0)
+        const GroundBelow below = ground_below(terrain, ring, m);
+        if (below.grounded == 0)
             throw InputError(what + ": placed at " + std::to_string(lon) + ", " + std::to_string(lat) +
                              " it lies wholly off the terrain's raster (or over nodata)");
-        m[3].z += site.open ? sum / double(grounded) : most;
+        m[3].z += site.open ? below.sum / double(below.grounded) : below.most;
         return m;
     }
 
@@ -360,6 +388,7 @@ SitePlacement placement_of(const TerrainSite& terrain, const SiteModel& site, co
     const glm::dvec3 at(site_to_terrain * glm::dvec4(centroid_of(placed_points(site, what)), 1.0));
     const std::array<double, 3> geo = terrain.georeference->to_geo({at.x, at.y, at.z});
     placement.at = {geo[0], geo[1]};
+    placement.matrix = site_to_terrain;
     return placement;
 }
 
@@ -493,13 +522,54 @@ EmbedReport build_embedding(const fs::path& terrain_path, const fs::path& site_p
     return report;
 }
 
+fs::path site_model_file(const fs::path& embedding_file) {
+    return embedding_file.parent_path() / (embedding_file.stem().string() + "_site.hlod");
+}
+
+namespace {
+
+// A model site_model_for built from `mesh` earlier, still up to date.
+bool built_from(const fs::path& model, const fs::path& mesh) {
+    std::error_code ec;
+    const auto built = fs::last_write_time(model, ec);
+    if (ec || built < fs::last_write_time(mesh)) return false;
+    try {
+        const HlodFile file(model);
+        const HlodHeader& h = file.header();
+        return h.source == mesh.filename().string() && (h.flags & kLockedBoundary);
+    } catch (const std::exception&) {
+        return false;
+    }
+}
+
+}  // namespace
+
+fs::path site_model_for(const fs::path& site, const fs::path& embedding_file, const EmbedSettings& settings, std::vector<std::string>& warnings,
+                        const Progress& progress) {
+    if (!fs::exists(site)) throw InputError(site.string() + ": no such file");
+    if (is_hlod_file(site)) return site;
+    const fs::path model = site_model_file(embedding_file);
+    if (built_from(model, site)) return model;
+    BuildSettings build;
+    build.lock_boundary = true;
+    build.threads = settings.threads;
+    build.memory = settings.memory ? settings.memory : default_memory_limit();
+    const std::vector<fs::path> files{site};
+    build_hlod(input_from_files(files, build.memory, progress, warnings), files, model, build, site.filename().string(), progress);
+    return model;
+}
+
 fs::path default_embedding_file(const fs::path& terrain, const fs::path& site, int number) {
     return site.parent_path() / (site.stem().string() + "_on_" + terrain.stem().string() + (number > 1 ? "_" + std::to_string(number) : "") + ".hlod");
 }
 
-fs::path embedding_file_for(const fs::path& terrain, const fs::path& site, const SitePlacement& placement, fs::path output,
-                            const Progress& progress) {
-    if (output.empty()) output = default_embedding_file(terrain, site);
+fs::path embedding_file_for(const fs::path& terrain, const fs::path& given_site, const SitePlacement& placement, fs::path output,
+                            const Progress& progress, std::vector<std::string>* warnings) {
+    if (output.empty()) output = default_embedding_file(terrain, given_site);
+    EmbedSettings settings;
+    settings.placement = placement;
+    std::vector<std::string> ignored;
+    const fs::path site = site_model_for(given_site, output, settings, warnings ? *warnings : ignored, progress);
     if (fs::exists(output)) {
         try {
             const HlodFile file(output);
@@ -512,8 +582,6 @@ fs::path embedding_file_for(const fs::path& terrain, const fs::path& site, const
             // not a match: made again below
         }
     }
-    EmbedSettings settings;
-    settings.placement = placement;
     build_embedding(terrain, site, output, settings, progress);
     return output;
 }

@@ -103,17 +103,29 @@ struct SitePlacement {
     std::optional<std::array<double, 2>> at;
     double scale = 1;    // about the boundary's centroid, before the rest
     double heading = 0;  // degrees, clockwise seen from above (a compass turn), about the centroid
+    // --matrix: the site's model coordinates → the terrain's, as given (what a transform node over the
+    // site would hold under the terrain: a tilt, a shear, any affine map that is not a mirror); at, scale
+    // and heading are then not used, and nothing is lifted.
+    std::optional<glm::dmat4> matrix;
 };
 
-// The site's node frame → the terrain's. With `at`: as SitePlacement says. Without: from the site's
+// Why `matrix` cannot place a site ("" when it can): not finite, not affine (its last row 0, 0, 0, 1),
+// or a mirror or flat (its 3 × 3 part's determinant not above 0), which would turn the footprint inside out.
+std::string placement_matrix_problem(const glm::dmat4& matrix);
+
+// The site's node frame → the terrain's. With `matrix`: that matrix (InputError when
+// placement_matrix_problem names a problem, or the site then lies wholly off the raster). With `at`: as
+// SitePlacement says. Without either: from the site's
 // own georeference (a translation in the terrain's CRS; through PROJ, fitted at the site's centre, in
 // another); InputError naming the file when it has none, and naming both CRSs when one cannot be mapped to
 // the other. Scale and heading apply about the centroid in either case.
 glm::dmat4 place_site(const TerrainSite& terrain, const SiteModel& site, const SitePlacement& placement, const std::string& what);
-// The placement (with `at`) that place_site turns into `site_to_terrain`, where an editor that moves an
-// embedding starts: scale and heading from the matrix, `at` where the boundary's centroid lands. For a
-// matrix place_site made with `at`, the same matrix again up to rounding; for a site placed by its own
-// georeference, that placement turned into one by `at` (the lift is then the ground's).
+// The placement that place_site turns into `site_to_terrain`, where an editor that moves an embedding
+// starts: `matrix` is `site_to_terrain` itself; scale and heading come from it and `at` is where the
+// boundary's centroid lands, so that a move that gives any of these three (and clears `matrix`) keeps the
+// others. For a matrix place_site made with `at`, at/scale/heading give the same matrix again up to
+// rounding; for a site placed by its own georeference or a tilted matrix, they place it by `at` (the lift
+// is then the ground's, and a tilt is lost).
 SitePlacement placement_of(const TerrainSite& terrain, const SiteModel& site, const glm::dmat4& site_to_terrain, const std::string& what);
 
 // ---- the embedding file --------------------------------------------------------------------------
@@ -133,6 +145,19 @@ struct EmbedReport {
     double seconds = 0;
 };
 
+// A plain mesh as a site (a TIN: a building, a road, a quarry floor; OBJ, PLY, OFF or STL): an
+// embedding reads a .hlod with its open boundary locked, so the mesh is built into one beside the
+// embedding file, site_model_file(embedding_file) = "<its stem>_site.hlod".
+std::filesystem::path site_model_file(const std::filesystem::path& embedding_file);
+// The .hlod an embedding reads for `site`: `site` itself when it is a .hlod model (by its first bytes);
+// for a mesh, site_model_file(embedding_file), built from it (streamed, within settings.memory or a quarter
+// of physical memory, on settings.threads) unless one built from a file of that name, no older than it,
+// is there. Throws InputError naming the mesh for one that cannot be read or built, Cancelled, and
+// std::runtime_error for write failures, leaving no model behind. What the reader read past goes to
+// `warnings`.
+std::filesystem::path site_model_for(const std::filesystem::path& site, const std::filesystem::path& embedding_file, const EmbedSettings& settings,
+                                     std::vector<std::string>& warnings, const Progress& progress = {});
+
 // strata embed TERRAIN SITE -o OUT: plans the embedding of `site` (a .hlod) on `terrain` (a terrain
 // .hlod), builds its skirt and writes the embedding file; a textured terrain's skirt gets its imagery
 // (section TXTR, resampled from the terrain's textures). Throws InputError for input that cannot be
@@ -145,10 +170,11 @@ EmbedReport build_embedding(const std::filesystem::path& terrain, const std::fil
 // and for `number` > 1 "<site>_on_<terrain>_<number>.hlod" (more embeddings of one site in one terrain).
 std::filesystem::path default_embedding_file(const std::filesystem::path& terrain, const std::filesystem::path& site, int number = 1);
 
-// The embedding file for `site` on `terrain` placed as `placement`: `output`, or when empty
-// default_embedding_file. Made (build_embedding) unless the file there was made for these
-// models and this placement already, so that a scene that reloads, or asks again, does not recompute it.
+// The embedding file for `site` (a .hlod, or a mesh: site_model_for) on `terrain` placed as
+// `placement`: `output`, or when empty default_embedding_file. Made (build_embedding) unless the file
+// there was made for these models and this placement already, so that a scene that reloads, or asks
+// again, does not recompute it. What a mesh's reader read past goes to `warnings` where given.
 std::filesystem::path embedding_file_for(const std::filesystem::path& terrain, const std::filesystem::path& site, const SitePlacement& placement,
-                                         std::filesystem::path output = {}, const Progress& progress = {});
+                                         std::filesystem::path output = {}, const Progress& progress = {}, std::vector<std::string>* warnings = nullptr);
 
 }  // namespace strata

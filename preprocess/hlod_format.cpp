@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <fstream>
 #include <stdexcept>
 #include <tuple>
 
@@ -1259,6 +1260,12 @@ void HlodWriter::finish(HlodHeader header) {
 }
 
 // ---- reader --------------------------------------------------------------------------------
+
+bool is_hlod_file(const std::filesystem::path& path) {
+    char magic[sizeof kHlodMagic] = {};
+    std::ifstream in(path, std::ios::binary);
+    return in.read(magic, sizeof magic) && std::equal(std::begin(magic), std::end(magic), std::begin(kHlodMagic));
+}
 
 HlodFile::HlodFile(const std::filesystem::path& path)
     : path_(path), file_(::open(path.c_str(), O_RDONLY | O_CLOEXEC)) {

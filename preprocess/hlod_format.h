@@ -262,6 +262,10 @@ private:
     std::vector<HlodNode> nodes_;  // until finish(), offsets are spool offsets
 };
 
+// Whether the file at `path` begins as a .hlod does (kHlodMagic), as opposed to a mesh or a raster;
+// false when it cannot be read. Says nothing of the rest of it: HlodFile checks that.
+bool is_hlod_file(const std::filesystem::path& path);
+
 // An opened .hlod: header, section table, model fields and node table read and checked (kilobytes,
 // whatever the model's size: no payload byte is read); payloads are read on demand.
 class HlodFile {

@@ -153,6 +153,14 @@ glm::dmat4 check_mat4(lua_State* L, int index) {
     return m;
 }
 
+void push_mat4(lua_State* L, const glm::dmat4& m) {
+    lua_createtable(L, 16, 0);
+    for (int i = 0; i < 16; ++i) {
+        lua_pushnumber(L, m[i / 4][i % 4]);
+        lua_rawseti(L, -2, i + 1);
+    }
+}
+
 void push_vec3(lua_State* L, const glm::dvec3& v) {
     lua_createtable(L, 3, 0);
     for (int i = 0; i < 3; ++i) {

@@ -141,12 +141,7 @@ int transform_set(lua_State* L) {  // transform:set_transform{translate=…, rot
 }
 
 int transform_matrix(lua_State* L) {  // 16 numbers, column-major (as OpenGL and GLM)
-    const glm::dmat4& m = check_node_as<Transform>(L, 1, "transform").matrix();
-    lua_createtable(L, 16, 0);
-    for (int i = 0; i < 16; ++i) {
-        lua_pushnumber(L, m[i / 4][i % 4]);
-        lua_rawseti(L, -2, i + 1);
-    }
+    lua::push_mat4(L, check_node_as<Transform>(L, 1, "transform").matrix());
     return 1;
 }
 

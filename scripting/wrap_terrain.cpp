@@ -2,8 +2,10 @@
 // embeds sites in a terrain built from an elevation raster, strata.embed{}, which makes an embedding file
 // once (what `strata embed` does), and their methods, inspector fields and scene-script lines.
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include "nodes/terrain.h"
 #include "preprocess/embedding.h"
@@ -16,6 +18,22 @@
 namespace strata {
 
 SitePlacement check_placement(lua_State* L, int index, SitePlacement placement) {
+    if (lua::get_option(L, index, "matrix")) {
+        placement.matrix = lua::check_mat4(L, lua_gettop(L));
+        lua_pop(L, 1);
+        for (const char* key : {"at", "scale", "heading"}) {
+            if (lua::get_option(L, index, key)) luaL_error(L, "option 'matrix' cannot be combined with '%s'", key);
+            lua_pop(L, 1);
+        }
+        if (const std::string problem = placement_matrix_problem(*placement.matrix); !problem.empty())
+            luaL_error(L, "option 'matrix': %s", problem.c_str());
+        return placement;
+    }
+    lua_pop(L, 1);
+    for (const char* key : {"at", "scale", "heading"}) {
+        if (lua::get_option(L, index, key)) placement.matrix.reset();  // placed by these (and what stays of the rest)
+        lua_pop(L, 1);
+    }
     if (const auto at = lua::opt_point(L, index, "at", 2, 2, false, "{lon, lat} in degrees")) placement.at = {at->v[0], at->v[1]};
     placement.scale = lua::opt_number(L, index, "scale", placement.scale);
     placement.heading = lua::opt_number(L, index, "heading", placement.heading);
@@ -31,7 +49,8 @@ using lua::check_keys;
 using lua::opt_number;
 using lua::opt_string;
 
-// An embedding as a script gives it: a file name, or {site =, at =, scale =, heading =, output =}.
+// An embedding as a script gives it: a file name, or {site =, at =, scale =, heading =, output =} (or
+// matrix = {16 numbers} for at, scale and heading).
 struct EmbedSpec {
     fs::path file;  // given, or to make from the rest
     fs::path site, output;
@@ -45,18 +64,24 @@ EmbedSpec check_embed_spec(lua_State* L) {
         spec.file = lua_tostring(L, -1);
         return spec;
     }
-    if (!lua_istable(L, -1)) luaL_error(L, "an embedding is a file name or {site =, at = {lon, lat}, scale =, heading =, output =}");
+    if (!lua_istable(L, -1)) luaL_error(L, "an embedding is a file name or {site =, at = {lon, lat}, scale =, heading =, matrix =, output =}");
     const int index = lua_gettop(L);
-    check_keys(L, index, {"site", "at", "scale", "heading", "output"});
+    check_keys(L, index, {"site", "at", "scale", "heading", "matrix", "output"});
     spec.site = opt_string(L, index, "site", "");
-    if (spec.site.empty()) luaL_error(L, "an embedding needs option 'site' (a .hlod built with --lock-boundary)");
+    if (spec.site.empty()) luaL_error(L, "an embedding needs option 'site' (a .hlod built with --lock-boundary, or a mesh file)");
     spec.placement = check_placement(L, index, {});
     spec.output = opt_string(L, index, "output", "");
     return spec;
 }
 
+// The spec's embedding file, made where it must be; what a mesh site's reader read past is printed, as
+// strata.build prints it.
 fs::path file_of(const EmbedSpec& spec, const fs::path& terrain) {
-    return spec.file.empty() ? embedding_file_for(terrain, spec.site, spec.placement, spec.output) : spec.file;
+    if (!spec.file.empty()) return spec.file;
+    std::vector<std::string> warnings;
+    const fs::path file = embedding_file_for(terrain, spec.site, spec.placement, spec.output, {}, &warnings);
+    for (const std::string& warning : warnings) std::fprintf(stderr, "strata.embed: warning: %s\n", warning.c_str());
+    return file;
 }
 
 // Embeds the spec at the top of the stack in `terrain`; the node it adds.
@@ -115,14 +140,14 @@ int new_terrain(lua_State* L) {
     return 1;
 }
 
-// strata.embed{ terrain =, site =, at =, scale =, heading =, output = } → the embedding file's path
+// strata.embed{ terrain =, site =, at =, scale =, heading = (or matrix =), output = } → the embedding file's path
 int embed_file(lua_State* L) {
     luaL_checktype(L, 1, LUA_TTABLE);
-    check_keys(L, 1, {"terrain", "site", "at", "scale", "heading", "output"});
+    check_keys(L, 1, {"terrain", "site", "at", "scale", "heading", "matrix", "output"});
     const std::string terrain = opt_string(L, 1, "terrain", "");
     if (terrain.empty()) return luaL_error(L, "strata.embed needs option 'terrain' (a terrain's .hlod)");
-    lua_createtable(L, 0, 5);  // the options but 'terrain', as a spec
-    for (const char* key : {"site", "at", "scale", "heading", "output"}) {
+    lua_createtable(L, 0, 6);  // the options but 'terrain', as a spec
+    for (const char* key : {"site", "at", "scale", "heading", "matrix", "output"}) {
         lua_getfield(L, 1, key);
         lua_setfield(L, -2, key);
     }
@@ -167,7 +192,7 @@ int terrain_remove(lua_State* L) {
 }
 
 void push_placement(lua_State* L, const SitePlacement& placement) {
-    lua_createtable(L, 0, 3);
+    lua_createtable(L, 0, 4);
     lua_createtable(L, 2, 0);
     for (int i = 0; i < 2; ++i) lua_pushnumber(L, (*placement.at)[size_t(i)]), lua_rawseti(L, -2, i + 1);
     lua_setfield(L, -2, "at");
@@ -175,22 +200,25 @@ void push_placement(lua_State* L, const SitePlacement& placement) {
     lua_setfield(L, -2, "scale");
     lua_pushnumber(L, placement.heading);
     lua_setfield(L, -2, "heading");
+    lua::push_mat4(L, *placement.matrix);
+    lua_setfield(L, -2, "matrix");
 }
 
 // C++ exceptions here become Lua errors with their message (lua::set_functions), after the stack unwinds.
-int terrain_placement(lua_State* L) {  // terrain:placement(child) → {at = {lon, lat}, scale =, heading =}
+int terrain_placement(lua_State* L) {  // terrain:placement(child) → {at = {lon, lat}, scale =, heading =, matrix =}
     const Terrain& terrain = check_node_as<Terrain>(L, 1, "terrain");
     const Node* child = check_node(L, 2).get();  // the argument keeps it
     push_placement(L, terrain.placement(child));
     return 1;
 }
 
-// terrain:move(child, {at =, scale =, heading =}) → the child's new node (what is not given stays)
+// terrain:move(child, {at =, scale =, heading =} or {matrix =}) → the child's new node (what is not
+// given stays)
 int terrain_move(lua_State* L) {
     Terrain& terrain = check_node_as<Terrain>(L, 1, "terrain");
     const Node* child = check_node(L, 2).get();
     luaL_checktype(L, 3, LUA_TTABLE);
-    check_keys(L, 3, {"at", "scale", "heading"});
+    check_keys(L, 3, {"at", "scale", "heading", "matrix"});
     check_placement(L, 3, {});  // the options checked before any work
     push_node(L, terrain.move_embedding(child, check_placement(L, 3, terrain.placement(child))));
     return 1;

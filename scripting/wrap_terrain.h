@@ -7,8 +7,9 @@
 
 namespace strata {
 
-// Options at = {lon, lat}, scale and heading of the table at `index` (absent: none), over `placement`;
-// a Lua error naming the option that is wrong.
+// Options at = {lon, lat}, scale and heading, or matrix = {16 numbers} (the site's model coordinates →
+// the terrain's, column-major), of the table at `index` (absent: none), over `placement`; any of the
+// first three clears its matrix. A Lua error naming the option that is wrong.
 SitePlacement check_placement(lua_State* L, int index, SitePlacement placement);
 
 }  // namespace strata

@@ -36,6 +36,38 @@ checks=$((checks + 1)); [ ! -s "$WORK/out.txt" ] || fail "embed -q printed: $(ca
 expect_success "info turned" "$STRATA" info "$WORK/turned.hlod"
 checks=$((checks + 1)); grep -q "scale 1.5, heading 30°" "$WORK/out.txt" || fail "info: not turned and scaled: $(grep placement "$WORK/out.txt")"
 
+# Placed by a matrix (the site's model coordinates → the terrain's): the --at embedding's translation,
+# turned a quarter counter-clockwise, kept as given; a matrix that is not 16 numbers, that mirrors, or
+# that comes with --at is refused.
+expect_success "info the placed embedding" "$STRATA" info "$WORK/out/site_on_olinda.hlod"
+shift=$(sed -n 's/^placement   site → terrain: translation (\([^)]*\)).*/\1/p' "$WORK/out.txt" | tr -d ' ')
+checks=$((checks + 1)); [ "$(echo "$shift" | tr ',' '\n' | wc -l)" = 3 ] || fail "no translation in info: $(cat "$WORK/out.txt")"
+expect_success "embed by a matrix" "$STRATA" embed -q "$WORK/olinda.hlod" "$WORK/site.hlod" -o "$WORK/by_matrix.hlod" --matrix "0,1,0,0,-1,0,0,0,0,0,1,0,$shift,1"
+expect_success "info by a matrix" "$STRATA" info "$WORK/by_matrix.hlod"
+checks=$((checks + 1)); grep -q "translation ($(echo "$shift" | sed 's/,/, /g')), scale 1, heading -90°" "$WORK/out.txt" || fail "info: not the matrix given: $(grep placement "$WORK/out.txt")"
+expect_usage "a matrix of 3 numbers" "--matrix: it takes 16 comma-separated numbers, column-major, not 3" \
+    "$STRATA" embed "$WORK/olinda.hlod" "$WORK/site.hlod" -o "$WORK/x.hlod" --matrix 1,2,3
+expect_usage "a mirroring matrix" "--matrix: a placement matrix must not mirror the site" \
+    "$STRATA" embed "$WORK/olinda.hlod" "$WORK/site.hlod" -o "$WORK/x.hlod" --matrix "-1,0,0,0,0,1,0,0,0,0,1,0,$shift,1"
+expect_usage "a matrix and --at" "excludes" \
+    "$STRATA" embed "$WORK/olinda.hlod" "$WORK/site.hlod" -o "$WORK/x.hlod" --matrix "1,0,0,0,0,1,0,0,0,0,1,0,$shift,1" --at "$at"
+
+# A plain mesh as the site: built into OUT_site.hlod with its boundary locked, then embedded as the
+# .hlod is; a second run reuses that model; a mesh has no georeference, and a malformed one is named.
+expect_success "embed a mesh" "$STRATA" embed "$WORK/olinda.hlod" "$WORK/patch.off" -o "$WORK/from_mesh.hlod" --at "$at"
+checks=$((checks + 1)); grep -q "^  site model  $WORK/from_mesh_site.hlod (the mesh built with its boundary locked)" "$WORK/out.txt" || fail "embed a mesh: $(cat "$WORK/out.txt")"
+checks=$((checks + 1)); grep -q "^  skirt       [1-9][0-9]* triangles, 160 boundary vertices" "$WORK/out.txt" || fail "embed a mesh: $(cat "$WORK/out.txt")"
+expect_success "info the mesh's model" "$STRATA" info "$WORK/from_mesh_site.hlod"
+checks=$((checks + 1)); grep -q "boundary locked" "$WORK/out.txt" || fail "the mesh's model is not locked: $(cat "$WORK/out.txt")"
+built=$(stat -c %y "$WORK/from_mesh_site.hlod")
+expect_success "embed the mesh again" "$STRATA" embed -q "$WORK/olinda.hlod" "$WORK/patch.off" -o "$WORK/from_mesh.hlod" --at "$at" --heading 10
+checks=$((checks + 1)); [ "$(stat -c %y "$WORK/from_mesh_site.hlod")" = "$built" ] || fail "the mesh's model was built again"
+expect_usage "a mesh without a place" "patch.off has no georeference (CRS): place it with --at LON,LAT or --matrix" \
+    "$STRATA" embed "$WORK/olinda.hlod" "$WORK/patch.off" -o "$WORK/x.hlod"
+printf 'OFF\n3 1 0\n0 0 0\n1 0 0\n' > "$WORK/broken.off"
+expect_failure "a malformed mesh" "broken.off" "$STRATA" embed "$WORK/olinda.hlod" "$WORK/broken.off" -o "$WORK/x.hlod" --at "$at"
+checks=$((checks + 1)); [ -z "$(ls "$WORK" | grep '^x\(_site\)\?.hlod')" ] || fail "a malformed mesh left $(ls "$WORK" | grep '^x')"
+
 # On a textured terrain the skirt carries the ground's imagery (TXTR), which info describes and verify checks;
 # the untextured terrain's skirt has none.
 checks=$((checks + 1)); ! grep -q "^textures" "$WORK/out.txt" || fail "info: an untextured terrain's skirt has textures: $(cat "$WORK/out.txt")"

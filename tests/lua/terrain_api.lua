@@ -90,6 +90,44 @@ assert(near(reloaded:placement(reloaded:embeddings()[1]).heading, 60), "a refuse
 assert(not io.open(second_file .. ".before-move"), "a refused move left its copy behind")
 second = moved
 
+-- Placed by a matrix (the site's model coordinates → the terrain's), as given: the first embedding's own
+-- matrix moved 2 km west and tilted by 3° about x. placement() gives it back bit for bit; a move by
+-- matrix keeps it so, and one by heading places the site by at, scale and heading again.
+local function same_matrix(a, b) for i = 1, 16 do if a[i] ~= b[i] then return false end end return true end
+local m = t:placement(e).matrix
+assert(#m == 16 and m[16] == 1 and near(m[1], 1) and near(m[13] - b.center[1], 0, 200), ("%g %g"):format(m[1], m[13]))
+local tilt = math.rad(3)
+local tilted = { m[1], m[2], m[3], 0, m[5], m[6] * math.cos(tilt), m[6] * math.sin(tilt), 0, m[9], -m[11] * math.sin(tilt), m[11] * math.cos(tilt), 0,
+                 m[13] - 2000, m[14], m[15], 1 }
+local by_matrix = t:embed{ site = site_file, matrix = tilted, output = out .. "/terrain_api_matrix.hlod" }
+assert(by_matrix:type() == "embedding" and by_matrix:info().boundary_vertices == 4 * n and #t:embeddings() == 3)
+assert(same_matrix(t:placement(by_matrix).matrix, tilted), "the matrix was not kept as given")
+tilted[14] = tilted[14] + 150
+by_matrix = t:move(by_matrix, { matrix = tilted })
+assert(same_matrix(t:placement(by_matrix).matrix, tilted), "a move by matrix did not keep it as given")
+by_matrix = t:move(by_matrix, { heading = 45 })
+p = t:placement(by_matrix)
+assert(near(p.heading, 45) and near(p.scale, 1) and math.abs(p.matrix[7]) < 1e-12, "a move by heading kept the tilt")
+refused(function() t:embed{ site = site_file, matrix = tilted, at = at } end, "option 'matrix' cannot be combined with 'at'")
+refused(function() t:move(by_matrix, { matrix = tilted, heading = 1 }) end, "option 'matrix' cannot be combined with 'heading'")
+refused(function() t:embed{ site = site_file, matrix = { 1, 2, 3 } } end, "a matrix (16 finite numbers")
+local mirrored = { -1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, m[13], m[14], m[15], 1 }
+refused(function() t:embed{ site = site_file, matrix = mirrored } end, "option 'matrix'", "mirror")
+local projective = { 1, 0, 0, 0.5, 0, 1, 0, 0, 0, 0, 1, 0, m[13], m[14], m[15], 1 }
+refused(function() t:embed{ site = site_file, matrix = projective } end, "option 'matrix'", "affine")
+local far = { 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, -1e7, m[14], m[15], 1 }
+refused(function() t:embed{ site = site_file, matrix = far, output = out .. "/terrain_api_far.hlod" } end, "placed by its matrix it lies wholly off")
+assert(not io.open(out .. "/terrain_api_far.hlod"), "a refused embedding left its file")
+assert(t:remove(by_matrix) and #t:embeddings() == 2)
+
+-- A plain mesh as the site: built with its boundary locked into "<embedding file>_site.hlod", then embedded.
+local south = ground:to_geo{ b.center[1], b.center[2] - 2000, b.center[3] }
+local from_mesh = t:embed{ site = out .. "/terrain_api_site.off", at = { south[1], south[2] }, output = out .. "/terrain_api_mesh.hlod" }
+assert(from_mesh:type() == "embedding" and from_mesh:info().boundary_vertices == 4 * n, "the mesh was not embedded")
+assert(io.open(out .. "/terrain_api_mesh_site.hlod", "rb"), "no model of the mesh beside the embedding file")
+refused(function() t:embed{ site = out .. "/terrain_api_nothing.off", at = at } end, "terrain_api_nothing.off")
+assert(t:remove(from_mesh) and #t:embeddings() == 2)
+
 assert(t:remove(second) and #t:embeddings() == 1 and not t:remove(second))
 assert(not t:remove(t:ground()), "the ground is not an embedding")
 
