@@ -366,8 +366,21 @@ bool Editor::go_to_bookmark(const std::string& name) {
 NodePtr Editor::embed_site(const std::filesystem::path& site, SitePlacement placement) {
     const std::optional<TerrainPart> part = terrain_part(selected());
     if (!part) throw std::runtime_error("select a terrain (or click its ground) to embed a site in it");
-    if (!placement.at) placement.at = default_site_place(*scene_, *part->terrain, cursor_point_);
-    NodePtr node = strata::embed_site(*part->terrain, site, placement);
+    if (!placement.at && !placement.matrix) placement.at = default_site_place(*scene_, *part->terrain, cursor_point_);
+    embeddings_.start_embed(selected(), *part->terrain, site, placement, true);
+    return await_embedding();
+}
+
+NodePtr Editor::await_embedding() {
+    // Frames go on while it is made (its progress in the Inspector), but not from the console, which
+    // runs inside one: there it is waited for.
+    while (!embeddings_.job_finished()) {
+        if (drawing_ == 0 && open_)
+            frame();
+        else
+            embeddings_.wait_job();
+    }
+    NodePtr node = embeddings_.finish_job();
     selected_ = node;
     return node;
 }
@@ -390,9 +403,8 @@ SitePlacement Editor::embedding_placement() const {
 
 NodePtr Editor::move_embedding(const SitePlacement& placement) {
     const TerrainPart part = embedding_part(selected());
-    NodePtr node = part.terrain->move_embedding(part.child.get(), placement);
-    selected_ = node;
-    return node;
+    embeddings_.start_move(part.child, *part.terrain, placement, true);
+    return await_embedding();
 }
 
 std::optional<PickHit> Editor::click(double x, double y) {

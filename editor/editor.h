@@ -125,6 +125,9 @@ public:
     std::vector<uint8_t> screenshot(int& width, int& height);
 
 private:
+    // embed_site and move_embedding make their file on a worker thread (editor/embedding_job.h) and wait
+    // for it here, drawing frames meanwhile unless called from inside one (the console); the new node.
+    NodePtr await_embedding();
     void draw_panels();
     void draw_outliner();
     void draw_outliner_node(const NodePtr& node, int depth);

@@ -1,6 +1,8 @@
 #include "editor/embedding_panel.h"
 
 #include <algorithm>
+#include <cstdio>
+#include <memory>
 #include <stdexcept>
 
 #include <imgui.h>
@@ -38,24 +40,100 @@ std::array<double, 2> default_site_place(const Group& scene, const Terrain& terr
     return {geo[0], geo[1]};
 }
 
-NodePtr embed_site(Terrain& terrain, const fs::path& site, const SitePlacement& placement) {
-    fs::path output;
-    for (int n = 1; output.empty(); ++n) {
+fs::path new_embedding_file(const Terrain& terrain, const fs::path& site) {
+    for (int n = 1;; ++n) {
         const fs::path candidate = default_embedding_file(terrain.ground()->path(), site, n);
         const bool held = std::any_of(terrain.children().begin(), terrain.children().end(), [&](const NodePtr& child) {
             const fs::path* file = terrain.embedding_file(child.get());
             return file && fs::weakly_canonical(*file) == fs::weakly_canonical(candidate);
         });
-        if (!held) output = candidate;
+        if (!held) return candidate;
     }
-    return terrain.load_embedding(embedding_file_for(terrain.ground()->path(), site, placement, output));
+}
+
+EmbeddingPanel::~EmbeddingPanel() {
+    if (!running_) return;
+    running_->job->cancel();
+    running_->job->wait();
+    running_->discard();
+}
+
+void EmbeddingPanel::start(Running running) {
+    if (running_) throw std::runtime_error("an embedding is being made (" + running_->job->title() + "): wait for it, or cancel it");
+    if (!running.anchor) throw std::runtime_error("select a terrain or an embedding first");
+    running_ = std::move(running);
+}
+
+void EmbeddingPanel::start_embed(const NodePtr& anchor, Terrain& terrain, const fs::path& site, const SitePlacement& placement, bool awaited) {
+    const fs::path ground = terrain.ground()->path(), output = new_embedding_file(terrain, site);
+    auto made = std::make_shared<fs::path>();  // the file, once made
+    start({std::make_unique<EmbeddingJob>("embedding " + site.filename().string(),
+                                          [=](const Progress& progress) { *made = embedding_file_for(ground, site, placement, output, progress); }),
+           anchor, &terrain, [made](Terrain& t) { return t.load_embedding(*made); },
+           [] {},  // the file stays: a complete embedding, reused if asked again
+           awaited});
+}
+
+void EmbeddingPanel::start_move(const NodePtr& embedding, Terrain& terrain, const SitePlacement& placement, bool awaited) {
+    const Terrain::Remake remake = terrain.remake_for(embedding.get());
+    EmbedSettings settings;
+    settings.placement = placement;
+    start({std::make_unique<EmbeddingJob>("moving " + embedding->name(),
+                                          [=](const Progress& progress) { build_embedding(remake.terrain, remake.site, remake.remade, settings, progress); }),
+           embedding, &terrain, [embedding, remade = remake.remade](Terrain& t) { return t.replace_embedding(embedding.get(), remade); },
+           [remade = remake.remade] {
+               std::error_code ignored;
+               fs::remove(remade, ignored);
+           },
+           awaited});
+}
+
+NodePtr EmbeddingPanel::finish_job() {
+    Running running = std::move(*running_);
+    running_.reset();
+    running.job->wait();
+    running.job->rethrow();
+    const std::optional<TerrainPart> part = terrain_part(running.anchor);
+    if (!part || part->terrain != running.terrain) {
+        running.discard();
+        throw std::runtime_error(running.job->title() + ": its terrain, or the embedding, left the scene meanwhile");
+    }
+    return running.apply(*part->terrain);
+}
+
+std::optional<NodePtr> EmbeddingPanel::draw_job() {
+    if (running_->job->finished()) {
+        if (running_->awaited) return std::nullopt;  // its caller takes it
+        const std::string title = running_->job->title();
+        std::optional<NodePtr> next;
+        try {
+            next = finish_job();
+            filled_for_ = nullptr;  // the new node's own placement is shown next
+        } catch (const Cancelled&) {
+            message_ = title + ": cancelled, nothing changed";
+        } catch (const std::exception& e) {
+            message_ = e.what();
+        }
+        return next;
+    }
+    const EmbeddingJob::Status status = running_->job->status();
+    ImGui::TextUnformatted(running_->job->title().c_str());
+    char overlay[96];
+    std::snprintf(overlay, sizeof overlay, "%s %.0f %%, %.0f s", status.stage.c_str(), 100 * std::max(status.fraction, 0.0), status.seconds);
+    ImGui::ProgressBar(status.fraction < 0 ? float(-0.3 * ImGui::GetTime()) : float(status.fraction), ImVec2(-1, 0), overlay);
+    if (ImGui::Button("Cancel")) running_->job->cancel();
+    return std::nullopt;
 }
 
 std::optional<NodePtr> EmbeddingPanel::draw(const Group& scene, const NodePtr& selected, const std::optional<glm::dvec3>& cursor) {
+    if (running_) {
+        ImGui::Separator();
+        return draw_job();
+    }
     const std::optional<TerrainPart> part = terrain_part(selected);
     if (!part) return std::nullopt;
     ImGui::Separator();
-    if (!part->child || part->child == part->terrain->ground()) return draw_embed_form(scene, *part->terrain, cursor);
+    if (!part->child || part->child == part->terrain->ground()) return draw_embed_form(scene, selected, *part->terrain, cursor);
     if (!part->terrain->embedding_file(part->child.get())) {
         ImGui::TextDisabled("an embedding made by a script without a file: move it from the script");
         return std::nullopt;
@@ -63,7 +141,8 @@ std::optional<NodePtr> EmbeddingPanel::draw(const Group& scene, const NodePtr& s
     return draw_placement_form(scene, *part->terrain, part->child, cursor);
 }
 
-std::optional<NodePtr> EmbeddingPanel::draw_embed_form(const Group& scene, Terrain& terrain, const std::optional<glm::dvec3>& cursor) {
+std::optional<NodePtr> EmbeddingPanel::draw_embed_form(const Group& scene, const NodePtr& selected, Terrain& terrain,
+                                                       const std::optional<glm::dvec3>& cursor) {
     if (filled_for_ != &terrain) {
         filled_for_ = &terrain;
         at_ = default_site_place(scene, terrain, cursor);
@@ -72,12 +151,10 @@ std::optional<NodePtr> EmbeddingPanel::draw_embed_form(const Group& scene, Terra
     }
     ImGui::TextDisabled("embed a site in %s", terrain.name().c_str());
     draw_placement_fields(scene, terrain, cursor);
-    std::optional<NodePtr> next;
-    if (file_field("site", ".hlod built with --lock-boundary", site_, "Embed"))
-        message_ = outcome([&] { next = embed_site(terrain, site_, placement()); }, "");
-    if (next) filled_for_ = nullptr;  // the new embedding's own placement is shown next
+    if (file_field("site", ".hlod built with --lock-boundary, or a mesh", site_, "Embed"))
+        message_ = outcome([&] { start_embed(selected, terrain, site_, placement(), false); }, "");
     if (!message_.empty()) ImGui::TextColored(ImVec4(1.0f, 0.45f, 0.4f, 1.0f), "%s", message_.c_str());
-    return next;
+    return std::nullopt;
 }
 
 std::optional<NodePtr> EmbeddingPanel::draw_placement_form(const Group& scene, Terrain& terrain, const NodePtr& child,
@@ -94,7 +171,7 @@ std::optional<NodePtr> EmbeddingPanel::draw_placement_form(const Group& scene, T
     ImGui::TextDisabled("%s embedded in %s", child->name().c_str(), terrain.name().c_str());
     draw_placement_fields(scene, terrain, cursor);
     std::optional<NodePtr> next;
-    if (ImGui::Button("Move")) message_ = outcome([&] { next = terrain.move_embedding(child.get(), placement()); }, "");
+    if (ImGui::Button("Move")) message_ = outcome([&] { start_move(child, terrain, placement(), false); }, "");
     ImGui::SameLine();
     if (ImGui::Button("Remove") && terrain.remove_embedding(child.get())) next = NodePtr();
     if (next) filled_for_ = nullptr;

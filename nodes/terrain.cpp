@@ -148,32 +148,43 @@ SitePlacement Terrain::placement(const Node* child) const {
     return placement_of(TerrainSite::open(ground_->path()), open_site(site), record.placement, site.string());
 }
 
-NodePtr Terrain::move_embedding(const Node* child, const SitePlacement& placement) {
+NodePtr Terrain::move_embedding(const Node* child, const SitePlacement& placement, const Progress& progress) {
+    const Remake remake = remake_for(child);
+    EmbedSettings settings;
+    settings.placement = placement;
+    build_embedding(remake.terrain, remake.site, remake.remade, settings, progress);
+    return replace_embedding(child, remake.remade);
+}
+
+Terrain::Remake Terrain::remake_for(const Node* child) const {
+    const std::filesystem::path& file = loaded_file(child);
+    const EmbeddingRecord record = read_embedding(HlodFile(file));
+    // Beside the file, so that the names it stores (relative to its folder) stay right.
+    return {ground_->path(), embedded_path(file, record.site_file), file.string() + ".remade"};
+}
+
+NodePtr Terrain::replace_embedding(const Node* child, const std::filesystem::path& remade) {
     namespace fs = std::filesystem;
     const fs::path file = loaded_file(child);
-    const EmbeddingRecord record = read_embedding(HlodFile(file));
-    // The file as it is, kept under another name until the new one loads (build_embedding replaces it by
-    // a rename, so a hard link keeps the old bytes for free).
+    // The file as it is, kept under another name until the new one loads (a hard link keeps the old
+    // bytes for free; the loaded child reads them through its own open handle either way).
     const fs::path kept = file.string() + ".before-move";
-    fs::remove(kept);
+    std::error_code ignored;
+    fs::remove(kept, ignored);
     std::error_code linked;
     fs::create_hard_link(file, kept, linked);
     if (linked) fs::copy_file(file, kept);
     const NodePtr old = *std::find_if(children().begin(), children().end(), [&](const NodePtr& c) { return c.get() == child; });
     try {
-        EmbedSettings settings;
-        settings.placement = placement;
-        build_embedding(ground_->path(), embedded_path(file, record.site_file), file, settings);
+        fs::rename(remade, file);
         remove_embedding(old.get());
         NodePtr moved = load_embedding(file);
         fs::remove(kept);
         return moved;
     } catch (...) {
-        // Back as it was (a rename between two links of one file does nothing: the build failed before
-        // replacing it, and the extra link goes).
-        std::error_code ignored;
         fs::rename(kept, file, ignored);
         fs::remove(kept, ignored);
+        fs::remove(remade, ignored);
         if (std::find(children().begin(), children().end(), old) == children().end()) {
             add(old);
             files_[old.get()] = file;

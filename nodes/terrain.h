@@ -115,8 +115,19 @@ public:
     // Moves a child loaded from an embedding file: the file made again for `placement` (the same path),
     // and reloaded in the child's stead; the new node. Throws std::runtime_error naming the files when the
     // new placement cannot be embedded (off the raster, its zone over another's, …): the child and its
-    // file then stay as they were.
-    NodePtr move_embedding(const Node* child, const SitePlacement& placement);
+    // file then stay as they were. It is remake_for(child), build_embedding, then replace_embedding: a
+    // caller that builds on another thread (an editor, with progress) takes those steps itself.
+    NodePtr move_embedding(const Node* child, const SitePlacement& placement, const Progress& progress = {});
+    // What building a child's embedding file again reads and writes: the ground's and the site's files,
+    // and `remade`, beside the child's file, which replace_embedding then puts in its place.
+    struct Remake {
+        std::filesystem::path terrain, site, remade;
+    };
+    Remake remake_for(const Node* child) const;
+    // The child reloaded from `remade` (remake_for's, made): that file takes the child's file's name and
+    // the new node the child's place. When it cannot be loaded, the child and its file stay as they were
+    // (std::runtime_error naming the files). `remade` is gone in either case.
+    NodePtr replace_embedding(const Node* child, const std::filesystem::path& remade);
     // The embeddings and standing sites it holds.
     bool remove_embedding(const Node* embedding);
     std::vector<std::shared_ptr<Embedding>> embeddings() const;
