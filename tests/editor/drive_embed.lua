@@ -58,6 +58,18 @@ assert(editor:selected() == moved and near(t:placement(moved).heading, 45))
 editor:select(ground)
 refused(function() editor:move{ heading = 1 } end, "select an embedding")
 
+-- From the console (inside a frame, so waited for without frames), a plain mesh embedded straight from
+-- its file; then taken out again.
+local west = ground:to_geo{ b.center[1] - 1500, b.center[2] - 1000, h }
+local shown = editor:console(("editor:embed(%q, { at = { %.9f, %.9f } })"):format(work .. "/patch.off", west[1], west[2]))
+assert(#t:embeddings() == 3, "the console's embedding is missing: " .. tostring(shown))
+local from_console = editor:selected()
+assert(from_console:type() == "embedding" and from_console:info().boundary_vertices > 0, from_console:type())
+-- patch.off shares patch.hlod's stem, whose two embeddings hold the first two numbers.
+assert(io.open(work .. "/patch_on_olinda_3_site.hlod", "rb"), "no model of the mesh beside its embedding file")
+editor:remove(from_console)
+assert(editor:frame(2))
+
 -- Removed from the editor.
 editor:remove(moved)
 assert(#t:embeddings() == 1 and t:embeddings()[1] == first)
