@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <map>
+#include <optional>
 
 namespace strata {
 
@@ -66,6 +67,7 @@ private:
     void split_ring();
     void grid_cell(Cell cell);
     void cut_cell(Cell cell, const std::vector<Piece>& pieces);
+    void holed_cell(Cell cell);
     void ear_clip(std::vector<uint32_t> polygon, Cell cell);
     long double perimeter_at(Cell cell, uint32_t vertex) const;
     [[noreturn]] void fail(Cell cell, const std::string& why) const;
@@ -76,6 +78,7 @@ private:
     Skirt skirt_;
     std::map<std::pair<int64_t, int64_t>, uint32_t> samples_;
     std::map<Cell, std::vector<Piece>> pieces_;
+    std::optional<Cell> holed_;  // the cell the whole ring lies in, when it crosses no grid line
 };
 
 uint32_t SkirtBuilder::sample(int64_t c, int64_t r) {
@@ -150,7 +153,10 @@ void SkirtBuilder::split_ring() {
     size_t start = 0;
     while (start < stretches.size() && stretches[start].cell == stretches[(start + stretches.size() - 1) % stretches.size()].cell)
         ++start;
-    if (start == stretches.size()) fail(stretches[0].cell, "the embedded mesh's boundary lies inside one raster cell");
+    if (start == stretches.size()) {  // a mesh smaller than a cell: the ring never leaves it
+        holed_ = stretches[0].cell;
+        return;
+    }
     for (size_t k = 0; k < stretches.size();) {
         const Stretch& first = stretches[(start + k) % stretches.size()];
         Piece piece{{first.from}};
@@ -230,6 +236,34 @@ void SkirtBuilder::cut_cell(Cell cell, const std::vector<Piece>& pieces) {
     }
 }
 
+// A cell the whole ring lies in (a mesh smaller than a raster cell): the cell less the footprint, as the
+// two triangles from the cell's west side to the ring's westmost vertex and from its east side to the
+// eastmost one (no ring vertex lies west of the first or east of the second, and none on a grid line,
+// so they hold none), and the two simple polygons those cuts leave below and above the ring.
+void SkirtBuilder::holed_cell(Cell cell) {
+    ++skirt_.cut_cells;
+    const size_t n = ring_.size();
+    size_t west = 0, east = 0;
+    for (size_t i = 1; i < n; ++i) {
+        if (ring_[i].x < ring_[west].x) west = i;
+        if (ring_[i].x > ring_[east].x) east = i;
+    }
+    const uint32_t lower_left = sample(cell.x, cell.y), lower_right = sample(cell.x + 1, cell.y);
+    const uint32_t upper_right = sample(cell.x + 1, cell.y + 1), upper_left = sample(cell.x, cell.y + 1);
+    skirt_.triangles.insert(skirt_.triangles.end(), {lower_left, uint32_t(west), upper_left, lower_right, upper_right, uint32_t(east)});
+    // The ring runs counter-clockwise: eastward along its bottom, westward along its top; each polygon
+    // walks its part backwards, the ground on its left.
+    auto backwards = [&](std::vector<uint32_t> polygon, size_t from, size_t to) {
+        for (size_t i = from;; i = (i + n - 1) % n) {
+            polygon.push_back(uint32_t(i));
+            if (i == to) break;
+        }
+        ear_clip(std::move(polygon), cell);
+    };
+    backwards({lower_left, lower_right}, east, west);
+    backwards({upper_right, upper_left}, west, east);
+}
+
 // Ear clipping on the lattice, exact: an ear is a convex corner whose closed triangle holds no other
 // vertex of the polygon (one on its far side would be a T-junction); a polygon left with only flat
 // corners (a zero-width strip along a grid line) is closed with zero-area triangles, which keep it
@@ -288,7 +322,8 @@ Skirt SkirtBuilder::build(const CellCovers& zone) {
     const CellCovers finest = classify_cells(ring_, 1, columns_, rows_);
     for_each_finest_cell(zone, columns_, rows_, [&](int64_t x, int64_t y) {
         const auto pieces = pieces_.find({x, y});
-        if (pieces != pieces_.end()) cut_cell({x, y}, pieces->second);
+        if (holed_ && *holed_ == Cell{x, y}) holed_cell({x, y});
+        else if (pieces != pieces_.end()) cut_cell({x, y}, pieces->second);
         else if (finest.at(x, y) == CellCover::none) grid_cell({x, y});
         else if (finest.at(x, y) == CellCover::partly && !ring_contains(ring_, {x * kOne + kOne / 2, y * kOne + kOne / 2})) grid_cell({x, y});
     });

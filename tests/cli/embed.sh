@@ -52,6 +52,13 @@ expect_usage "a mirroring matrix" "--matrix: a placement matrix must not mirror 
 expect_usage "a matrix and --at" "excludes" \
     "$STRATA" embed "$WORK/olinda.hlod" "$WORK/site.hlod" -o "$WORK/x.hlod" --matrix "1,0,0,0,0,1,0,0,0,0,1,0,$shift,1" --at "$at"
 
+# A site smaller than one raster cell (20 m in a 90 m DEM), placed by a matrix in the middle of the cell
+# from (55, 55) to (56, 56) (89.994 m spacing): embedded in the cell, which keeps a hole.
+expect_success "embed a site inside one cell" "$STRATA" embed "$WORK/olinda.hlod" "$WORK/site.hlod" -o "$WORK/tiny.hlod" \
+    --matrix 0.05,0,0,0,0,0.05,0,0,0,0,0.05,0,4994.67,4994.67,32.7,1
+checks=$((checks + 1)); grep -q "^  zone        .*: 1 partly, 0 wholly covered" "$WORK/out.txt" || fail "a site inside one cell: $(cat "$WORK/out.txt")"
+expect_success "verify the site inside one cell" "$STRATA" verify "$WORK/tiny.hlod"
+
 # A plain mesh as the site: built into OUT_site.hlod with its boundary locked, then embedded as the
 # .hlod is; a second run reuses that model; a mesh has no georeference, and a malformed one is named.
 expect_success "embed a mesh" "$STRATA" embed "$WORK/olinda.hlod" "$WORK/patch.off" -o "$WORK/from_mesh.hlod" --at "$at"

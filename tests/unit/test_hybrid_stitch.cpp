@@ -92,63 +92,85 @@ ViewOf view_of(const HlodModel& model, const Camera& camera, const glm::dmat4& w
     return out;
 }
 
+// The test DEM (kSize² samples, 30 m apart) as a terrain, dir/dem.hlod.
+void build_test_dem(const fs::path& dir) {
+    test::TiffSpec spec;
+    spec.width = spec.height = kSize;
+    spec.type = GDT_Float32;
+    for (int r = 0; r < kSize; ++r)
+        for (int c = 0; c < kSize; ++c) spec.values.push_back(dem_height(c, r));
+    test::write_tiff(dir / "dem.tif", spec);
+    TerrainSettings terrain_settings;
+    terrain_settings.cube_cells = 8;
+    build_terrain({dir / "dem.tif"}, dir / "dem.hlod", terrain_settings, "dem.tif");
+}
+
+// A site_mesh embedded in dir/dem.hlod: the site (3 levels) and its skirt (`skirt_levels`, −1 as the
+// build picks: its cells are 30 m, so a small skirt cannot have as many as the site without σ0 past its
+// bound) built as HLODs with their boundaries locked, in dir, and their stitch.
+struct StitchedSite {
+    std::shared_ptr<HlodModel> terrain, skirt, site;
+    EmbeddedModels models;
+    std::unique_ptr<EmbeddingStitch> stitch;
+};
+std::unique_ptr<StitchedSite> stitch_site(const fs::path& dir, glm::dvec2 centre, double radius, double above, int skirt_levels) {
+    const TerrainSite t = TerrainSite::open(dir / "dem.hlod");
+    Mesh site = site_mesh(t, centre.x, centre.y, radius, above);
+    const EmbeddingPlan plan = plan_embedding(t, site, glm::dmat4(1.0), "site");
+    BuildSettings settings;
+    settings.lock_boundary = true;
+    settings.levels = 3;
+    build_hlod(std::move(site), dir / "site.hlod", settings, "site");
+    settings.levels = skirt_levels;
+    build_hlod(Mesh(plan.skirt_mesh), dir / "skirt.hlod", settings, "skirt");
+
+    auto out = std::make_unique<StitchedSite>();
+    out->models.terrain = out->terrain = HlodModel::load(dir / "dem.hlod");
+    out->models.skirt = out->skirt = HlodModel::load(dir / "skirt.hlod");
+    out->models.site = out->site = HlodModel::load(dir / "site.hlod");
+    out->models.drawn_from = plan.zone_level;
+    out->models.zone = plan.zone;
+    out->stitch = std::make_unique<EmbeddingStitch>(out->models, "site");
+    return out;
+}
+
+// Eyes around `centre`, from a few metres off the ground to kilometres away, and from far off, where the
+// grid over the zone is coarser than m.
+std::vector<glm::dvec3> eyes_around(glm::dvec2 centre, int count) {
+    std::mt19937 rng(2026);
+    std::uniform_real_distribution<double> unit(0, 1);
+    std::vector<glm::dvec3> out;
+    for (int i = 0; i < count; ++i) {
+        const double distance = 50 * std::pow(60.0, unit(rng)), angle = 2 * M_PI * unit(rng);
+        const double height = 450 + 5 + distance * 0.6 * unit(rng);
+        out.push_back({centre.x + distance * std::cos(angle), centre.y + distance * std::sin(angle), height});
+    }
+    for (const double distance : {9000.0, 20000.0}) out.push_back({centre.x + distance, centre.y, 450 + distance / 3});
+    return out;
+}
+
 class HybridStitch : public ::testing::Test {
 protected:
     static void SetUpTestSuite() {
-        test::TiffSpec spec;
-        spec.width = spec.height = kSize;
-        spec.type = GDT_Float32;
-        for (int r = 0; r < kSize; ++r)
-            for (int c = 0; c < kSize; ++c) spec.values.push_back(dem_height(c, r));
-        test::write_tiff(dir_->path() / "dem.tif", spec);
-        TerrainSettings terrain_settings;
-        terrain_settings.cube_cells = 8;
-        build_terrain({dir_->path() / "dem.tif"}, dir_->path() / "dem.hlod", terrain_settings, "dem.tif");
-        const TerrainSite t = TerrainSite::open(dir_->path() / "dem.hlod");
-
-        Mesh site = site_mesh(t, 1400, 1500, 150, 8.0);
-        const EmbeddingPlan plan = plan_embedding(t, site, glm::dmat4(1.0), "site");
-        BuildSettings settings;
-        settings.lock_boundary = true;
-        settings.levels = 3;
-        build_hlod(std::move(site), dir_->path() / "site.hlod", settings, "site");
-        settings.levels = 2;  // its cells are 30 m: a third level would need σ0 past its bound
-        build_hlod(Mesh(plan.skirt_mesh), dir_->path() / "skirt.hlod", settings, "skirt");
-
-        EmbeddedModels models;
-        models.terrain = terrain_ = HlodModel::load(dir_->path() / "dem.hlod");
-        models.skirt = skirt_ = HlodModel::load(dir_->path() / "skirt.hlod");
-        models.site = site_ = HlodModel::load(dir_->path() / "site.hlod");
-        models.drawn_from = plan.zone_level;
-        models.zone = plan.zone;
-        stitch_ = std::make_unique<EmbeddingStitch>(models, "site");
-        models_ = std::move(models);
+        build_test_dem(dir_->path());
+        stitched_ = stitch_site(dir_->path(), {1400, 1500}, 150, 8.0, 2);
+        terrain_ = stitched_->terrain, skirt_ = stitched_->skirt, site_ = stitched_->site;
+        stitch_ = stitched_->stitch.get();
+        models_ = stitched_->models;
     }
     static void TearDownTestSuite() {
-        stitch_.reset();
+        stitched_.reset();
         models_ = {};
         terrain_.reset(), skirt_.reset(), site_.reset();
         dir_.reset();
     }
 
-    // Eyes around the site, from a few metres off the ground to kilometres away.
-    static std::vector<glm::dvec3> eyes(int count) {
-        std::mt19937 rng(2026);
-        std::uniform_real_distribution<double> unit(0, 1);
-        std::vector<glm::dvec3> out;
-        for (int i = 0; i < count; ++i) {
-            const double distance = 50 * std::pow(60.0, unit(rng)), angle = 2 * M_PI * unit(rng);
-            const double height = 450 + 5 + distance * 0.6 * unit(rng);
-            out.push_back({1400 + distance * std::cos(angle), 1500 + distance * std::sin(angle), height});
-        }
-        // And from far off, where the grid over the zone is coarser than m.
-        for (const double distance : {9000.0, 20000.0}) out.push_back({1400 + distance, 1500, 450 + distance / 3});
-        return out;
-    }
+    static std::vector<glm::dvec3> eyes(int count) { return eyes_around({1400, 1500}, count); }
 
     static inline std::unique_ptr<test::TempDir> dir_ = std::make_unique<test::TempDir>();
+    static inline std::unique_ptr<StitchedSite> stitched_;
     static inline std::shared_ptr<HlodModel> terrain_, skirt_, site_;
-    static inline std::unique_ptr<EmbeddingStitch> stitch_;
+    static inline EmbeddingStitch* stitch_ = nullptr;
     static inline EmbeddedModels models_;
 };
 
@@ -249,37 +271,62 @@ Drawn draw(const EmbeddingStitch& stitch, const Camera& camera, const glm::dvec3
     return out;
 }
 
-TEST_F(HybridStitch, TheGroundTheSkirtTheSiteAndTheSeamsAreOneSurfaceAtEveryLevelAlongTheBorder) {
-    ASSERT_GT(stitch_->border_steps(), 0u);
-    ASSERT_GT(stitch_->boundary_vertices(), 100u);
+// How many views drew the embedding (or not), with grid levels mixed along the zone's border, and in
+// how many the controls failed: without the seams the join open, without the mask the zone drawn twice.
+// Every view's surface is checked (T1, T3) on the way.
+struct Tally {
+    size_t embedded = 0, hidden = 0, mixed = 0, without_seams_open = 0, without_mask_thrice = 0;
+};
+Tally tally_views(StitchedSite& s, const std::vector<glm::dvec3>& eyes) {
     Camera camera;
     camera.width = 1920, camera.height = 1080, camera.fov_y_degrees = 60;
-    size_t embedded = 0, hidden = 0, mixed = 0, without_seams_open = 0, without_mask_thrice = 0;
+    Tally tally;
     for (const double pixels : {0.5, 2.0, 8.0}) {
-        terrain_->set_pixel_error(pixels), skirt_->set_pixel_error(pixels), site_->set_pixel_error(pixels);
-        for (const glm::dvec3& eye : eyes(32)) {
-            const Drawn drawn = draw(*stitch_, camera, eye, Omit::nothing);
+        s.terrain->set_pixel_error(pixels), s.skirt->set_pixel_error(pixels), s.site->set_pixel_error(pixels);
+        for (const glm::dvec3& eye : eyes) {
+            const Drawn drawn = draw(*s.stitch, camera, eye, Omit::nothing);
             EXPECT_EQ(drawn.open_inside, 0u) << "eye " << eye.x << ", " << eye.y << ", " << eye.z << " at " << pixels << " px";
             EXPECT_EQ(drawn.thrice, 0u) << "eye " << eye.x << ", " << eye.y << ", " << eye.z << " at " << pixels << " px";
             if (!drawn.embedded) {
-                ++hidden;
+                ++tally.hidden;
                 continue;
             }
-            ++embedded;
+            ++tally.embedded;
             EXPECT_GT(drawn.seam_triangles, 0u);
-            if (drawn.border_levels.size() > 1) ++mixed;
-            if (draw(*stitch_, camera, eye, Omit::seams).open_inside > 0) ++without_seams_open;
-            if (draw(*stitch_, camera, eye, Omit::mask).thrice > 0) ++without_mask_thrice;
+            if (drawn.border_levels.size() > 1) ++tally.mixed;
+            if (draw(*s.stitch, camera, eye, Omit::seams).open_inside > 0) ++tally.without_seams_open;
+            if (draw(*s.stitch, camera, eye, Omit::mask).thrice > 0) ++tally.without_mask_thrice;
         }
     }
-    terrain_->set_kappa0(2.0), skirt_->set_kappa0(2.0), site_->set_kappa0(2.0);
+    s.terrain->set_kappa0(2.0), s.skirt->set_kappa0(2.0), s.site->set_kappa0(2.0);
+    return tally;
+}
+
+TEST_F(HybridStitch, TheGroundTheSkirtTheSiteAndTheSeamsAreOneSurfaceAtEveryLevelAlongTheBorder) {
+    ASSERT_GT(stitch_->border_steps(), 0u);
+    ASSERT_GT(stitch_->boundary_vertices(), 100u);
+    const Tally tally = tally_views(*stitched_, eyes(32));
     // Both cases happen, and grid levels mix along the border.
-    EXPECT_GT(embedded, 20u);
-    EXPECT_GT(hidden, 0u);
-    EXPECT_GT(mixed, 5u);
+    EXPECT_GT(tally.embedded, 20u);
+    EXPECT_GT(tally.hidden, 0u);
+    EXPECT_GT(tally.mixed, 5u);
     // The controls: without the seams the join is open, without the mask the zone is drawn twice.
-    EXPECT_EQ(without_seams_open, embedded);
-    EXPECT_EQ(without_mask_thrice, embedded);
+    EXPECT_EQ(tally.without_seams_open, tally.embedded);
+    EXPECT_EQ(tally.without_mask_thrice, tally.embedded);
+}
+
+// A mesh smaller than one raster cell (a monument in a 30 m DEM): its skirt is the cell with a hole,
+// and ground, skirt, site and seams are one surface all the same, the controls failing as before.
+TEST(HybridStitchSmall, AMeshInsideOneRasterCellIsOneSurfaceWithTheGround) {
+    test::TempDir dir;
+    build_test_dem(dir.path());
+    const glm::dvec2 centre{1395, 1515};  // the middle of the cell from (1380, 1500) to (1410, 1530)
+    const std::unique_ptr<StitchedSite> small = stitch_site(dir.path(), centre, 9, 2.0, -1);
+    ASSERT_GT(small->stitch->boundary_vertices(), 100u);
+    const Tally tally = tally_views(*small, eyes_around(centre, 16));
+    EXPECT_GT(tally.embedded, 10u);
+    EXPECT_EQ(tally.without_seams_open, tally.embedded);
+    EXPECT_EQ(tally.without_mask_thrice, tally.embedded);
 }
 
 // T8: the boundary seam does not depend on the level the site is drawn at: its site side is the same
