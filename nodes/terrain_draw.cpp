@@ -113,12 +113,6 @@ SeamImagery make_seam_imagery(const HlodModel& terrain, const HlodModel& skirt) 
     return out;
 }
 
-struct SeamGpu : GpuCache::Entry {
-    gl::Buffer seams;
-    uint32_t vertices = 0;  // what prepare() morphed into `seams` for this frame: 3 a triangle
-    std::optional<SeamImagery> imagery;  // made on the first frame that draws a textured terrain's seams
-};
-
 // The owners of an embedding's seams as one view draws them: the ground, the skirt and the site (the
 // site under its placement), each with its morph's inputs and its frames from its lattice anchor.
 struct Owners {
@@ -126,6 +120,34 @@ struct Owners {
     HlodModel::MorphInputs inputs[3];
     std::array<glm::mat4, 3> clip_from_anchor, world_from_anchor;
     std::array<glm::dmat4, 3> terrain_from_anchor;  // the terrain's node frame, where the zone's imagery lies
+};
+
+// One instance's seams in this frame, from prepare() to draw(): a terrain under two transforms draws two.
+struct SeamInstance {
+    const void* item = nullptr;  // its draw item's state, which each instance's cull makes its own
+    gl::Buffer seams;
+    uint32_t vertices = 0;  // what prepare() morphed into `seams`: 3 a triangle
+    Owners owners;
+};
+
+struct SeamGpu : GpuCache::Entry {
+    std::vector<SeamInstance> instances;  // their buffers kept from frame to frame
+    size_t used = 0;                      // in the frame `frame`
+    uint64_t frame = ~uint64_t(0);
+    std::optional<SeamImagery> imagery;  // made on the first frame that draws a textured terrain's seams
+
+    SeamInstance& take(uint64_t now, const void* item) {
+        if (frame != now) frame = now, used = 0;
+        if (used == instances.size()) instances.emplace_back();
+        SeamInstance& instance = instances[used++];
+        instance.item = item;
+        return instance;
+    }
+    const SeamInstance* find(uint64_t now, const void* item) const {
+        for (size_t i = 0; frame == now && i < used; ++i)
+            if (instances[i].item == item) return &instances[i];
+        return nullptr;
+    }
 };
 
 Owners owners_for(const Embedding& embedding, const DrawContext& context, const DrawItem& item) {
@@ -155,25 +177,28 @@ Owners owners_for(const Embedding& embedding, const DrawContext& context, const 
 void EmbeddingSeams::prepare(DrawContext& context, const DrawItem& item) {
     const auto& views = *std::static_pointer_cast<const Embedding::ViewSelections>(item.state);
     SeamGpu& gpu = context.cache.get<SeamGpu>(*this, [] { return std::make_unique<SeamGpu>(); });
+    SeamInstance& instance = gpu.take(context.cache.frame(), item.state.get());
     std::vector<StitchRefTriangle> triangles;
     embedding_.stitch().seam_vertices(views.terrain.cubes, views.skirt.cubes, views.site.cubes, triangles);
     // Each seam vertex morphed on the GPU by its owner's own code from its own records, into its place.
-    const Owners owners = owners_for(embedding_, context, item);
+    instance.owners = owners_for(embedding_, context, item);
+    const Owners& owners = instance.owners;
     std::array<std::vector<HlodModel::GpuVertex>, 3> asked;
-    gpu.vertices = 0;
+    instance.vertices = 0;
     for (const StitchRefTriangle& t : triangles)
-        for (const StitchRef& r : t) asked[size_t(r.owner)].push_back({r.cube, r.vertex, gpu.vertices++});
-    const uint64_t bytes = uint64_t(gpu.vertices) * sizeof(glm::vec4);
-    if (gpu.seams.size() < bytes) gpu.seams = gl::Buffer(2 * bytes, gl::kDynamicStorage);
-    for (size_t o = 0; o < 3; ++o) owners.models[o]->morph_on_gpu(context, owners.inputs[o], asked[o], gpu.seams, float(o));
-    if (capture_) captured_ = gpu.vertices ? gpu.seams.download<glm::vec4>(gpu.vertices) : std::vector<glm::vec4>();
+        for (const StitchRef& r : t) asked[size_t(r.owner)].push_back({r.cube, r.vertex, instance.vertices++});
+    const uint64_t bytes = uint64_t(instance.vertices) * sizeof(glm::vec4);
+    if (instance.seams.size() < bytes) instance.seams = gl::Buffer(2 * bytes, gl::kDynamicStorage);
+    for (size_t o = 0; o < 3; ++o) owners.models[o]->morph_on_gpu(context, owners.inputs[o], asked[o], instance.seams, float(o));
+    if (capture_) captured_ = instance.vertices ? instance.seams.download<glm::vec4>(instance.vertices) : std::vector<glm::vec4>();
 }
 
 void EmbeddingSeams::draw(DrawContext& context, const DrawItem& item) {
     SeamGpu& gpu = context.cache.get<SeamGpu>(*this, [] { return std::make_unique<SeamGpu>(); });
-    if (gpu.vertices == 0) return;
+    const SeamInstance* instance = gpu.find(context.cache.frame(), item.state.get());
+    if (!instance || instance->vertices == 0) return;
     const EmbeddedModels& m = embedding_.stitch().models();
-    const Owners owners = owners_for(embedding_, context, item);
+    const Owners& owners = instance->owners;
     const gl::Program& program =
         context.cache.get_shared<SeamProgram>(kSeamProgramKey, [] { return std::make_unique<SeamProgram>(); }).program;
     program.set("clip_from_anchor", std::span<const glm::mat4>(owners.clip_from_anchor));
@@ -184,7 +209,7 @@ void EmbeddingSeams::draw(DrawContext& context, const DrawItem& item) {
     program.set("base_color", debug == HlodDebugView::none ? glm::vec4(0.6f, 0.57f, 0.52f, 1.0f) : glm::vec4(1.0f, 0.1f, 0.55f, 1.0f));
     program.set("node_id", unsigned(m.terrain->id()));
     DrawCall call{.program = program, .wireframe = debug == HlodDebugView::wireframe};
-    call.storage[1] = &gpu.seams;
+    call.storage[1] = &instance->seams;
     // A textured ground's seams show its imagery, as the ground does (hlod_model_draw.cpp: textured
     // unless a debug view colours it, or the driver cannot sample its textures).
     const bool textured = debug == HlodDebugView::none && m.terrain->textures() && gl::TextureLayers::supported();
@@ -197,9 +222,9 @@ void EmbeddingSeams::draw(DrawContext& context, const DrawItem& item) {
         call.textures[0] = gpu.imagery->texture.id();
         context.stats.bytes_resident += gpu.imagery->bytes;
     }
-    context.draw_instanced(call, gpu.vertices, 1);
-    context.stats.triangles += gpu.vertices / 3;
-    context.stats.bytes_resident += gpu.seams.size();
+    context.draw_instanced(call, instance->vertices, 1);
+    context.stats.triangles += instance->vertices / 3;
+    context.stats.bytes_resident += instance->seams.size();
 }
 
 }  // namespace strata

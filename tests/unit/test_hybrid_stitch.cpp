@@ -16,6 +16,8 @@
 #include <random>
 #include <set>
 
+#include <glm/gtc/matrix_transform.hpp>
+
 #include "engine/gl/context.h"
 #include "engine/gl/framebuffer.h"
 #include "engine/io/image.h"
@@ -313,6 +315,59 @@ TEST_F(HybridStitch, TheGroundTheSkirtTheSiteAndTheSeamsAreOneSurfaceAtEveryLeve
     // The controls: without the seams the join is open, without the mask the zone is drawn twice.
     EXPECT_EQ(tally.without_seams_open, tally.embedded);
     EXPECT_EQ(tally.without_mask_thrice, tally.embedded);
+}
+
+// One terrain node under two transforms (a scene that shows a site twice): each instance draws the
+// seams its own view asks for. Seen from between them, the first instance's pixels are the very ones it
+// shows alone, the second drawn beside it.
+TEST_F(HybridStitch, EachInstanceOfATerrainDrawsItsOwnSeams) {
+    const auto context = gl::create_headless_context();
+    auto ground = HlodModel::load(dir_->path() / "dem.hlod");
+    auto terrain = std::make_shared<Terrain>(ground);
+    const auto embedding = terrain->embed(HlodModel::load(dir_->path() / "skirt.hlod"), HlodModel::load(dir_->path() / "site.hlod"),
+                                          glm::dmat4(1.0), models_.drawn_from, models_.zone, "site");
+    for (const auto& model : {ground, embedding->skirt(), embedding->site()}) model->set_pixel_error(0.5);
+    auto scene = [&](bool twice) {
+        auto root = std::make_shared<Group>();
+        root->add(std::make_shared<DirectionalLight>());
+        auto first = std::make_shared<Transform>(), second = std::make_shared<Transform>();
+        first->add(terrain);
+        root->add(first);
+        second->set_matrix(glm::translate(glm::dmat4(1.0), glm::dvec3(3000, 0, 0)));
+        second->add(terrain);
+        if (twice) root->add(second);
+        return root;
+    };
+    Renderer renderer;
+    gl::Framebuffer target({.width = 320, .height = 200, .samples = 1, .node_id = true});
+    Camera camera;
+    camera.width = 320, camera.height = 200, camera.fov_y_degrees = 70;
+    const auto alone = scene(false), both = scene(true);
+    size_t covered = 0, differing = 0, views = 0;
+    for (const double side : {-500.0, 0.0, 500.0}) {
+        // Between the two sites (at x = 1400 and 4400), looking north: the first on the left.
+        camera.look_at({2900, 1500 + side - 900, 900}, {2900, 1500 + side, 450}, {0, 0, 1});
+        renderer.render(*alone, camera, target);
+        const Image one = renderer.read_image(target);
+        const bool drawn_alone = embedding->drawn();
+        renderer.render(*both, camera, target);
+        const Image two = renderer.read_image(target);
+        if (!drawn_alone) continue;
+        ++views;
+        for (int y = 1; y + 1 < camera.height; ++y)
+            for (int x = 1; x + 1 < camera.width; ++x) {
+                bool inside = true;  // the first instance covers the pixel and its neighbours
+                for (int dy = -1; dy <= 1; ++dy)
+                    for (int dx = -1; dx <= 1; ++dx) inside = inside && one.node_id[size_t((y + dy) * camera.width + x + dx)] != 0;
+                if (!inside) continue;
+                ++covered;
+                const size_t p = size_t(y * camera.width + x);
+                differing += !std::equal(&one.rgba[4 * p], &one.rgba[4 * p + 4], &two.rgba[4 * p]);
+            }
+    }
+    EXPECT_EQ(views, 3u) << "the embedding should be drawn in every view";
+    EXPECT_GT(covered, 10000u);
+    EXPECT_EQ(differing, 0u) << "of " << covered << " pixels of the first instance";
 }
 
 // A mesh smaller than one raster cell (a monument in a 30 m DEM): its skirt is the cell with a hole,
