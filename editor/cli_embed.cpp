@@ -162,8 +162,8 @@ Command add_embed(CLI::App& app) {
         ->excludes(matrix);
     sub->add_option("--threads", o->settings.threads, "Worker threads (0: every core)")->capture_default_str();
     sub->add_option("--memory", o->memory,
-                    "Memory for the skirt's build buffers, in bytes or with a binary suffix K, M, G, T; default a quarter "
-                    "of physical memory. The site is read a cube at a time whatever its size");
+                    "Memory for the builds' buffers (the skirt's, and a mesh site's), in bytes or with a binary suffix K, M, "
+                    "G, T; default a quarter of physical memory. A .hlod site is read a cube at a time whatever its size");
     sub->add_flag("-q,--quiet", o->quiet, "No progress bar and no summary");
     return {sub, [o] { return run_embed(*o); }};
 }
