@@ -291,6 +291,7 @@ bool Editor::frame() {
     }
     frame_geo_ = geo_view();  // read once, shown by the Camera panel and the stats line
     draw_panels();
+    if (const std::optional<NodePtr> made = embeddings_.poll()) selected_ = *made;  // an Embed or Move done
     navigator_.follow_if_moved();  // by the path playing, or the panels (a bookmark, the timeline, the console)
     ImGui::Render();
     timings_.ui_build_ms = milliseconds_since(ui_start) - picking_ms;
@@ -547,6 +548,7 @@ void Editor::draw_inspector() {
     const NodePtr node = selected();
     if (!node) {
         ImGui::TextDisabled("Select a node in the outliner or click one in the view.");
+        embeddings_.draw(*scene_, node, cursor_point_);  // an embedding being made shows its progress
         return;
     }
     std::string name = node->name();

@@ -101,34 +101,36 @@ NodePtr EmbeddingPanel::finish_job() {
     return running.apply(*part->terrain);
 }
 
-std::optional<NodePtr> EmbeddingPanel::draw_job() {
-    if (running_->job->finished()) {
-        if (running_->awaited) return std::nullopt;  // its caller takes it
-        const std::string title = running_->job->title();
-        std::optional<NodePtr> next;
-        try {
-            next = finish_job();
-            filled_for_ = nullptr;  // the new node's own placement is shown next
-        } catch (const Cancelled&) {
-            message_ = title + ": cancelled, nothing changed";
-        } catch (const std::exception& e) {
-            message_ = e.what();
-        }
+std::optional<NodePtr> EmbeddingPanel::poll() {
+    if (!running_ || running_->awaited || !running_->job->finished()) return std::nullopt;
+    const std::string title = running_->job->title();
+    try {
+        NodePtr next = finish_job();
+        filled_for_ = nullptr;  // the new node's own placement is shown next
+        message_.clear();
         return next;
+    } catch (const Cancelled&) {
+        message_ = title + ": cancelled, nothing changed";
+    } catch (const std::exception& e) {
+        message_ = e.what();
     }
+    return std::nullopt;
+}
+
+void EmbeddingPanel::draw_job() {
     const EmbeddingJob::Status status = running_->job->status();
     ImGui::TextUnformatted(running_->job->title().c_str());
     char overlay[96];
     std::snprintf(overlay, sizeof overlay, "%s %.0f %%, %.0f s", status.stage.c_str(), 100 * std::max(status.fraction, 0.0), status.seconds);
     ImGui::ProgressBar(status.fraction < 0 ? float(-0.3 * ImGui::GetTime()) : float(status.fraction), ImVec2(-1, 0), overlay);
     if (ImGui::Button("Cancel")) running_->job->cancel();
-    return std::nullopt;
 }
 
 std::optional<NodePtr> EmbeddingPanel::draw(const Group& scene, const NodePtr& selected, const std::optional<glm::dvec3>& cursor) {
     if (running_) {
         ImGui::Separator();
-        return draw_job();
+        draw_job();
+        return std::nullopt;
     }
     const std::optional<TerrainPart> part = terrain_part(selected);
     if (!part) return std::nullopt;

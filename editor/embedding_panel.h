@@ -47,9 +47,12 @@ public:
     EmbeddingPanel(const EmbeddingPanel&) = delete;
     EmbeddingPanel& operator=(const EmbeddingPanel&) = delete;
     // Draws the part for `selected` (nothing for a node outside every terrain); while an embedding is
-    // being made, its progress and a Cancel button instead. After an action, or when a job started from
-    // the panel is done, the node to select (null: none).
+    // being made, its progress and a Cancel button instead, whatever is selected. After an action, the
+    // node to select (null: none).
     std::optional<NodePtr> draw(const Group& scene, const NodePtr& selected, const std::optional<glm::dvec3>& cursor);
+    // Once a frame, panel drawn or not: when a job started from the panel is done, its node, put in
+    // its terrain (to select); its failure is the panel's message.
+    std::optional<NodePtr> poll();
 
     // Start making an embedding on a worker thread (EmbeddingJob): `site` embedded in `terrain`, which
     // `anchor` is or lies in; or the embedding `anchor` moved. `awaited`: the caller takes the result
@@ -75,7 +78,7 @@ private:
         bool awaited;
     };
     void start(Running running);
-    std::optional<NodePtr> draw_job();
+    void draw_job();
     std::optional<NodePtr> draw_embed_form(const Group& scene, const NodePtr& selected, Terrain& terrain, const std::optional<glm::dvec3>& cursor);
     std::optional<NodePtr> draw_placement_form(const Group& scene, Terrain& terrain, const NodePtr& child, const std::optional<glm::dvec3>& cursor);
     // lon, lat, scale and heading fields, and a button that puts the cursor's place in lon and lat.
