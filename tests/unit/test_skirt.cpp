@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
 #include <map>
 #include <random>
 #include <set>
@@ -108,32 +109,48 @@ TEST(Skirt, TilesTheZoneWhenTheRingRunsAlongGridLinesAndThroughCorners) {
     expect_tiles_the_zone(footprint_of({{4.5, 4}, {6, 4}, {7.5, 4}, {9, 4}, {8.5, 6}, {6, 8.3}, {4, 6}}, 20), 4, 20);
 }
 
-TEST(Skirt, TilesTheZoneOfWigglyRings) {
-    std::mt19937 random(11);
+// The zone tiles around 40 rings that `ring_of` makes (those that rounding makes touch themselves
+// skipped: at least 20 are tried), with zone cells of each of `zones` raster steps.
+void expect_random_rings_tile(uint32_t seed, int64_t raster, std::initializer_list<int64_t> zones,
+                              const std::function<std::vector<glm::dvec2>(std::mt19937&)>& ring_of) {
+    std::mt19937 random(seed);
     size_t tried = 0;
-    for (int trial = 0; trial < 40; ++trial) {
-        // A star-shaped ring with detail below the cell size, some vertices on grid lines and corners.
-        const int n = 8 + int(random() % 120);
-        const glm::dvec2 centre(16 + (random() % 100) / 37.0, 16 + (random() % 100) / 41.0);
-        std::vector<glm::dvec2> ring;
-        for (int i = 0; i < n; ++i) {
-            const double angle = 2 * M_PI * i / n, radius = 3 + (random() % 900) / 100.0;
-            glm::dvec2 p = centre + radius * glm::dvec2(std::cos(angle), std::sin(angle));
-            if (random() % 4 == 0) p.x = std::round(p.x);
-            if (random() % 4 == 0) p.y = std::round(p.y);
-            ring.push_back(p);
-        }
+    for (int trial = 0; trial < 40 && !::testing::Test::HasFailure(); ++trial) {
         Footprint footprint;
         try {
-            footprint = footprint_of(ring, 40);
+            footprint = footprint_of(ring_of(random), raster);
         } catch (const InputError&) {
-            continue;  // rounding made it touch itself
+            continue;
         }
         ++tried;
-        for (const int64_t zone : {4, 16}) expect_tiles_the_zone(footprint, zone, 40);
-        if (HasFailure()) break;
+        for (const int64_t zone : zones) expect_tiles_the_zone(footprint, zone, raster);
     }
     EXPECT_GT(tried, 20u);
+}
+
+// A star-shaped ring of n vertices about `centre`, at radii `reach` draws.
+template <typename Reach>
+std::vector<glm::dvec2> star(int n, glm::dvec2 centre, Reach&& reach) {
+    std::vector<glm::dvec2> ring;
+    for (int i = 0; i < n; ++i) {
+        const double angle = 2 * M_PI * i / n;
+        ring.push_back(centre + reach() * glm::dvec2(std::cos(angle), std::sin(angle)));
+    }
+    return ring;
+}
+
+TEST(Skirt, TilesTheZoneOfWigglyRings) {
+    // Detail below the cell size, some vertices on grid lines and corners.
+    expect_random_rings_tile(11, 40, {4, 16}, [](std::mt19937& random) {
+        const int n = 8 + int(random() % 120);
+        const glm::dvec2 centre(16 + (random() % 100) / 37.0, 16 + (random() % 100) / 41.0);
+        std::vector<glm::dvec2> ring = star(n, centre, [&] { return 3 + (random() % 900) / 100.0; });
+        for (glm::dvec2& p : ring) {
+            if (random() % 4 == 0) p.x = std::round(p.x);
+            if (random() % 4 == 0) p.y = std::round(p.y);
+        }
+        return ring;
+    });
 }
 
 TEST(Skirt, TilesTheZoneAroundARingInsideOneCell) {
@@ -142,28 +159,12 @@ TEST(Skirt, TilesTheZoneAroundARingInsideOneCell) {
     expect_tiles_the_zone(footprint_of({{5.2, 5.2}, {5.8, 5.2}, {5.5, 5.8}}, 20), 2, 20);
     // Ties for the westmost and the eastmost vertex (vertical runs at both ends), and a notch.
     expect_tiles_the_zone(footprint_of({{6.1, 6.1}, {6.5, 6.1}, {6.9, 6.1}, {6.9, 6.5}, {6.9, 6.9}, {6.5, 6.3}, {6.1, 6.9}, {6.1, 6.5}}, 20), 4, 20);
-    // Wiggly rings, some almost filling their cell.
-    std::mt19937 random(5);
-    size_t tried = 0;
-    for (int trial = 0; trial < 40; ++trial) {
+    // Wiggly rings inside the cell from (9, 9) to (10, 10), some almost filling it.
+    expect_random_rings_tile(5, 20, {2, 8}, [](std::mt19937& random) {
         const int n = 3 + int(random() % 60);
         const glm::dvec2 centre(9.5 + (random() % 100) / 1000.0, 9.5 + (random() % 100) / 1000.0);
-        std::vector<glm::dvec2> ring;
-        for (int i = 0; i < n; ++i) {
-            const double angle = 2 * M_PI * i / n, radius = 0.05 + (random() % 440) / 1000.0;
-            ring.push_back(centre + radius * glm::dvec2(std::cos(angle), std::sin(angle)));
-        }
-        Footprint footprint;
-        try {
-            footprint = footprint_of(ring, 20);
-        } catch (const InputError&) {
-            continue;  // rounding made it touch itself
-        }
-        ++tried;
-        for (const int64_t zone : {2, 8}) expect_tiles_the_zone(footprint, zone, 20);
-        if (HasFailure()) break;
-    }
-    EXPECT_GT(tried, 20u);
+        return star(n, centre, [&] { return 0.05 + (random() % 340) / 1000.0; });
+    });
 }
 
 }  // namespace
