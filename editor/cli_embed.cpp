@@ -10,6 +10,7 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <memory>
 #include <string>
@@ -94,12 +95,12 @@ int run_embed(const EmbedOptions& o) {
     const std::atomic<bool>* cancel = install_interrupt_flag();
     ProgressBar bar(!o.quiet);
     try {
-        std::vector<std::string> warnings;
-        const std::filesystem::path site = site_model_for(o.site, o.output, settings, warnings, bar.progress(cancel));
-        for (const std::string& warning : warnings) std::fprintf(stderr, "strata embed: warning: %s\n", warning.c_str());
-        const EmbedReport report = build_embedding(o.terrain, site, o.output, settings, bar.progress(cancel));
+        const EmbedReport report = build_embedding(o.terrain, o.site, o.output, settings, bar.progress(cancel));
         bar.finish();
+        for (const std::string& warning : report.warnings) std::fprintf(stderr, "strata embed: warning: %s\n", warning.c_str());
         if (o.quiet) return kOk;
+        if (report.site_model != o.site)
+            std::printf("%s: the site model, %s built with its boundary locked\n", report.site_model.c_str(), o.site.c_str());
         const EmbeddingRecord& r = report.record;
         if (r.standing) {
             std::printf("%s: %s stands on %s (a closed mesh: nothing cut), %.2f s\n", o.output.c_str(), o.site.c_str(), o.terrain.c_str(),
@@ -108,7 +109,6 @@ int run_embed(const EmbedOptions& o) {
             return kOk;
         }
         std::printf("%s: %s embedded in %s, %.2f s\n", o.output.c_str(), o.site.c_str(), o.terrain.c_str(), report.seconds);
-        if (site != o.site) std::printf("  site model  %s (the mesh built with its boundary locked)\n", site.c_str());
         std::printf("  zone        level %u of 0 … %u (cells of %lld samples): %zu partly, %zu wholly covered%s\n", r.zone_level,
                     r.terrain_levels, (long long)r.zone.size, r.cells(CellCover::partly), r.cells(CellCover::whole),
                     r.zone_capped ? "; m capped: ΔH asks for a coarser level, the site appears from this one" : "; m as ΔH asks, not capped");

@@ -368,18 +368,24 @@ NodePtr Editor::embed_site(const std::filesystem::path& site, SitePlacement plac
     const std::optional<TerrainPart> part = terrain_part(selected());
     if (!part) throw std::runtime_error("select a terrain (or click its ground) to embed a site in it");
     if (!placement.at && !placement.matrix) placement.at = default_site_place(*scene_, *part->terrain, cursor_point_);
-    embeddings_.start_embed(selected(), *part->terrain, site, placement, true);
+    embeddings_.start_embed(*part->terrain, site, placement, true);
     return await_embedding();
 }
 
 NodePtr Editor::await_embedding() {
     // Frames go on while it is made (its progress in the Inspector), but not from the console, which
-    // runs inside one: there it is waited for.
-    while (!embeddings_.job_finished()) {
-        if (drawing_ == 0 && open_)
-            frame();
-        else
-            embeddings_.wait_job();
+    // runs inside one, nor while the window is minimized: there it is waited for.
+    try {
+        while (!embeddings_.job_finished()) {
+            const glm::ivec2 size = window_.framebuffer_size();
+            if (drawing_ == 0 && open_ && size.x > 0 && size.y > 0)
+                frame();
+            else
+                embeddings_.wait_job();
+        }
+    } catch (...) {
+        embeddings_.cancel_job();  // a frame that failed leaves no job behind it
+        throw;
     }
     NodePtr node = embeddings_.finish_job();
     selected_ = node;

@@ -1,6 +1,7 @@
 #include "editor/embedding_panel.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <memory>
 #include <stdexcept>
@@ -51,41 +52,44 @@ fs::path new_embedding_file(const Terrain& terrain, const fs::path& site) {
     }
 }
 
-EmbeddingPanel::~EmbeddingPanel() {
+void EmbeddingPanel::cancel_job() {
     if (!running_) return;
     running_->job->cancel();
     running_->job->wait();
     running_->discard();
+    running_.reset();
 }
 
-void EmbeddingPanel::start(Running running) {
+void EmbeddingPanel::check_idle() const {
     if (running_) throw std::runtime_error("an embedding is being made (" + running_->job->title() + "): wait for it, or cancel it");
-    if (!running.anchor) throw std::runtime_error("select a terrain or an embedding first");
-    running_ = std::move(running);
 }
 
-void EmbeddingPanel::start_embed(const NodePtr& anchor, Terrain& terrain, const fs::path& site, const SitePlacement& placement, bool awaited) {
+void EmbeddingPanel::start_embed(Terrain& terrain, const fs::path& site, const SitePlacement& placement, bool awaited) {
+    check_idle();  // before the job's thread starts
     const fs::path ground = terrain.ground()->path(), output = new_embedding_file(terrain, site);
     auto made = std::make_shared<fs::path>();  // the file, once made
-    start({std::make_unique<EmbeddingJob>("embedding " + site.filename().string(),
-                                          [=](const Progress& progress) { *made = embedding_file_for(ground, site, placement, output, progress); }),
-           anchor, &terrain, [made](Terrain& t) { return t.load_embedding(*made); },
-           [] {},  // the file stays: a complete embedding, reused if asked again
-           awaited});
+    // The ground stands for its terrain: it lies in it as long as the terrain is in the scene.
+    running_ = Running{std::make_unique<EmbeddingJob>("embedding " + site.filename().string(),
+                                                      [=](const Progress& progress) { *made = embedding_file_for(ground, site, placement, output, progress); }),
+                       terrain.ground(), &terrain, [made](Terrain& t) { return t.load_embedding(*made); },
+                       [] {},  // the file stays: a complete embedding, reused if asked again
+                       awaited};
 }
 
 void EmbeddingPanel::start_move(const NodePtr& embedding, Terrain& terrain, const SitePlacement& placement, bool awaited) {
+    check_idle();
     const Terrain::Remake remake = terrain.remake_for(embedding.get());
     EmbedSettings settings;
     settings.placement = placement;
-    start({std::make_unique<EmbeddingJob>("moving " + embedding->name(),
-                                          [=](const Progress& progress) { build_embedding(remake.terrain, remake.site, remake.remade, settings, progress); }),
-           embedding, &terrain, [embedding, remade = remake.remade](Terrain& t) { return t.replace_embedding(embedding.get(), remade); },
-           [remade = remake.remade] {
-               std::error_code ignored;
-               fs::remove(remade, ignored);
-           },
-           awaited});
+    running_ = Running{
+        std::make_unique<EmbeddingJob>("moving " + embedding->name(),
+                                       [=](const Progress& progress) { build_embedding(remake.terrain, remake.site, remake.remade, settings, progress); }),
+        embedding, &terrain, [embedding, remade = remake.remade](Terrain& t) { return t.replace_embedding(embedding.get(), remade); },
+        [remade = remake.remade] {
+            std::error_code ignored;
+            fs::remove(remade, ignored);
+        },
+        awaited};
 }
 
 NodePtr EmbeddingPanel::finish_job() {
@@ -135,7 +139,7 @@ std::optional<NodePtr> EmbeddingPanel::draw(const Group& scene, const NodePtr& s
     const std::optional<TerrainPart> part = terrain_part(selected);
     if (!part) return std::nullopt;
     ImGui::Separator();
-    if (!part->child || part->child == part->terrain->ground()) return draw_embed_form(scene, selected, *part->terrain, cursor);
+    if (!part->child || part->child == part->terrain->ground()) return draw_embed_form(scene, *part->terrain, cursor);
     if (!part->terrain->embedding_file(part->child.get())) {
         ImGui::TextDisabled("an embedding made by a script without a file: move it from the script");
         return std::nullopt;
@@ -143,8 +147,7 @@ std::optional<NodePtr> EmbeddingPanel::draw(const Group& scene, const NodePtr& s
     return draw_placement_form(scene, *part->terrain, part->child, cursor);
 }
 
-std::optional<NodePtr> EmbeddingPanel::draw_embed_form(const Group& scene, const NodePtr& selected, Terrain& terrain,
-                                                       const std::optional<glm::dvec3>& cursor) {
+std::optional<NodePtr> EmbeddingPanel::draw_embed_form(const Group& scene, Terrain& terrain, const std::optional<glm::dvec3>& cursor) {
     if (filled_for_ != &terrain) {
         filled_for_ = &terrain;
         at_ = default_site_place(scene, terrain, cursor);
@@ -154,7 +157,7 @@ std::optional<NodePtr> EmbeddingPanel::draw_embed_form(const Group& scene, const
     ImGui::TextDisabled("embed a site in %s", terrain.name().c_str());
     draw_placement_fields(scene, terrain, cursor);
     if (file_field("site", ".hlod built with --lock-boundary, or a mesh", site_, "Embed"))
-        message_ = outcome([&] { start_embed(selected, terrain, site_, placement(), false); }, "");
+        message_ = outcome([&] { start_embed(terrain, site_, placement(), false); }, "");
     if (!message_.empty()) ImGui::TextColored(ImVec4(1.0f, 0.45f, 0.4f, 1.0f), "%s", message_.c_str());
     return std::nullopt;
 }
@@ -167,10 +170,13 @@ std::optional<NodePtr> EmbeddingPanel::draw_placement_form(const Group& scene, T
             [&] {
                 const SitePlacement now = terrain.placement(child.get());
                 at_ = *now.at, scale_ = now.scale, heading_ = now.heading;
+                const glm::dmat4& m = *now.matrix;  // its up axis off the vertical, or tipped: a tilt
+                tilted_ = std::max({std::abs(m[2][0]), std::abs(m[2][1]), std::abs(m[0][2]), std::abs(m[1][2])}) > 1e-9 * now.scale;
             },
             "");
     }
     ImGui::TextDisabled("%s embedded in %s", child->name().c_str(), terrain.name().c_str());
+    if (tilted_) ImGui::TextDisabled("placed by a tilted matrix: Move sets it level, by these fields");
     draw_placement_fields(scene, terrain, cursor);
     std::optional<NodePtr> next;
     if (ImGui::Button("Move")) message_ = outcome([&] { start_move(child, terrain, placement(), false); }, "");

@@ -43,7 +43,7 @@ std::filesystem::path new_embedding_file(const Terrain& terrain, const std::file
 class EmbeddingPanel {
 public:
     EmbeddingPanel() = default;
-    ~EmbeddingPanel();  // a job still running is cancelled
+    ~EmbeddingPanel() { cancel_job(); }
     EmbeddingPanel(const EmbeddingPanel&) = delete;
     EmbeddingPanel& operator=(const EmbeddingPanel&) = delete;
     // Draws the part for `selected` (nothing for a node outside every terrain); while an embedding is
@@ -54,14 +54,16 @@ public:
     // its terrain (to select); its failure is the panel's message.
     std::optional<NodePtr> poll();
 
-    // Start making an embedding on a worker thread (EmbeddingJob): `site` embedded in `terrain`, which
-    // `anchor` is or lies in; or the embedding `anchor` moved. `awaited`: the caller takes the result
-    // itself (finish_job) rather than the panel. Throws when a job runs already, or `anchor` is none.
-    void start_embed(const NodePtr& anchor, Terrain& terrain, const std::filesystem::path& site, const SitePlacement& placement, bool awaited);
+    // Start making an embedding on a worker thread (EmbeddingJob): `site` embedded in `terrain`, or
+    // `embedding`, a child of `terrain`, moved. `awaited`: the caller takes the result itself
+    // (finish_job) rather than poll(). Throws when a job runs already, before any work.
+    void start_embed(Terrain& terrain, const std::filesystem::path& site, const SitePlacement& placement, bool awaited);
     void start_move(const NodePtr& embedding, Terrain& terrain, const SitePlacement& placement, bool awaited);
     bool job_running() const { return running_.has_value(); }
     bool job_finished() const { return running_ && running_->job->finished(); }
     void wait_job() { running_->job->wait(); }
+    // Cancels the job, waits for it and drops what it made.
+    void cancel_job();
     // The finished job's node, put in its terrain on this (the UI) thread. Rethrows its failure
     // (Cancelled when cancelled); throws when its terrain or embedding left the scene meanwhile.
     NodePtr finish_job();
@@ -77,9 +79,9 @@ private:
         std::function<void()> discard;  // what the job made that no node will take
         bool awaited;
     };
-    void start(Running running);
+    void check_idle() const;
     void draw_job();
-    std::optional<NodePtr> draw_embed_form(const Group& scene, const NodePtr& selected, Terrain& terrain, const std::optional<glm::dvec3>& cursor);
+    std::optional<NodePtr> draw_embed_form(const Group& scene, Terrain& terrain, const std::optional<glm::dvec3>& cursor);
     std::optional<NodePtr> draw_placement_form(const Group& scene, Terrain& terrain, const NodePtr& child, const std::optional<glm::dvec3>& cursor);
     // lon, lat, scale and heading fields, and a button that puts the cursor's place in lon and lat.
     void draw_placement_fields(const Group& scene, const Terrain& terrain, const std::optional<glm::dvec3>& cursor);
@@ -90,6 +92,7 @@ private:
     std::string site_;
     std::array<double, 2> at_{};
     double scale_ = 1, heading_ = 0;
+    bool tilted_ = false;  // the embedding shown was placed by a matrix these fields cannot give
     std::string message_;
 };
 

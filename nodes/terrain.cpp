@@ -1,6 +1,9 @@
 #include "nodes/terrain.h"
 
+#include <unistd.h>
+
 #include <algorithm>
+#include <atomic>
 #include <set>
 #include <stdexcept>
 
@@ -159,21 +162,30 @@ NodePtr Terrain::move_embedding(const Node* child, const SitePlacement& placemen
 Terrain::Remake Terrain::remake_for(const Node* child) const {
     const std::filesystem::path& file = loaded_file(child);
     const EmbeddingRecord record = read_embedding(HlodFile(file));
-    // Beside the file, so that the names it stores (relative to its folder) stay right.
-    return {ground_->path(), embedded_path(file, record.site_file), file.string() + ".remade"};
+    // Beside the file, so that the names it stores (relative to its folder) stay right; a name of its
+    // own, should two remakes of one file run at once (the editor's Move and a script's).
+    static std::atomic<uint64_t> remakes{0};
+    const std::string unique = std::to_string(::getpid()) + "." + std::to_string(++remakes);
+    return {ground_->path(), embedded_path(file, record.site_file), file.string() + ".remade." + unique};
 }
 
 NodePtr Terrain::replace_embedding(const Node* child, const std::filesystem::path& remade) {
     namespace fs = std::filesystem;
-    const fs::path file = loaded_file(child);
-    // The file as it is, kept under another name until the new one loads (a hard link keeps the old
-    // bytes for free; the loaded child reads them through its own open handle either way).
-    const fs::path kept = file.string() + ".before-move";
     std::error_code ignored;
-    fs::remove(kept, ignored);
-    std::error_code linked;
-    fs::create_hard_link(file, kept, linked);
-    if (linked) fs::copy_file(file, kept);
+    fs::path file, kept;
+    try {
+        file = loaded_file(child);
+        // The file as it is, kept under another name until the new one loads (a hard link keeps the old
+        // bytes for free; the loaded child reads them through its own open handle either way).
+        kept = file.string() + ".before-move";
+        fs::remove(kept, ignored);
+        std::error_code linked;
+        fs::create_hard_link(file, kept, linked);
+        if (linked) fs::copy_file(file, kept);
+    } catch (...) {
+        fs::remove(remade, ignored);
+        throw;
+    }
     const NodePtr old = *std::find_if(children().begin(), children().end(), [&](const NodePtr& c) { return c.get() == child; });
     try {
         fs::rename(remade, file);

@@ -444,13 +444,17 @@ uint64_t write_skirt_textures(const TerrainSite& terrain, const CubeTextures& gr
 
 }  // namespace
 
-EmbedReport build_embedding(const fs::path& terrain_path, const fs::path& site_path, const fs::path& output, const EmbedSettings& settings,
-                            const Progress& progress) {
+namespace {
+
+// build_embedding for a site that is a .hlod, `site_path`: the site as the user named it, `given` (a
+// mesh's own file), names it in messages and in the models' sources.
+EmbedReport embed_model(const fs::path& terrain_path, const fs::path& site_path, const fs::path& given, const fs::path& output,
+                        const EmbedSettings& settings, const Progress& progress) {
     const auto start = std::chrono::steady_clock::now();
     check_output_folder(output);
     const TerrainSite terrain = TerrainSite::open(terrain_path);
     const SiteModel site = open_site(site_path);
-    const std::string what = site_path.string();
+    const std::string what = given.string();
     const glm::dmat4 placement = place_site(terrain, site, settings.placement, what);
     progress.check();
 
@@ -490,12 +494,12 @@ EmbedReport build_embedding(const fs::path& terrain_path, const fs::path& site_p
         build.threads = settings.threads;
         build.memory = settings.memory;
         if (settings.leaf_triangles > 0) build.leaf_triangles = settings.leaf_triangles;
-        build_hlod(std::move(plan.skirt_mesh), intermediate.path, build, site_path.filename().string() + " skirt", progress);
+        build_hlod(std::move(plan.skirt_mesh), intermediate.path, build, given.filename().string() + " skirt", progress);
         built = std::make_unique<HlodFile>(intermediate.path);
         skirt = built.get();
         header = skirt->header();
     }
-    header.source = site_path.filename().string() + " embedded in " + terrain_path.filename().string();
+    header.source = given.filename().string() + " embedded in " + terrain_path.filename().string();
     // GEOR: the terrain's, where its origin is an offset in its CRS (not a tangent point, which needs TERR).
     if (!terrain.grid().tangent_frame()) {
         header.crs = terrain.header().crs;
@@ -522,17 +526,20 @@ EmbedReport build_embedding(const fs::path& terrain_path, const fs::path& site_p
     return report;
 }
 
+}  // namespace
+
 fs::path site_model_file(const fs::path& embedding_file) {
     return embedding_file.parent_path() / (embedding_file.stem().string() + "_site.hlod");
 }
 
 namespace {
 
-// A model site_model_for built from `mesh` earlier, still up to date.
+// A model built from `mesh` as the mesh is now: stamped with the mesh's own time when it was built (an
+// edit since, or another mesh of that name, has another), from a file of that name, its boundary locked.
 bool built_from(const fs::path& model, const fs::path& mesh) {
     std::error_code ec;
     const auto built = fs::last_write_time(model, ec);
-    if (ec || built < fs::last_write_time(mesh)) return false;
+    if (ec || built != fs::last_write_time(mesh)) return false;
     try {
         const HlodFile file(model);
         const HlodHeader& h = file.header();
@@ -542,21 +549,51 @@ bool built_from(const fs::path& model, const fs::path& mesh) {
     }
 }
 
-}  // namespace
-
-fs::path site_model_for(const fs::path& site, const fs::path& embedding_file, const EmbedSettings& settings, std::vector<std::string>& warnings,
-                        const Progress& progress) {
-    if (!fs::exists(site)) throw InputError(site.string() + ": no such file");
-    if (is_hlod_file(site)) return site;
+// The .hlod an embedding reads for `site` (current_site_model), built first when it is a mesh without a
+// current model; `built` when this call built it.
+struct SiteModelFile {
+    fs::path path;
+    bool built = false;
+};
+SiteModelFile site_model_for(const fs::path& site, const fs::path& embedding_file, const EmbedSettings& settings, std::vector<std::string>& warnings,
+                             const Progress& progress) {
+    if (const std::optional<fs::path> current = current_site_model(site, embedding_file)) return {*current, false};
     const fs::path model = site_model_file(embedding_file);
-    if (built_from(model, site)) return model;
+    const auto stamp = fs::last_write_time(site);  // before it is read: an edit meanwhile makes it stale
     BuildSettings build;
     build.lock_boundary = true;
     build.threads = settings.threads;
     build.memory = settings.memory ? settings.memory : default_memory_limit();
     const std::vector<fs::path> files{site};
     build_hlod(input_from_files(files, build.memory, progress, warnings), files, model, build, site.filename().string(), progress);
-    return model;
+    fs::last_write_time(model, stamp);
+    return {model, true};
+}
+
+}  // namespace
+
+std::optional<fs::path> current_site_model(const fs::path& site, const fs::path& embedding_file) {
+    if (!fs::exists(site)) throw InputError(site.string() + ": no such file");
+    if (is_hlod_file(site)) return site;
+    const fs::path model = site_model_file(embedding_file);
+    return built_from(model, site) ? std::optional<fs::path>(model) : std::nullopt;
+}
+
+EmbedReport build_embedding(const fs::path& terrain, const fs::path& site, const fs::path& output, const EmbedSettings& settings,
+                            const Progress& progress) {
+    EmbedReport report;
+    const SiteModelFile model = site_model_for(site, output, settings, report.warnings, progress);
+    try {
+        std::vector<std::string> warnings = std::move(report.warnings);
+        report = embed_model(terrain, model.path, site, output, settings, progress);
+        report.warnings = std::move(warnings);
+    } catch (...) {
+        std::error_code ignored;
+        if (model.built) fs::remove(model.path, ignored);  // built for this embedding alone
+        throw;
+    }
+    report.site_model = model.path;
+    return report;
 }
 
 fs::path default_embedding_file(const fs::path& terrain, const fs::path& site, int number) {
@@ -566,23 +603,23 @@ fs::path default_embedding_file(const fs::path& terrain, const fs::path& site, i
 fs::path embedding_file_for(const fs::path& terrain, const fs::path& given_site, const SitePlacement& placement, fs::path output,
                             const Progress& progress, std::vector<std::string>* warnings) {
     if (output.empty()) output = default_embedding_file(terrain, given_site);
-    EmbedSettings settings;
-    settings.placement = placement;
-    std::vector<std::string> ignored;
-    const fs::path site = site_model_for(given_site, output, settings, warnings ? *warnings : ignored, progress);
-    if (fs::exists(output)) {
+    const std::optional<fs::path> site = current_site_model(given_site, output);  // none: nothing made for it yet
+    if (site && fs::exists(output)) {
         try {
             const HlodFile file(output);
             const EmbeddingRecord record = read_embedding(file);
             check_embedded_terrain(record, output, HlodFile(terrain));
-            check_embedded_site(record, output, HlodFile(site));
-            const glm::dmat4 wanted = place_site(TerrainSite::open(terrain), open_site(site), placement, site.string());
+            check_embedded_site(record, output, HlodFile(*site));
+            const glm::dmat4 wanted = place_site(TerrainSite::open(terrain), open_site(*site), placement, site->string());
             if (record.placement == wanted) return output;
         } catch (const std::exception&) {
             // not a match: made again below
         }
     }
-    build_embedding(terrain, site, output, settings, progress);
+    EmbedSettings settings;
+    settings.placement = placement;
+    EmbedReport report = build_embedding(terrain, given_site, output, settings, progress);
+    if (warnings) warnings->insert(warnings->end(), report.warnings.begin(), report.warnings.end());
     return output;
 }
 

@@ -118,7 +118,7 @@ std::string placement_matrix_problem(const glm::dmat4& matrix);
 // SitePlacement says. Without either: from the site's
 // own georeference (a translation in the terrain's CRS; through PROJ, fitted at the site's centre, in
 // another); InputError naming the file when it has none, and naming both CRSs when one cannot be mapped to
-// the other. Scale and heading apply about the centroid in either case.
+// the other. Scale and heading apply about the centroid with `at` or the georeference.
 glm::dmat4 place_site(const TerrainSite& terrain, const SiteModel& site, const SitePlacement& placement, const std::string& what);
 // The placement that place_site turns into `site_to_terrain`, where an editor that moves an embedding
 // starts: `matrix` is `site_to_terrain` itself; scale and heading come from it and `at` is where the
@@ -139,6 +139,8 @@ struct EmbedSettings {
 
 struct EmbedReport {
     EmbeddingRecord record;
+    std::filesystem::path site_model;   // the .hlod read for the site: itself, or the mesh's (site_model_file)
+    std::vector<std::string> warnings;  // what a mesh site's reader read past rather than refused
     uint64_t skirt_triangles = 0;
     uint64_t embd_bytes = 0, file_bytes = 0;
     uint64_t texture_bytes = 0;  // the skirt's textures (section TXTR), when the terrain has some
@@ -146,23 +148,22 @@ struct EmbedReport {
 };
 
 // A plain mesh as a site (a TIN: a building, a road, a quarry floor; OBJ, PLY, OFF or STL): an
-// embedding reads a .hlod with its open boundary locked, so the mesh is built into one beside the
-// embedding file, site_model_file(embedding_file) = "<its stem>_site.hlod".
+// embedding reads a .hlod with its open boundary locked, so build_embedding builds the mesh into one
+// beside the embedding file, site_model_file(embedding_file) = "<its stem>_site.hlod", and keeps it
+// (the embedding file names it).
 std::filesystem::path site_model_file(const std::filesystem::path& embedding_file);
-// The .hlod an embedding reads for `site`: `site` itself when it is a .hlod model (by its first bytes);
-// for a mesh, site_model_file(embedding_file), built from it (streamed, within settings.memory or a quarter
-// of physical memory, on settings.threads) unless one built from a file of that name, no older than it,
-// is there. Throws InputError naming the mesh for one that cannot be read or built, Cancelled, and
-// std::runtime_error for write failures, leaving no model behind. What the reader read past goes to
-// `warnings`.
-std::filesystem::path site_model_for(const std::filesystem::path& site, const std::filesystem::path& embedding_file, const EmbedSettings& settings,
-                                     std::vector<std::string>& warnings, const Progress& progress = {});
+// The .hlod an embedding reads for `site` as things are: `site` itself when it is a .hlod model (by its
+// first bytes); for a mesh, site_model_file(embedding_file) when one was built from this mesh as it is
+// now, else none. InputError when `site` does not exist.
+std::optional<std::filesystem::path> current_site_model(const std::filesystem::path& site, const std::filesystem::path& embedding_file);
 
-// strata embed TERRAIN SITE -o OUT: plans the embedding of `site` (a .hlod) on `terrain` (a terrain
-// .hlod), builds its skirt and writes the embedding file; a textured terrain's skirt gets its imagery
-// (section TXTR, resampled from the terrain's textures). Throws InputError for input that cannot be
-// embedded (naming the file), Cancelled, and std::runtime_error for read or write failures; in every case
-// no output is left behind (a complete earlier file at `output` stays as it was).
+// strata embed TERRAIN SITE -o OUT: plans the embedding of `site` (a .hlod, or a mesh: built first into
+// site_model_file(output) unless current_site_model has one, streamed, within settings.memory or a
+// quarter of physical memory) on `terrain` (a terrain .hlod), builds its skirt and writes the embedding
+// file; a textured terrain's skirt gets its imagery (section TXTR, resampled from the terrain's
+// textures). Throws InputError for input that cannot be embedded (naming the file), Cancelled, and
+// std::runtime_error for read or write failures; in every case no output is left behind (a complete
+// earlier file at `output` stays as it was, and a mesh's model built by this call is removed).
 EmbedReport build_embedding(const std::filesystem::path& terrain, const std::filesystem::path& site, const std::filesystem::path& output,
                             const EmbedSettings& settings, const Progress& progress = {});
 
@@ -170,7 +171,7 @@ EmbedReport build_embedding(const std::filesystem::path& terrain, const std::fil
 // and for `number` > 1 "<site>_on_<terrain>_<number>.hlod" (more embeddings of one site in one terrain).
 std::filesystem::path default_embedding_file(const std::filesystem::path& terrain, const std::filesystem::path& site, int number = 1);
 
-// The embedding file for `site` (a .hlod, or a mesh: site_model_for) on `terrain` placed as
+// The embedding file for `site` (a .hlod, or a mesh: build_embedding) on `terrain` placed as
 // `placement`: `output`, or when empty default_embedding_file. Made (build_embedding) unless the file
 // there was made for these models and this placement already, so that a scene that reloads, or asks
 // again, does not recompute it. What a mesh's reader read past goes to `warnings` where given.

@@ -153,6 +153,17 @@ glm::dmat4 check_mat4(lua_State* L, int index) {
     return m;
 }
 
+std::optional<glm::dmat4> opt_mat4(lua_State* L, int index, const char* key) {
+    glm::dmat4 m;
+    if (!get_option(L, index, key)) {
+        lua_pop(L, 1);
+        return std::nullopt;
+    }
+    if (!table_of_numbers(L, lua_gettop(L), 16, &m[0][0])) option_error(L, key, "a matrix (16 finite numbers, column-major)");
+    lua_pop(L, 1);
+    return m;
+}
+
 void push_mat4(lua_State* L, const glm::dmat4& m) {
     lua_createtable(L, 16, 0);
     for (int i = 0; i < 16; ++i) {

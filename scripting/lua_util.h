@@ -133,6 +133,9 @@ bool is_unit(const glm::dquat& q);
 // 16 finite numbers at `index`, column-major (as OpenGL and GLM), or an argument error.
 glm::dmat4 check_mat4(lua_State* L, int index);
 void push_mat4(lua_State* L, const glm::dmat4& m);  // as check_mat4 reads it
+// The option `key` of the table at `index` as check_mat4 reads it: nothing when absent, an error naming
+// the option otherwise.
+std::optional<glm::dmat4> opt_mat4(lua_State* L, int index, const char* key);
 void push_vec3(lua_State* L, const glm::dvec3& v);
 void push_quat(lua_State* L, const glm::dquat& q);
 // A camera pose as scripts see it: {position = {x,y,z}, orientation = {w,x,y,z}, fov = degrees}.

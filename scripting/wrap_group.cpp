@@ -93,17 +93,14 @@ const luaL_Reg kGroupFunctions[] = {{"scene", new_scene}, {"group", new_group}, 
 // then z) or quaternion = {w,x,y,z}, scale = s}; or any matrix = {16 numbers} (what a saved scene
 // writes when those cannot give the matrix bit for bit).
 void apply_transform_options(lua_State* L, int index, Transform& t) {
-    if (lua::get_option(L, index, "matrix")) {
-        const glm::dmat4 matrix = lua::check_mat4(L, lua_gettop(L));
-        lua_pop(L, 1);
+    if (const std::optional<glm::dmat4> matrix = lua::opt_mat4(L, index, "matrix")) {
         for (const char* key : {"translate", "rotate", "quaternion", "scale"}) {
             if (lua::get_option(L, index, key)) luaL_error(L, "option 'matrix' cannot be combined with '%s'", key);
             lua_pop(L, 1);
         }
-        t.set_matrix(matrix);
+        t.set_matrix(*matrix);
         return;
     }
-    lua_pop(L, 1);
     glm::dvec3 translate{0, 0, 0};
     glm::dquat rotation{1, 0, 0, 0};
     double scale = 1;

@@ -18,18 +18,16 @@
 namespace strata {
 
 SitePlacement check_placement(lua_State* L, int index, SitePlacement placement) {
-    if (lua::get_option(L, index, "matrix")) {
-        placement.matrix = lua::check_mat4(L, lua_gettop(L));
-        lua_pop(L, 1);
+    if (const std::optional<glm::dmat4> matrix = lua::opt_mat4(L, index, "matrix")) {
         for (const char* key : {"at", "scale", "heading"}) {
-            if (lua::get_option(L, index, key)) luaL_error(L, "option 'matrix' cannot be combined with '%s'", key);
+            if (lua::get_option(L, index, key))
+                luaL_error(L, "option 'matrix' cannot be combined with '%s': a site is placed by one or the other", key);
             lua_pop(L, 1);
         }
-        if (const std::string problem = placement_matrix_problem(*placement.matrix); !problem.empty())
-            luaL_error(L, "option 'matrix': %s", problem.c_str());
+        if (const std::string problem = placement_matrix_problem(*matrix); !problem.empty()) luaL_error(L, "option 'matrix': %s", problem.c_str());
+        placement.matrix = matrix;
         return placement;
     }
-    lua_pop(L, 1);
     for (const char* key : {"at", "scale", "heading"}) {
         if (lua::get_option(L, index, key)) placement.matrix.reset();  // placed by these (and what stays of the rest)
         lua_pop(L, 1);

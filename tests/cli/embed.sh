@@ -62,7 +62,7 @@ expect_success "verify the site inside one cell" "$STRATA" verify "$WORK/tiny.hl
 # A plain mesh as the site: built into OUT_site.hlod with its boundary locked, then embedded as the
 # .hlod is; a second run reuses that model; a mesh has no georeference, and a malformed one is named.
 expect_success "embed a mesh" "$STRATA" embed "$WORK/olinda.hlod" "$WORK/patch.off" -o "$WORK/from_mesh.hlod" --at "$at"
-checks=$((checks + 1)); grep -q "^  site model  $WORK/from_mesh_site.hlod (the mesh built with its boundary locked)" "$WORK/out.txt" || fail "embed a mesh: $(cat "$WORK/out.txt")"
+checks=$((checks + 1)); grep -q "^$WORK/from_mesh_site.hlod: the site model, $WORK/patch.off built with its boundary locked" "$WORK/out.txt" || fail "embed a mesh: $(cat "$WORK/out.txt")"
 checks=$((checks + 1)); grep -q "^  skirt       [1-9][0-9]* triangles, 160 boundary vertices" "$WORK/out.txt" || fail "embed a mesh: $(cat "$WORK/out.txt")"
 expect_success "info the mesh's model" "$STRATA" info "$WORK/from_mesh_site.hlod"
 checks=$((checks + 1)); grep -q "boundary locked" "$WORK/out.txt" || fail "the mesh's model is not locked: $(cat "$WORK/out.txt")"
@@ -74,6 +74,9 @@ expect_usage "a mesh without a place" "patch.off has no georeference (CRS): plac
 printf 'OFF\n3 1 0\n0 0 0\n1 0 0\n' > "$WORK/broken.off"
 expect_failure "a malformed mesh" "broken.off" "$STRATA" embed "$WORK/olinda.hlod" "$WORK/broken.off" -o "$WORK/x.hlod" --at "$at"
 checks=$((checks + 1)); [ -z "$(ls "$WORK" | grep '^x\(_site\)\?.hlod')" ] || fail "a malformed mesh left $(ls "$WORK" | grep '^x')"
+expect_failure "a mesh off the raster" "patch.off: placed at .* it lies wholly off the terrain's raster" \
+    "$STRATA" embed "$WORK/olinda.hlod" "$WORK/patch.off" -o "$WORK/x.hlod" --at -30,-8
+checks=$((checks + 1)); [ -z "$(ls "$WORK" | grep '^x\(_site\)\?.hlod')" ] || fail "a mesh off the raster left $(ls "$WORK" | grep '^x')"
 
 # On a textured terrain the skirt carries the ground's imagery (TXTR), which info describes and verify checks;
 # the untextured terrain's skirt has none.

@@ -110,7 +110,7 @@ p = t:placement(by_matrix)
 assert(near(p.heading, 45) and near(p.scale, 1) and math.abs(p.matrix[7]) < 1e-12, "a move by heading kept the tilt")
 refused(function() t:embed{ site = site_file, matrix = tilted, at = at } end, "option 'matrix' cannot be combined with 'at'")
 refused(function() t:move(by_matrix, { matrix = tilted, heading = 1 }) end, "option 'matrix' cannot be combined with 'heading'")
-refused(function() t:embed{ site = site_file, matrix = { 1, 2, 3 } } end, "a matrix (16 finite numbers")
+refused(function() t:embed{ site = site_file, matrix = { 1, 2, 3 } } end, "option 'matrix' must be a matrix (16 finite numbers")
 local mirrored = { -1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, m[13], m[14], m[15], 1 }
 refused(function() t:embed{ site = site_file, matrix = mirrored } end, "option 'matrix'", "mirror")
 local projective = { 1, 0, 0, 0.5, 0, 1, 0, 0, 0, 0, 1, 0, m[13], m[14], m[15], 1 }
