@@ -347,7 +347,6 @@ int editor_move(lua_State* L) {
     Editor& editor = check_editor(L);
     luaL_checktype(L, 2, LUA_TTABLE);
     lua::check_keys(L, 2, {"at", "scale", "heading", "matrix"});
-    check_placement(L, 2, {});  // the options checked before any work
     push_node(L, editor.move_embedding(check_placement(L, 2, editor.embedding_placement())));
     return 1;
 }

@@ -18,25 +18,23 @@
 namespace strata {
 
 SitePlacement check_placement(lua_State* L, int index, SitePlacement placement) {
-    if (const std::optional<glm::dmat4> matrix = lua::opt_mat4(L, index, "matrix")) {
-        for (const char* key : {"at", "scale", "heading"}) {
-            if (lua::get_option(L, index, key))
-                luaL_error(L, "option 'matrix' cannot be combined with '%s': a site is placed by one or the other", key);
-            lua_pop(L, 1);
-        }
-        if (const std::string problem = placement_matrix_problem(*matrix); !problem.empty()) luaL_error(L, "option 'matrix': %s", problem.c_str());
-        placement.matrix = matrix;
-        return placement;
-    }
-    for (const char* key : {"at", "scale", "heading"}) {
-        if (lua::get_option(L, index, key)) placement.matrix.reset();  // placed by these (and what stays of the rest)
-        lua_pop(L, 1);
-    }
-    if (const auto at = lua::opt_point(L, index, "at", 2, 2, false, "{lon, lat} in degrees")) placement.at = {at->v[0], at->v[1]};
-    placement.scale = lua::opt_number(L, index, "scale", placement.scale);
-    placement.heading = lua::opt_number(L, index, "heading", placement.heading);
-    if (!(placement.scale > 0) || !std::isfinite(placement.scale) || !std::isfinite(placement.heading))
+    const std::optional<glm::dmat4> matrix = lua::opt_mat4(L, index, "matrix");
+    const auto at = lua::opt_point(L, index, "at", 2, 2, false, "{lon, lat} in degrees");
+    SitePlacement by_fields = placement;  // placed by at, scale and heading
+    by_fields.matrix.reset();
+    if (at) by_fields.at = {at->v[0], at->v[1]};
+    by_fields.scale = lua::opt_number(L, index, "scale", placement.scale);
+    by_fields.heading = lua::opt_number(L, index, "heading", placement.heading);
+    if (!(by_fields.scale > 0) || !std::isfinite(by_fields.scale) || !std::isfinite(by_fields.heading))
         luaL_error(L, "options 'scale' (above 0) and 'heading' (degrees) must be finite numbers");
+    const bool fields_given = at || by_fields.scale != placement.scale || by_fields.heading != placement.heading;
+    const bool fields_changed = by_fields.at != placement.at || by_fields.scale != placement.scale || by_fields.heading != placement.heading;
+    if (!matrix) return fields_given ? by_fields : placement;
+    if (placement.matrix && *matrix == *placement.matrix) return fields_changed ? by_fields : placement;  // the matrix as it was
+    if (fields_changed)  // both changed: which one places the site?
+        luaL_error(L, "option 'matrix' cannot be combined with 'at', 'scale' or 'heading': a site is placed by one or the other");
+    if (const std::string problem = placement_matrix_problem(*matrix); !problem.empty()) luaL_error(L, "option 'matrix': %s", problem.c_str());
+    placement.matrix = matrix;
     return placement;
 }
 
@@ -217,7 +215,6 @@ int terrain_move(lua_State* L) {
     const Node* child = check_node(L, 2).get();
     luaL_checktype(L, 3, LUA_TTABLE);
     check_keys(L, 3, {"at", "scale", "heading", "matrix"});
-    check_placement(L, 3, {});  // the options checked before any work
     push_node(L, terrain.move_embedding(child, check_placement(L, 3, terrain.placement(child))));
     return 1;
 }

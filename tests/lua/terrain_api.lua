@@ -92,7 +92,8 @@ second = moved
 
 -- Placed by a matrix (the site's model coordinates → the terrain's), as given: the first embedding's own
 -- matrix moved 2 km west and tilted by 3° about x. placement() gives it back bit for bit; a move by
--- matrix keeps it so, and one by heading places the site by at, scale and heading again.
+-- matrix keeps it so, and one by heading places the site by at, scale and heading again. A table from
+-- placement() with one part edited moves by that part; one with both edited is refused.
 local function same_matrix(a, b) for i = 1, 16 do if a[i] ~= b[i] then return false end end return true end
 local m = t:placement(e).matrix
 assert(#m == 16 and m[16] == 1 and near(m[1], 1) and near(m[13] - b.center[1], 0, 200), ("%g %g"):format(m[1], m[13]))
@@ -105,11 +106,19 @@ assert(same_matrix(t:placement(by_matrix).matrix, tilted), "the matrix was not k
 tilted[14] = tilted[14] + 150
 by_matrix = t:move(by_matrix, { matrix = tilted })
 assert(same_matrix(t:placement(by_matrix).matrix, tilted), "a move by matrix did not keep it as given")
-by_matrix = t:move(by_matrix, { heading = 45 })
+p = t:placement(by_matrix)
+tilted[14] = tilted[14] + 50
+p.matrix = tilted
+by_matrix = t:move(by_matrix, p)
+assert(same_matrix(t:placement(by_matrix).matrix, tilted), "placement() with its matrix edited did not move by it")
+p = t:placement(by_matrix)
+p.heading = 45
+by_matrix = t:move(by_matrix, p)
 p = t:placement(by_matrix)
 assert(near(p.heading, 45) and near(p.scale, 1) and math.abs(p.matrix[7]) < 1e-12, "a move by heading kept the tilt")
 refused(function() t:embed{ site = site_file, matrix = tilted, at = at } end, "option 'matrix' cannot be combined with 'at'")
-refused(function() t:move(by_matrix, { matrix = tilted, heading = 1 }) end, "option 'matrix' cannot be combined with 'heading'")
+p.heading, p.matrix = 1, tilted
+refused(function() t:move(by_matrix, p) end, "option 'matrix' cannot be combined with 'at', 'scale' or 'heading'")
 refused(function() t:embed{ site = site_file, matrix = { 1, 2, 3 } } end, "option 'matrix' must be a matrix (16 finite numbers")
 local mirrored = { -1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, m[13], m[14], m[15], 1 }
 refused(function() t:embed{ site = site_file, matrix = mirrored } end, "option 'matrix'", "mirror")
