@@ -446,8 +446,8 @@ uint64_t write_skirt_textures(const TerrainSite& terrain, const CubeTextures& gr
 
 namespace {
 
-// build_embedding for a site that is a .hlod, `site_path`: the site as the user named it, `given` (a
-// mesh's own file), names it in messages and in the models' sources.
+// build_embedding for the .hlod `site_path`; `given` is the site as the user named it (the .hlod itself,
+// or the mesh it was built from), which messages and the models' sources name.
 EmbedReport embed_model(const fs::path& terrain_path, const fs::path& site_path, const fs::path& given, const fs::path& output,
                         const EmbedSettings& settings, const Progress& progress) {
     const auto start = std::chrono::steady_clock::now();
@@ -581,18 +581,18 @@ std::optional<fs::path> current_site_model(const fs::path& site, const fs::path&
 
 EmbedReport build_embedding(const fs::path& terrain, const fs::path& site, const fs::path& output, const EmbedSettings& settings,
                             const Progress& progress) {
+    std::vector<std::string> warnings;
+    const SiteModelFile model = site_model_for(site, output, settings, warnings, progress);
     EmbedReport report;
-    const SiteModelFile model = site_model_for(site, output, settings, report.warnings, progress);
     try {
-        std::vector<std::string> warnings = std::move(report.warnings);
         report = embed_model(terrain, model.path, site, output, settings, progress);
-        report.warnings = std::move(warnings);
     } catch (...) {
         std::error_code ignored;
         if (model.built) fs::remove(model.path, ignored);  // built for this embedding alone
         throw;
     }
     report.site_model = model.path;
+    report.warnings = std::move(warnings);
     return report;
 }
 
